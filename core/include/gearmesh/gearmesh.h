@@ -1,0 +1,187 @@
+/* GearMesh core: gear-mesh contact element behind a plain C API.
+ *
+ * Model/data split (MuJoCo style): gm_model is immutable after gm_model_create and holds the
+ * geometry and every setting; gm_data is the mutable per-instance state, allocated once.
+ * gm_evaluate allocates nothing. No exception crosses this API: every entry point returns a
+ * gm_status and the last message is available from the data (or the create call's buffer).
+ *
+ * Units are SI throughout (m, rad, N, N*m, s, Pa). Frames and signs: PHYSICS.md section 0.
+ */
+#ifndef GEARMESH_H
+#define GEARMESH_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum gm_status {
+  GM_OK = 0,
+  GM_ERR_PARAMETER = 1, /* a model parameter is out of its allowed range */
+  GM_ERR_INPUT = 2,     /* an evaluation input is non-finite or outside the detection range */
+  GM_ERR_SOLVER = 3,    /* the force solve did not converge */
+  GM_ERR_MEMORY = 4,    /* allocation failed at creation */
+  GM_ERR_ARGUMENT = 5   /* a NULL pointer or other misuse of the API */
+} gm_status;
+
+/* Stiffness model levels (DESIGN.md, "Stiffness model levels"). */
+typedef enum gm_stiffness_level {
+  GM_STIFFNESS_USER_CONSTANT = 0,
+  GM_STIFFNESS_USER_VARIABLE = 1,
+  GM_STIFFNESS_ISO6336 = 2,
+  GM_STIFFNESS_TIME_VARYING = 3,
+  GM_STIFFNESS_ANALYTICAL = 4,
+  GM_STIFFNESS_FE = 5
+} gm_stiffness_level;
+
+/* Parameters of one gear. */
+typedef struct gm_gear_params {
+  int teeth;                  /* z, number of teeth (magnitude; the ring is flagged on the pair) */
+  double profile_shift;       /* x, profile shift coefficient, - */
+  double face_width;          /* b, m */
+  double tip_diameter;        /* d_a, m; 0 = from the basic rack, d + 2 m_n (h_aP* + x); ring: inner */
+  double thickness_allowance; /* E_sn, normal tooth thickness allowance, m, <= 0 */
+  double axial_offset;        /* mid-face position along the gear axis from the gear centre, m */
+  double youngs_modulus;      /* E, Pa */
+  double poisson_ratio;       /* nu, - */
+} gm_gear_params;
+
+/* Parameters of the pair (shared basic rack). */
+typedef struct gm_pair_params {
+  double center_distance; /* a, operating centre distance (positive also for internal pairs), m */
+  double normal_module;   /* m_n, m */
+  double pressure_angle;  /* alpha_n, normal pressure angle, rad */
+  double helix_angle;     /* beta of gear 1, rad; sign = hand (+ right) */
+  int internal;           /* 0 external pair, 1 gear 2 is an internal ring */
+  double rack_addendum;   /* h_aP*, in modules */
+  double rack_dedendum;   /* h_fP*, in modules */
+  double rack_tip_radius; /* rho_fP*, in modules */
+} gm_pair_params;
+
+/* Everything gm_model_create needs. gm_default_params fills the paper's set A (57/57). */
+typedef struct gm_model_params {
+  gm_pair_params pair;
+  gm_gear_params gear[2];
+  int stiffness_level;          /* gm_stiffness_level */
+  double user_stiffness;        /* level 0: mesh stiffness per unit face width, N/m^2 */
+  int slices;                   /* slices across the axial overlap, >= 1 */
+  int coupled_teeth;            /* FE level: neighbouring teeth coupled each side, >= 0 */
+  double friction_coefficient;  /* mu, - */
+  double friction_velocity;     /* regularization velocity v0, m/s */
+  double damping;               /* normal damping per unit face width, N*s/m^2 */
+  double solver_tolerance;      /* KKT tolerance on the approach, m */
+  int solver_max_iterations;    /* hard cap */
+} gm_model_params;
+
+/* Derived geometry of one gear (ISO 21771; diameters are magnitudes, also for the ring). */
+typedef struct gm_gear_geometry {
+  double d;               /* reference diameter, m */
+  double d_b;             /* base diameter, m */
+  double d_a;             /* tip diameter, m (ring: inner diameter) */
+  double d_f;             /* root diameter, m */
+  double d_Ff;            /* root form diameter, m */
+  double d_w;             /* operating pitch diameter, m */
+  double d_sap;           /* start of active profile (ring: the outer end), m */
+  double x_E;             /* generating profile shift with the thickness allowance, - */
+  double s_t;             /* transverse tooth thickness at d, arc, with allowance, m */
+  double eta_b;           /* half angle of the tooth (ring: of the space) at the base circle, rad */
+  double rho_a;           /* roll distance of the tip circle, m */
+  double rho_Ff;          /* roll distance of the form circle (0 if inside the base circle), m */
+  int undercut;           /* 1 if the basic rack undercuts the tooth (PHYSICS 1) */
+  int interference;       /* 1 if the mate's tip reaches below the form circle (d_sap beyond d_Ff) */
+} gm_gear_geometry;
+
+/* Derived geometry of the pair at the operating centre distance. */
+typedef struct gm_pair_geometry {
+  double m_t;                 /* transverse module, m */
+  double alpha_t;             /* transverse pressure angle, rad */
+  double beta_b;              /* base helix angle, rad (magnitude) */
+  double p_bt;                /* transverse base pitch, m */
+  double p_bn;                /* normal base pitch, m */
+  double a_d;                 /* reference centre distance, m */
+  double alpha_wt;            /* operating transverse pressure angle, rad */
+  double x_sum_zero_backlash; /* x1 + x2 for zero backlash at a (signed convention for rings) */
+  double j_wt;                /* circumferential backlash at the operating pitch circles, m */
+  double j_bt;                /* transverse backlash along the line of action, m */
+  double a_tight;             /* centre distance of a tight (zero-backlash) mesh, m */
+  double T1T2;                /* length of the line of action between the tangency points, m */
+  double g_alpha;             /* length of the path of contact, m */
+  double eps_alpha;           /* transverse contact ratio, - */
+  double eps_beta;            /* overlap ratio, - */
+  gm_gear_geometry gear[2];
+} gm_pair_geometry;
+
+/* Inputs of one evaluation, in the housing frame H (PHYSICS 0). Index 0 = gear 1. */
+typedef struct gm_kinematics {
+  double u[2][3];     /* centre displacement from nominal, m */
+  double r[2][2];     /* small tilts about H's x and y, rad */
+  double phi[2];      /* spin angle about the gear's own axis, rad (unbounded) */
+  double v[2][3];     /* centre velocity, m/s */
+  double w[2][2];     /* tilt rates, rad/s */
+  double omega[2];    /* spin rate, rad/s */
+} gm_kinematics;
+
+/* Outputs of one evaluation. */
+typedef struct gm_result {
+  double force[2][3];     /* contact force on gear i, in H, N */
+  double moment[2][3];    /* contact moment on gear i about its centre, in H, N*m */
+  double te;              /* transmission error along the line of action, m (PHYSICS 0) */
+  double te_angle;        /* te as an angle of gear 2, rad */
+  double normal_force;    /* sum of normal slice forces, N */
+  double stiffness;       /* tangent mesh stiffness along the line of action, N/m */
+  int pairs_in_contact;   /* loaded tooth pairs */
+  int flank;              /* 0 none, 1 flank A, 2 flank B, 3 both */
+  double friction_power;  /* power dissipated by friction, W */
+  double max_line_load;   /* largest slice line load, N/m */
+  int solver_iterations;  /* iterations of the last force solve (0 = closed form) */
+  double solver_residual; /* KKT residual of the last solve, m */
+} gm_result;
+
+typedef struct gm_model gm_model;
+typedef struct gm_data gm_data;
+
+/* Fill p with the defaults: the paper's gear set A (57/57, m 2.6 mm, 20 deg, b 23 mm, a 150 mm,
+ * x 0.35 each), level 0 at 15 N/(mm um), one slice, no friction, no damping. */
+void gm_default_params(gm_model_params* p);
+
+/* Compute the pair geometry without creating a model. Validates p like gm_model_create.
+ * On error, writes a message naming the parameter and its allowed range into msg. */
+gm_status gm_compute_geometry(const gm_model_params* p, gm_pair_geometry* out, char* msg,
+                              size_t msg_size);
+
+/* Validate p and build an immutable model. On error *out is NULL and msg says why. */
+gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, size_t msg_size);
+void gm_model_free(gm_model* m);
+/* The model's parameters and derived geometry (valid while m lives). */
+const gm_model_params* gm_model_parameters(const gm_model* m);
+const gm_pair_geometry* gm_model_geometry(const gm_model* m);
+
+/* Allocate the per-instance state for m (all scratch included). */
+gm_status gm_data_create(const gm_model* m, gm_data** out);
+void gm_data_free(gm_data* d);
+/* Forget warm-start and friction memory. */
+void gm_data_reset(const gm_model* m, gm_data* d);
+
+/* One evaluation: detection, forces, resultants, TE. On error res is left unchanged and
+ * gm_data_message(d) names the offending input. */
+gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, gm_result* res);
+
+/* The evaluation memory of d (warm start, friction memory) as a byte blob, for FMU state.
+ * gm_data_state_size gives the blob size; save writes exactly that many bytes; load checks the
+ * size and the model fingerprint stored in the blob and returns GM_ERR_ARGUMENT on mismatch. */
+size_t gm_data_state_size(const gm_model* m, const gm_data* d);
+gm_status gm_data_state_save(const gm_model* m, const gm_data* d, void* buf, size_t size);
+gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, size_t size);
+
+/* Last error message of d ("" if none). */
+const char* gm_data_message(const gm_data* d);
+
+/* Version string of the core, e.g. "0.1.0". */
+const char* gm_version(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* GEARMESH_H */

@@ -1,0 +1,158 @@
+// The C API: argument checks, exception barrier, and ownership of model and data.
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <string>
+
+#include "evaluate.hpp"
+#include "geometry.hpp"
+#include "model.hpp"
+#include "params.hpp"
+
+namespace {
+
+void copy_message(const std::string& text, char* msg, size_t size) {
+  if (!msg || size == 0) return;
+  const size_t n = text.size() < size - 1 ? text.size() : size - 1;
+  std::memcpy(msg, text.data(), n);
+  msg[n] = '\0';
+}
+
+// Validation and geometry shared by gm_compute_geometry and gm_model_create.
+gm_status build_geometry(const gm_model_params* p, gm_pair_geometry* g, std::string& text) {
+  if (!p || !g) {
+    text = "NULL argument";
+    return GM_ERR_ARGUMENT;
+  }
+  gm_status st = gm::validate_params(*p, text);
+  if (st != GM_OK) return st;
+  return gm::compute_pair_geometry(*p, *g, text);
+}
+
+constexpr uint32_t kStateMagic = 0x53444d47u;  // "GMDS"
+constexpr uint32_t kStateVersion = 1;
+struct StateHeader {
+  uint32_t magic;
+  uint32_t version;
+  uint64_t capacity;  // the model's slice capacity: a cheap fingerprint of the model
+};
+
+}  // namespace
+
+extern "C" {
+
+gm_status gm_compute_geometry(const gm_model_params* p, gm_pair_geometry* out, char* msg,
+                              size_t msg_size) {
+  try {
+    std::string text;
+    gm_status st = build_geometry(p, out, text);
+    copy_message(text, msg, msg_size);
+    return st;
+  } catch (const std::exception& e) {
+    copy_message(e.what(), msg, msg_size);
+    return GM_ERR_MEMORY;
+  }
+}
+
+gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, size_t msg_size) {
+  if (!out) return GM_ERR_ARGUMENT;
+  *out = nullptr;
+  try {
+    std::string text;
+    gm_pair_geometry g{};
+    gm_status st = build_geometry(p, &g, text);
+    if (st == GM_OK) st = gm::check_capabilities(*p, text);
+    if (st != GM_OK) {
+      copy_message(text, msg, msg_size);
+      return st;
+    }
+    gm_model* m = new gm_model;
+    m->params = *p;
+    m->geometry = g;
+    m->layout = gm::make_mesh_layout(*p, g);
+    m->slice_capacity = gm::slice_capacity(m->layout);
+    *out = m;
+    copy_message("", msg, msg_size);
+    return GM_OK;
+  } catch (const std::bad_alloc&) {
+    copy_message("out of memory creating the model", msg, msg_size);
+    return GM_ERR_MEMORY;
+  } catch (const std::exception& e) {
+    copy_message(e.what(), msg, msg_size);
+    return GM_ERR_ARGUMENT;
+  }
+}
+
+void gm_model_free(gm_model* m) { delete m; }
+
+const gm_model_params* gm_model_parameters(const gm_model* m) { return m ? &m->params : nullptr; }
+
+const gm_pair_geometry* gm_model_geometry(const gm_model* m) { return m ? &m->geometry : nullptr; }
+
+gm_status gm_data_create(const gm_model* m, gm_data** out) {
+  if (!m || !out) return GM_ERR_ARGUMENT;
+  *out = nullptr;
+  try {
+    gm_data* d = new gm_data;
+    d->slices.resize(m->slice_capacity);
+    d->forces.resize(m->slice_capacity);
+    d->slice_stiffness.resize(m->slice_capacity);
+    d->message.reserve(256);
+    *out = d;
+    return GM_OK;
+  } catch (...) {
+    return GM_ERR_MEMORY;
+  }
+}
+
+void gm_data_free(gm_data* d) { delete d; }
+
+void gm_data_reset(const gm_model* m, gm_data* d) {
+  if (!m || !d) return;
+  d->message.clear();
+}
+
+gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, gm_result* res) {
+  if (!m || !d || !kin || !res) return GM_ERR_ARGUMENT;
+  try {
+    return gm::evaluate(*m, *d, *kin, *res);
+  } catch (const std::exception& e) {
+    d->message = e.what();
+    return GM_ERR_ARGUMENT;
+  }
+}
+
+size_t gm_data_state_size(const gm_model* m, const gm_data* d) {
+  return (m && d) ? sizeof(StateHeader) : 0;
+}
+
+gm_status gm_data_state_save(const gm_model* m, const gm_data* d, void* buf, size_t size) {
+  if (!m || !d || !buf || size != sizeof(StateHeader)) return GM_ERR_ARGUMENT;
+  const StateHeader h{kStateMagic, kStateVersion, static_cast<uint64_t>(m->slice_capacity)};
+  std::memcpy(buf, &h, sizeof h);
+  return GM_OK;
+}
+
+gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, size_t size) {
+  if (!m || !d || !buf) return GM_ERR_ARGUMENT;
+  StateHeader h{};
+  if (size != sizeof h) {
+    d->message = "core state blob has the wrong size";
+    return GM_ERR_ARGUMENT;
+  }
+  std::memcpy(&h, buf, sizeof h);
+  if (h.magic != kStateMagic || h.version != kStateVersion ||
+      h.capacity != static_cast<uint64_t>(m->slice_capacity)) {
+    d->message = "core state blob belongs to another model or format version";
+    return GM_ERR_ARGUMENT;
+  }
+  d->message.clear();
+  return GM_OK;
+}
+
+const char* gm_data_message(const gm_data* d) { return d ? d->message.c_str() : ""; }
+
+const char* gm_version(void) { return GM_VERSION_STRING; }
+
+}  // extern "C"

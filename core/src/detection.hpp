@@ -1,0 +1,62 @@
+// Contact detection for involute gear pairs (paper section 2.1; PHYSICS.md sections 0 and 3).
+//
+// Every tooth pair on both flanks is a candidate; the approach of a flank pair is exact for
+// any centre distance because involutes stay conjugate: along the line of action of flank
+// sigma (A = +1, B = -1) the flank of gear i sits at roll distance
+//   rho_i = r_bi (sigma (theta_ci - gamma - zeta_i) + eta_i + alpha_w)
+// from its tangency point T_i, with theta_ci the tooth (ring: space) centreline angle, gamma
+// the direction of the centre line, zeta_i = 0 or pi the side of the mesh, eta_i the half
+// base-circle angle of the tooth (ring: space) and alpha_w the operating pressure angle of the
+// actual centre distance. The approach is Delta = rho_1 + s rho_2 - s T1T2 (s = +1 external,
+// -1 internal), positive when the flanks overlap.
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "gearmesh/gearmesh.h"
+
+namespace gm {
+
+// What detection needs of the model, derived once at model creation.
+struct MeshLayout {
+  int sign = 1;                    // s: +1 external pair, -1 internal (gear 2 is the ring)
+  int teeth[2] = {0, 0};           // z_i (magnitudes)
+  double base_radius[2] = {0, 0};  // r_bi, m
+  double eta[2] = {0, 0};          // half base-circle angle of tooth (ring: space), rad
+  double theta0[2] = {0, 0};       // body angle of tooth (ring: space) 0 at phi = 0, rad
+  double zeta[2] = {0, 0};         // side of the mesh seen from gear i: 0 or pi, rad
+  double rho_tip[2] = {0, 0};      // roll distance of the tip circle, m
+  double rho_form[2] = {0, 0};     // roll distance of the form circle, m
+  double base_pitch = 0;           // p_bt, m
+  double center_distance = 0;      // nominal a, m
+  double face_width[2] = {0, 0};   // b_i, m
+  double axial_offset[2] = {0, 0}; // mid-face position from the gear centre, m
+  int slices = 1;                  // slices across the axial overlap
+};
+
+// One candidate slice of one tooth pair on one flank.
+struct ContactSlice {
+  int flank = 1;                   // +1 flank A, -1 flank B
+  int tooth[2] = {0, 0};           // tooth index on gear 1, tooth (ring: space) index on gear 2
+  int pair = 0;                    // index of the tooth pair within this evaluation
+  double approach = 0;             // Delta, m: > 0 the flanks overlap, < 0 a gap
+  double width = 0;                // slice width, m
+  double roll[2] = {0, 0};         // roll distances of the contact point on both flanks, m
+  Eigen::Vector3d point{0, 0, 0};  // contact point in H, m
+  Eigen::Vector3d normal{0, 0, 0}; // unit direction of the normal force on gear 2, in H
+};
+
+// Derive the detection layout from validated parameters and their geometry.
+MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g);
+
+// Most candidate slices detect_contacts can return for this layout.
+int slice_capacity(const MeshLayout& L);
+
+// Candidate slices at the given pose. Writes at most `capacity` slices into out and returns
+// their number, or -1 with msg set when the pose is outside the detection range.
+int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
+                    std::string& msg);
+
+}  // namespace gm

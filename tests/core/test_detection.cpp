@@ -1,0 +1,226 @@
+// Contact detection against involute geometry (PHYSICS 3 and 9): conjugate action at any
+// centre distance, the flank-B gap equal to the geometric backlash, contact-ratio counts.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "detection.hpp"
+#include "geometry.hpp"
+#include "params.hpp"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Pair {
+  gm_model_params p;
+  gm_pair_geometry g;
+  gm::MeshLayout L;
+};
+
+Pair make_pair(const gm_model_params& p) {
+  Pair out{p, {}, {}};
+  std::string msg;
+  EXPECT_EQ(gm::validate_params(p, msg), GM_OK) << msg;
+  EXPECT_EQ(gm::compute_pair_geometry(p, out.g, msg), GM_OK) << msg;
+  out.L = gm::make_mesh_layout(p, out.g);
+  return out;
+}
+
+gm_model_params paper_pair() {
+  gm_model_params p;
+  gm_default_params(&p);
+  return p;
+}
+
+gm_model_params internal_pair() {
+  gm_model_params p;
+  gm_default_params(&p);
+  p.pair.internal = 1;
+  p.pair.normal_module = 0.002;
+  p.gear[0].teeth = 21;
+  p.gear[1].teeth = 62;
+  p.gear[0].profile_shift = 0;
+  p.gear[1].profile_shift = 0;
+  p.gear[0].thickness_allowance = -30e-6;  // the allowances give the backlash
+  p.gear[1].thickness_allowance = -30e-6;
+  p.pair.center_distance = 0.041;  // reference centre distance m (z2 - z1) / 2
+  return p;
+}
+
+// phi_2 that holds the transmission error at te for a given phi_1 (PHYSICS 0).
+double phi2_for(const gm::MeshLayout& L, double te, double phi1) {
+  return (te - L.base_radius[0] * phi1) / (L.sign * L.base_radius[1]);
+}
+
+struct Found {
+  std::vector<gm::ContactSlice> slices;
+};
+
+Found detect(const gm::MeshLayout& L, const gm_kinematics& k) {
+  Found f;
+  f.slices.resize(gm::slice_capacity(L));
+  std::string msg;
+  const int n = gm::detect_contacts(L, k, f.slices.data(), static_cast<int>(f.slices.size()), msg);
+  EXPECT_GE(n, 0) << msg;
+  f.slices.resize(n < 0 ? 0 : n);
+  return f;
+}
+
+// Over a revolution at a fixed TE, every flank-A candidate has approach TE + c(a) with the
+// same c for all poses and pairs (involutes stay conjugate at any centre distance), and the
+// flank-B candidates have approach -j_bt(a) - TE with j_bt from the geometry at that distance.
+void check_conjugate(const gm_model_params& base, double da) {
+  const Pair nominal = make_pair(base);
+  gm_model_params moved = base;
+  moved.pair.center_distance += da;
+  const Pair at_da = make_pair(moved);  // geometry at the displaced centre distance
+  const double te = 3e-6;
+  double c_ref = NAN;
+  int poses_with_b = 0;
+  const int steps = 4 * base.gear[0].teeth;
+  for (int s = 0; s < steps; ++s) {
+    const double phi1 = 2 * kPi * s / steps + 0.123;
+    gm_kinematics k{};
+    k.u[1][0] = da;
+    k.phi[0] = phi1;
+    k.phi[1] = phi2_for(nominal.L, te, phi1);
+    const Found f = detect(nominal.L, k);
+    int pairs_a = 0;
+    for (const auto& c : f.slices) {
+      if (c.flank > 0) {
+        ++pairs_a;
+        if (std::isnan(c_ref)) c_ref = c.approach - te;
+        EXPECT_NEAR(c.approach - te, c_ref, 1e-12) << "pose " << s;
+      } else {
+        ++poses_with_b;
+        EXPECT_NEAR(c.approach, -at_da.g.j_bt - te - c_ref, 1e-10) << "pose " << s;
+      }
+    }
+    EXPECT_GE(pairs_a, 1);
+    EXPECT_LE(pairs_a, 2);
+  }
+  EXPECT_GT(poses_with_b, 0);
+  if (da == 0) {
+    EXPECT_NEAR(c_ref, 0.0, 1e-12);
+  }
+  // Symmetric teeth: moving the centres apart opens both flanks equally, so flank A moves by
+  // half the backlash change (independent of the detection's own formula).
+  EXPECT_NEAR(c_ref, -(at_da.g.j_bt - nominal.g.j_bt) / 2, 1e-12);
+}
+
+TEST(Detection, ExternalSpurConjugateAtSeveralCentreDistances) {
+  for (double da : {0.0, 20e-6, 100e-6, -2e-6}) check_conjugate(paper_pair(), da);
+}
+
+TEST(Detection, InternalSpurConjugateAtSeveralCentreDistances) {
+  // a larger centre distance tightens an internal mesh: stay on the backlash side
+  for (double da : {0.0, -30e-6, -150e-6, 10e-6}) check_conjugate(internal_pair(), da);
+}
+
+// At the reference pose with TE = 0 the flank-B gap is exactly the geometric backlash.
+TEST(Detection, FlankBGapEqualsGeometricBacklash) {
+  for (const gm_model_params& p : {paper_pair(), internal_pair()}) {
+    const Pair pr = make_pair(p);
+    ASSERT_GT(pr.g.j_bt, 0);
+    gm_kinematics k{};
+    const Found f = detect(pr.L, k);
+    int b = 0;
+    for (const auto& c : f.slices) {
+      if (c.flank < 0) {
+        EXPECT_NEAR(c.approach, -pr.g.j_bt, 1e-12);
+        ++b;
+      } else {
+        EXPECT_NEAR(c.approach, 0.0, 1e-12);
+      }
+    }
+    EXPECT_GT(b, 0);
+  }
+}
+
+// Share of poses with two loaded pairs equals eps_alpha - 1 (spur, 1 < eps_alpha < 2).
+TEST(Detection, DoubleContactShareEqualsContactRatioMinusOne) {
+  const Pair pr = make_pair(paper_pair());
+  const int per_pitch = 2000;
+  const int steps = per_pitch * 3;
+  int doubles = 0;
+  for (int s = 0; s < steps; ++s) {
+    const double phi1 = 3 * 2 * kPi / pr.p.gear[0].teeth * (s + 0.5) / steps;
+    gm_kinematics k{};
+    k.phi[0] = phi1;
+    k.phi[1] = phi2_for(pr.L, 1e-6, phi1);
+    int a = 0;
+    for (const auto& c : detect(pr.L, k).slices) a += c.flank > 0;
+    doubles += a == 2;
+  }
+  EXPECT_NEAR(static_cast<double>(doubles) / steps, pr.g.eps_alpha - 1, 2.0 / per_pitch);
+}
+
+// The unbounded spin angle keeps full precision after many revolutions.
+TEST(Detection, LargeSpinAnglesKeepPrecision) {
+  const Pair pr = make_pair(paper_pair());
+  const double te = 5e-6;
+  for (double revs : {0.0, 1e3, 1e5}) {
+    const double phi1 = revs * 2 * kPi + 0.05;
+    gm_kinematics k{};
+    k.phi[0] = phi1;
+    k.phi[1] = phi2_for(pr.L, te, phi1);
+    for (const auto& c : detect(pr.L, k).slices) {
+      if (c.flank > 0) {
+        EXPECT_NEAR(c.approach, te, 1e-9 + 1e-13 * revs);
+      }
+    }
+  }
+}
+
+// Normals are unit vectors along the lines of action, mirrored between the flanks; the
+// contact points lie on the line tangent to both base circles.
+TEST(Detection, NormalsAndPointsLieOnTheLinesOfAction) {
+  for (const gm_model_params& p : {paper_pair(), internal_pair()}) {
+    const Pair pr = make_pair(p);
+    gm_kinematics k{};
+    const double a = pr.p.pair.center_distance;
+    for (const auto& c : detect(pr.L, k).slices) {
+      EXPECT_NEAR(c.normal.norm(), 1.0, 1e-14);
+      EXPECT_NEAR(std::fabs(c.normal.y()), std::cos(pr.g.alpha_wt), 1e-12);
+      // distance of the line (point, normal) from each centre equals the base radius
+      const Eigen::Vector2d q(c.point.x(), c.point.y()), n(c.normal.x(), c.normal.y());
+      const auto dist = [&](Eigen::Vector2d o) {
+        const Eigen::Vector2d r = q - o;
+        return std::fabs(r.x() * n.y() - r.y() * n.x());
+      };
+      EXPECT_NEAR(dist({0, 0}), pr.L.base_radius[0], 1e-12);
+      EXPECT_NEAR(dist({a, 0}), pr.L.base_radius[1], 1e-12);
+    }
+  }
+}
+
+TEST(Detection, PenetrationBeyondRangeIsAnError) {
+  const Pair pr = make_pair(paper_pair());
+  gm_kinematics k{};
+  k.phi[1] = phi2_for(pr.L, 0.3 * pr.g.p_bt, 0.0);
+  std::vector<gm::ContactSlice> buf(gm::slice_capacity(pr.L));
+  std::string msg;
+  EXPECT_EQ(gm::detect_contacts(pr.L, k, buf.data(), static_cast<int>(buf.size()), msg), -1);
+  EXPECT_NE(msg.find("detection range"), std::string::npos) << msg;
+}
+
+TEST(Detection, SlicesSplitTheAxialOverlap) {
+  gm_model_params p = paper_pair();
+  p.slices = 4;
+  p.gear[1].face_width = 0.030;
+  p.gear[1].axial_offset = 0.010;  // gear 2 spans [-5, 25] mm, gear 1 [-11.5, 11.5] mm
+  const Pair pr = make_pair(p);
+  gm_kinematics k{};
+  const Found f = detect(pr.L, k);
+  ASSERT_FALSE(f.slices.empty());
+  double total = 0;
+  for (int i = 0; i < 4; ++i) total += f.slices[i].width;
+  EXPECT_NEAR(total, 0.0165, 1e-15);
+  EXPECT_NEAR(f.slices[0].point.z(), -0.005 + 0.0165 / 8, 1e-15);
+  EXPECT_NEAR(f.slices[3].point.z(), 0.0115 - 0.0165 / 8, 1e-15);
+}
+
+}  // namespace

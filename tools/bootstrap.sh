@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Set-up shared by tools/run-main and tools/run-tests (sourced, not run): Debian packages,
+# the git-ignored venv in .venv, and the CMake build in build/. Each step is skipped when
+# already done, so a second run costs only an incremental build.
+set -euo pipefail
+GM_REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+GM_VENV="$GM_REPO/.venv"
+GM_BUILD="$GM_REPO/build"
+
+# Compilers, CMake, Eigen, SuiteSparse, GoogleTest, Python, and the shared libraries the gmsh
+# wheel loads (GL/X11 client libraries; no display is needed).
+GM_APT_PACKAGES=(
+  build-essential cmake ninja-build pkg-config binutils
+  libeigen3-dev libsuitesparse-dev libgtest-dev
+  python3 python3-venv python3-pip
+  libglu1-mesa libgl1 libxrender1 libxcursor1 libxft2 libxinerama1 libgomp1
+)
+
+gm_install_debian_packages() {
+  local missing=() p
+  for p in "${GM_APT_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  ((${#missing[@]})) || return 0
+  echo "gearmesh: installing Debian packages: ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo=sudo
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+gm_make_venv() {
+  local stamp="$GM_VENV/.requirements.sha256" want
+  want=$(cat "$GM_REPO/tools/requirements.txt" "$GM_REPO/tools/pyproject.toml" | sha256sum | cut -d' ' -f1)
+  if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x "$GM_VENV/bin/python" ]; then
+    return 0
+  fi
+  echo "gearmesh: preparing the Python environment in .venv"
+  [ -x "$GM_VENV/bin/python" ] || "${PYTHON:-python3}" -m venv "$GM_VENV"
+  "$GM_VENV/bin/python" -m pip install -q --upgrade pip
+  "$GM_VENV/bin/python" -m pip install -q -r "$GM_REPO/tools/requirements.txt"
+  "$GM_VENV/bin/python" -m pip install -q --no-deps -e "$GM_REPO/tools"
+  echo "$want" >"$stamp"
+}
+
+gm_build() {
+  if [ ! -f "$GM_BUILD/CMakeCache.txt" ]; then
+    cmake -S "$GM_REPO" -B "$GM_BUILD" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+      -DPython3_EXECUTABLE="$GM_VENV/bin/python"
+  fi
+  cmake --build "$GM_BUILD" --parallel "$(nproc)"
+}
+
+gm_install_debian_packages
+gm_make_venv
+gm_build

@@ -1,0 +1,3 @@
+from gearmesh.cli import main
+
+raise SystemExit(main())
