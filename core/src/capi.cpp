@@ -61,8 +61,10 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
   try {
     std::string text;
     gm_pair_geometry g{};
-    gm_status st = build_geometry(p, &g, text);
+    // What this build cannot do is said before the geometry, which may fail for other reasons.
+    gm_status st = p ? gm::validate_params(*p, text) : GM_ERR_ARGUMENT;
     if (st == GM_OK) st = gm::check_capabilities(*p, text);
+    if (st == GM_OK) st = build_geometry(p, &g, text);
     if (st != GM_OK) {
       copy_message(text, msg, msg_size);
       return st;

@@ -139,16 +139,30 @@ TEST(Evaluate, ForceAndMomentBalance) {
   }
 }
 
-// Forward/backward mirror: TE = +d on flank A and TE = -j_bt - d on flank B give the same
-// force magnitude (symmetric teeth) with mirrored y components.
-TEST(Evaluate, FlankSymmetry) {
+// Forward/backward mirror (PHYSICS 9): reflecting the pair about the centre line maps tooth
+// angles theta -> -theta, so the pose (phi1, TE) on flank A mirrors to
+// (-phi1 - 2 theta0_1, -TE - j_bt) on flank B, with theta0_1 = inv(alpha_wt) - eta_b1 the
+// reference angle of tooth 0 (PHYSICS 0). Same force magnitude, mirrored y, opposite moments.
+TEST(Evaluate, ForwardBackwardMirrorSymmetry) {
   Instance in(paper());
-  const double j = in.geo().j_bt;
-  const gm_result a = in.at(6e-6, 0.0);
-  const gm_result b = in.at(-j - 6e-6, 0.0);
-  EXPECT_NEAR(a.normal_force, b.normal_force, 1e-9 * a.normal_force);
-  EXPECT_NEAR(a.force[1][0], b.force[1][0], 1e-9 * a.normal_force);
-  EXPECT_NEAR(a.force[1][1], -b.force[1][1], 1e-9 * a.normal_force);
+  const gm_pair_geometry& g = in.geo();
+  const double theta0 = std::tan(g.alpha_wt) - g.alpha_wt - g.gear[0].eta_b;
+  for (double phi1 : {0.0, 0.03, 0.071}) {
+    for (double te : {2e-6, 9e-6}) {
+      const gm_result a = in.at(te, phi1);
+      const gm_result b = in.at(-te - g.j_bt, -phi1 - 2 * theta0);
+      const double F = a.normal_force;
+      ASSERT_GT(F, 0);
+      EXPECT_EQ(a.flank, 1);
+      EXPECT_EQ(b.flank, 2);
+      EXPECT_EQ(a.pairs_in_contact, b.pairs_in_contact);
+      EXPECT_NEAR(b.normal_force, F, 1e-6 * F);
+      EXPECT_NEAR(b.force[1][0], a.force[1][0], 1e-6 * F);
+      EXPECT_NEAR(b.force[1][1], -a.force[1][1], 1e-6 * F);
+      EXPECT_NEAR(b.moment[0][2], -a.moment[0][2], 1e-6 * F);
+      EXPECT_NEAR(b.moment[1][2], -a.moment[1][2], 1e-6 * F);
+    }
+  }
 }
 
 TEST(Evaluate, TransmissionErrorFromSpinAngles) {

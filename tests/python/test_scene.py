@@ -1,0 +1,41 @@
+"""Scene validation: one schema, errors that name the key, the value and the allowed range."""
+from __future__ import annotations
+
+import pathlib
+
+import pytest
+
+from gearmesh.scene import SceneError, load_scene, parse_scene
+
+SCENES = pathlib.Path(__file__).resolve().parents[2] / "scenarios"
+
+
+def test_paper_set_a_converts_units_to_si():
+    s = load_scene(SCENES / "paper_setA_3U4U.toml")
+    assert s.parameters["pair.center_distance"] == pytest.approx(0.150)
+    assert s.parameters["pair.normal_module"] == pytest.approx(0.0026)
+    assert s.parameters["pair.pressure_angle"] == pytest.approx(0.3490658503988659)
+    assert s.parameters["gear1.youngs_modulus"] == pytest.approx(210e9)
+    assert s.parameters["model.user_stiffness"] == pytest.approx(1.5e10)
+    assert s.parameters["gear2.teeth"] == 57
+    assert s.run["approach_um"] == pytest.approx(10e-6)
+    assert s.assumptions
+
+
+@pytest.mark.parametrize("text, words", [
+    ("[pair]\ncenter_distance_m = 0.15\n", ["pair.center_distance_m", "unknown key",
+                                            "center_distance_mm"]),
+    ("[pair]\ncenter_distance_mm = -3\n", ["pair.center_distance_mm", "-3", "allowed range"]),
+    ("[gear1]\nteeth = 20.5\n", ["gear1.teeth", "whole number"]),
+    ("[gear3]\nteeth = 20\n", ["[gear3]", "unknown section"]),
+    ("[pair]\ninternal = 1\n", ["pair.internal", "true or false"]),
+    ("[model]\nslices = 0\n", ["model.slices", "allowed range [1, 200]"]),
+    ("[run]\nspeed = 3\n", ["run.speed", "unknown key"]),
+    ("[pair]\npressure_angle_deg = nan\n", ["pair.pressure_angle_deg", "allowed range"]),
+    ("[pair\n", ["not valid TOML"]),
+])
+def test_bad_scenes_are_named(text, words):
+    with pytest.raises(SceneError) as err:
+        parse_scene(text)
+    for w in words:
+        assert w in str(err.value)
