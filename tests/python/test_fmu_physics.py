@@ -143,26 +143,27 @@ def test_reversal_and_reengagement_over_a_rattle_cycle(fmu_path):
     with GearMeshFMU(fmu_path) as fmu:
         j = fmu.get(["geometry.backlash"])["geometry.backlash"]
         tes = np.concatenate([np.linspace(5e-6, -j - 5e-6, 60), np.linspace(-j - 5e-6, 5e-6, 60)])
-        forces = [evaluate(fmu, te, 0.0)["mesh.normal_force"] for te in tes]
-        flanks = [evaluate(fmu, te, 0.0)["mesh.flank"] for te in tes]
-    forces = np.array(forces)
+        outs = [evaluate(fmu, te, 0.0) for te in tes]
+    forces = np.array([o["mesh.normal_force"] for o in outs])
+    flanks = [o["mesh.flank"] for o in outs]
     assert np.allclose(forces[:60], forces[60:][::-1], rtol=1e-12, atol=0)
     assert flanks[0] == 1 and flanks[59] == 2 and flanks[-1] == 1
 
 
 def test_centre_distance_input_opens_the_mesh(fmu_path):
-    """Moving gear 2 away by da opens flank A by da sin(alpha_w) to first order."""
+    """Moving gear 2 away by da opens both flanks equally (symmetric teeth): flank A loses half
+    the backlash change, with the backlash at a + da from a second instance's geometry."""
+    da = 5e-6
+    with GearMeshFMU(fmu_path, {"pair.center_distance": 0.150 + da}) as wider:
+        j_wide = wider.get(["geometry.backlash"])["geometry.backlash"]
     with GearMeshFMU(fmu_path) as fmu:
-        alpha_w = fmu.get(["geometry.operating_pressure_angle"])[
-            "geometry.operating_pressure_angle"]
+        j = fmu.get(["geometry.backlash"])["geometry.backlash"]
         te = 10e-6
         base = evaluate(fmu, te, 0.1)["mesh.normal_force"]
-        da = 5e-6
         fmu.step({**pose(fmu, te, 0.1), "gear2.ux": da})
         moved = fmu.get(["mesh.normal_force", "mesh.pairs_in_contact"])
         k = moved["mesh.pairs_in_contact"] * K_PRIME * FACE
-        assert base - moved["mesh.normal_force"] == pytest.approx(k * da * math.sin(alpha_w),
-                                                                  rel=1e-4)
+        assert base - moved["mesh.normal_force"] == pytest.approx(k * (j_wide - j) / 2, rel=1e-9)
 
 
 def test_non_physical_penetration_is_a_clear_error(fmu_path):

@@ -38,6 +38,7 @@ class GearMeshFMU:
         self.model_description = md
         self.variables = {v.name: v for v in md.modelVariables}
         self.messages: list[str] = []
+        self.failed = False  # an FMI call returned Error: only freeing is legal now
         self._callbacks = self._make_callbacks()
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip_dir,
                              modelIdentifier=md.coSimulation.modelIdentifier,
@@ -66,6 +67,7 @@ class GearMeshFMU:
         try:
             return function(*args, **kwargs)
         except FMICallException as exc:
+            self.failed = True
             detail = self.messages[-1] if self.messages else "no message logged"
             raise FMUError(f"{exc}: {detail}") from exc
 
@@ -103,7 +105,8 @@ class GearMeshFMU:
 
     def close(self) -> None:
         try:
-            self.fmu.terminate()
+            if not self.failed:
+                self.fmu.terminate()
         finally:
             self.fmu.freeInstance()
 

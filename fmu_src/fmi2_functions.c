@@ -1,0 +1,616 @@
+/* Generic FMI 2.0 co-simulation layer: every fmi2* function of the CS API, mapped onto model.h.
+ *
+ * Each function first checks the instance's mode against its mask of allowed modes (an illegal
+ * call logs "Illegal call sequence" and returns fmi2Error without changing anything). Errors are
+ * logged and returned; only a failed evaluation in fmi2DoStep puts the instance into the Error
+ * mode, from which fmi2SetFMUstate or fmi2Reset recover. No mutable globals: everything lives in
+ * the instance, so instances run in parallel threads. Memory comes from malloc
+ * (canNotUseMemoryManagementFunctions="true").
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+#include "model.h"
+#include "uri.h"
+
+#ifndef GM_FMU_GUID
+#error "GM_FMU_GUID must be set by the build (a hash of the variable table)"
+#endif
+
+/* Modes of the FMI 2.0 co-simulation state machine that this FMU can be in. fmi2DoStep is
+ * synchronous, so stepInProgress, stepFailed and stepCanceled never occur. */
+typedef enum {
+  Instantiated = 1,
+  InitializationMode = 2,
+  StepComplete = 4,
+  Terminated = 8,
+  Error = 16
+} fmu_mode;
+
+#define ANY_MODE (Instantiated | InitializationMode | StepComplete | Terminated | Error)
+#define MASK_SET_VALUES (Instantiated | InitializationMode | StepComplete)
+#define MASK_GET_VALUES (InitializationMode | StepComplete | Terminated)
+#define MASK_GET_STATE (Instantiated | InitializationMode | StepComplete | Terminated)
+#define MASK_STATUS (StepComplete | Terminated | Error)
+
+typedef struct instance {
+  fmi2CallbackLogger logger;
+  fmi2ComponentEnvironment environment; /* passed back to the logger unchanged */
+  char* name;                           /* own copy: the importer's string is valid only during the call */
+  char* resources;                      /* local resources directory ending in '/', or NULL */
+  unsigned categories;                  /* enabled log categories, bit i = gm_log_category i */
+  fmu_mode mode;
+  double time; /* start time, then the end of the last successful step */
+  int stop_defined;
+  double stop_time;
+  fmu_model* model;
+  char msg[512]; /* message from the model layer */
+} instance;
+
+#define ALL_CATEGORIES ((1u << GM_LOG_COUNT) - 1u)
+
+static const char* const category_names[] = {
+#define L(id, name, description) name,
+    GM_FMU_LOG_CATEGORIES(L)
+#undef L
+};
+
+/* ---- logging ---------------------------------------------------------------------------- */
+
+static void vlog(const instance* c, fmi2Status status, gm_log_category category, const char* format,
+                 va_list args) {
+  int always = category == GM_LOG_ERROR || category == GM_LOG_FATAL;
+  if (!c->logger || !(always || (c->categories >> category & 1u))) return;
+  char text[512];
+  vsnprintf(text, sizeof text, format, args);
+  size_t n = strlen(text);
+  while (n && (text[n - 1] == '\n' || text[n - 1] == '\r')) text[--n] = '\0';
+  /* through "%s": a '%' in the message or instance name is never read as a conversion */
+  c->logger(c->environment, c->name, status, category_names[category], "%s", text);
+}
+
+static void log_event(const instance* c, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  vlog(c, fmi2OK, GM_LOG_EVENTS, format, args);
+  va_end(args);
+}
+
+static fmi2Status error(const instance* c, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  vlog(c, fmi2Error, GM_LOG_ERROR, format, args);
+  va_end(args);
+  return fmi2Error;
+}
+
+static void warning(const instance* c, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  vlog(c, fmi2Warning, GM_LOG_WARNING, format, args);
+  va_end(args);
+}
+
+static fmi2Status discard(const instance* c, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  vlog(c, fmi2Discard, GM_LOG_WARNING, format, args);
+  va_end(args);
+  return fmi2Discard;
+}
+
+static void model_log(void* context, gm_log_category category, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  vlog(context, fmi2OK, category, format, args);
+  va_end(args);
+}
+
+/* ---- call sequence ---------------------------------------------------------------------- */
+
+static const char* mode_name(fmu_mode mode) {
+  switch (mode) {
+    case Instantiated: return "Instantiated";
+    case InitializationMode: return "Initialization Mode";
+    case StepComplete: return "stepComplete";
+    case Terminated: return "terminated";
+    default: return "error";
+  }
+}
+
+static int illegal(const instance* c, const char* function, unsigned allowed) {
+  if (!c) return 1;
+  if (c->mode & allowed) return 0;
+  error(c, "%s: Illegal call sequence (instance is in %s)", function, mode_name(c->mode));
+  return 1;
+}
+
+#define CHECK_MODE(allowed)                                              \
+  instance* c = (instance*)component;                                   \
+  if (illegal(c, __func__, (allowed))) return fmi2Error
+
+#define CHECK_POINTER(p)                                                      \
+  if (!(p)) return error(c, "%s: argument %s must not be NULL", __func__, #p)
+
+/* ---- common functions ------------------------------------------------------------------- */
+
+const char* fmi2GetTypesPlatform(void) {
+  return fmi2TypesPlatform;
+}
+
+const char* fmi2GetVersion(void) {
+  return fmi2Version;
+}
+
+static char* copy_string(const char* s) {
+  size_t n = strlen(s) + 1;
+  char* copy = malloc(n);
+  if (copy) memcpy(copy, s, n);
+  return copy;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions* functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+  (void)visible;
+  if (!functions) return NULL;
+  /* stands in for the instance while refusing, so that the refusal is logged */
+  instance probe = {.logger = functions->logger,
+                    .environment = functions->componentEnvironment,
+                    .name = (char*)(instanceName && instanceName[0] ? instanceName : "GearMesh")};
+  if (!instanceName || !instanceName[0]) {
+    error(&probe, "fmi2Instantiate: instanceName must be a non-empty string");
+    return NULL;
+  }
+  if (fmuType != fmi2CoSimulation) {
+    error(&probe, "fmi2Instantiate: GearMesh is a co-simulation FMU (fmuType = %d)", (int)fmuType);
+    return NULL;
+  }
+  if (!fmuGUID || strcmp(fmuGUID, GM_FMU_GUID) != 0) {
+    error(&probe, "fmi2Instantiate: GUID %s does not match this binary's %s (modelDescription.xml is from another build)",
+          fmuGUID ? fmuGUID : "(NULL)", GM_FMU_GUID);
+    return NULL;
+  }
+  instance* c = calloc(1, sizeof *c);
+  if (!c) {
+    error(&probe, "fmi2Instantiate: out of memory");
+    return NULL;
+  }
+  *c = probe;
+  c->name = copy_string(instanceName);
+  c->model = model_new(model_log, c);
+  if (!c->name || !c->model) {
+    error(&probe, "fmi2Instantiate: out of memory");
+    free(c->name);
+    model_free(c->model);
+    free(c);
+    return NULL;
+  }
+  c->categories = loggingOn ? ALL_CATEGORIES : 0u;
+  c->mode = Instantiated;
+  /* The generic FMU has no resources; the location is decoded now for scenes that have some. */
+  c->resources = fmu_uri_to_path(fmuResourceLocation);
+  if (fmuResourceLocation && !c->resources)
+    warning(c, "fmi2Instantiate: resource location is not a local file URI: %s", fmuResourceLocation);
+  log_event(c, "fmi2Instantiate: resources at %s", c->resources ? c->resources : "(none)");
+  return c;
+}
+
+void fmi2FreeInstance(fmi2Component component) {
+  instance* c = (instance*)component;
+  if (!c) return;
+  model_free(c->model);
+  free(c->resources);
+  free(c->name);
+  free(c);
+}
+
+fmi2Status fmi2SetDebugLogging(fmi2Component component, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[]) {
+  CHECK_MODE(ANY_MODE);
+  if (nCategories == 0) {
+    c->categories = loggingOn ? ALL_CATEGORIES : 0u;
+    return fmi2OK;
+  }
+  CHECK_POINTER(categories);
+  unsigned bits = 0;
+  for (size_t i = 0; i < nCategories; i++) {
+    unsigned bit = 0;
+    for (unsigned k = 0; k < GM_LOG_COUNT; k++)
+      if (categories[i] && strcmp(categories[i], category_names[k]) == 0) bit = 1u << k;
+    if (!bit) return error(c, "fmi2SetDebugLogging: unknown log category '%s'", categories[i] ? categories[i] : "(NULL)");
+    bits |= bit == 1u << GM_LOG_ALL ? ALL_CATEGORIES : bit;
+  }
+  c->categories = loggingOn ? c->categories | bits : c->categories & ~bits;
+  return fmi2OK;
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component component, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+  (void)toleranceDefined; /* the contact solve has its own tolerance parameter */
+  (void)tolerance;
+  CHECK_MODE(Instantiated);
+  if (!isfinite(startTime)) return error(c, "fmi2SetupExperiment: startTime = %g is not finite", startTime);
+  if (stopTimeDefined && !(stopTime >= startTime))
+    return error(c, "fmi2SetupExperiment: stopTime = %g is before startTime = %g", stopTime, startTime);
+  c->time = startTime;
+  c->stop_defined = stopTimeDefined != fmi2False;
+  c->stop_time = stopTime;
+  return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component component) {
+  CHECK_MODE(Instantiated);
+  c->mode = InitializationMode;
+  log_event(c, "fmi2EnterInitializationMode at t = %g s", c->time);
+  return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component component) {
+  CHECK_MODE(InitializationMode);
+  /* outputs at the start time; on a parameter or input error the instance stays in
+   * Initialization Mode so that the value can be corrected */
+  if (!model_outputs_current(c->model) && model_evaluate(c->model, 1, c->time, c->msg, sizeof c->msg))
+    return error(c, "fmi2ExitInitializationMode: %s", c->msg);
+  c->mode = StepComplete;
+  log_event(c, "fmi2ExitInitializationMode: stepComplete at t = %g s", c->time);
+  return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component component) {
+  CHECK_MODE(StepComplete);
+  c->mode = Terminated;
+  log_event(c, "fmi2Terminate at t = %g s", c->time);
+  return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component component) {
+  CHECK_MODE(ANY_MODE);
+  model_reset(c->model);
+  c->mode = Instantiated;
+  c->time = 0.0;
+  c->stop_defined = 0;
+  log_event(c, "fmi2Reset: start values, Instantiated");
+  return fmi2OK;
+}
+
+/* ---- values ----------------------------------------------------------------------------- */
+
+static const char* const type_names[] = {"Real", "Integer", "Boolean"};
+
+/* The variable of value reference vr if it has the given type, else NULL (logged). */
+static const gm_fmu_variable* variable(const instance* c, const char* function, fmi2ValueReference vr,
+                                       gm_fmu_type type) {
+  const gm_fmu_variable* v = model_variable(vr);
+  if (v && v->type == type) return v;
+  error(c, "%s: value reference %u is not a variable of type %s", function, (unsigned)vr, type_names[type]);
+  return NULL;
+}
+
+static fmi2Status get_values(instance* c, const char* function, gm_fmu_type type, const fmi2ValueReference vr[],
+                             size_t nvr, void* values) {
+  if (nvr == 0) return fmi2OK;
+  if (!vr || !values) return error(c, "%s: vr[] and value[] must not be NULL", function);
+  int outputs = 0, calculated = 0;
+  for (size_t i = 0; i < nvr; i++) {
+    const gm_fmu_variable* v = variable(c, function, vr[i], type);
+    if (!v) return fmi2Error;
+    outputs |= v->causality == GM_FMU_output;
+    calculated |= v->causality == GM_FMU_calculatedParameter;
+  }
+  /* Initialization Mode allows set/get iteration: evaluate at the current values on demand. */
+  if (c->mode == InitializationMode) {
+    if (outputs && !model_outputs_current(c->model) &&
+        model_evaluate(c->model, 1, c->time, c->msg, sizeof c->msg))
+      return error(c, "%s: %s", function, c->msg);
+    if (calculated && model_build(c->model, c->msg, sizeof c->msg)) return error(c, "%s: %s", function, c->msg);
+  }
+  for (size_t i = 0; i < nvr; i++) {
+    const gm_fmu_variable* v = model_variable(vr[i]);
+    if (type == GM_FMU_Real) ((fmi2Real*)values)[i] = model_get_real(c->model, v);
+    else ((fmi2Integer*)values)[i] = model_get_int(c->model, v); /* fmi2Boolean is an int too */
+  }
+  return fmi2OK;
+}
+
+/* All values are checked before any is set, so a refused call changes nothing. */
+static fmi2Status set_values(instance* c, const char* function, gm_fmu_type type, const fmi2ValueReference vr[],
+                             size_t nvr, const void* values) {
+  if (nvr == 0) return fmi2OK;
+  if (!vr || !values) return error(c, "%s: vr[] and value[] must not be NULL", function);
+  for (size_t i = 0; i < nvr; i++) {
+    const gm_fmu_variable* v = variable(c, function, vr[i], type);
+    if (!v) return fmi2Error;
+    if (v->causality == GM_FMU_parameter && !(c->mode & (Instantiated | InitializationMode)))
+      return error(c, "%s: %s is a fixed parameter, settable only before fmi2ExitInitializationMode",
+                   function, v->name);
+    if (v->causality != GM_FMU_parameter && v->causality != GM_FMU_input)
+      return error(c, "%s: %s is %s and cannot be set", function, v->name,
+                   v->causality == GM_FMU_output ? "an output" : "a calculated parameter");
+    if (type == GM_FMU_Real && !isfinite(((const fmi2Real*)values)[i]))
+      return error(c, "%s: %s = %g is not finite; it keeps %g", function, v->name, ((const fmi2Real*)values)[i],
+                   model_get_real(c->model, v));
+  }
+  for (size_t i = 0; i < nvr; i++) {
+    const gm_fmu_variable* v = model_variable(vr[i]);
+    if (type == GM_FMU_Real) model_set_real(c->model, v, ((const fmi2Real*)values)[i]);
+    else model_set_int(c->model, v, ((const fmi2Integer*)values)[i]);
+  }
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
+  CHECK_MODE(MASK_GET_VALUES);
+  return get_values(c, __func__, GM_FMU_Real, vr, nvr, value);
+}
+
+fmi2Status fmi2GetInteger(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                          fmi2Integer value[]) {
+  CHECK_MODE(MASK_GET_VALUES);
+  return get_values(c, __func__, GM_FMU_Integer, vr, nvr, value);
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                          fmi2Boolean value[]) {
+  CHECK_MODE(MASK_GET_VALUES);
+  return get_values(c, __func__, GM_FMU_Boolean, vr, nvr, value);
+}
+
+fmi2Status fmi2GetString(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                         fmi2String value[]) {
+  CHECK_MODE(MASK_GET_VALUES);
+  (void)value;
+  if (nvr == 0) return fmi2OK;
+  CHECK_POINTER(vr);
+  return error(c, "%s: value reference %u is not a variable of type String", __func__, (unsigned)vr[0]);
+}
+
+fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                       const fmi2Real value[]) {
+  CHECK_MODE(MASK_SET_VALUES);
+  return set_values(c, __func__, GM_FMU_Real, vr, nvr, value);
+}
+
+fmi2Status fmi2SetInteger(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Integer value[]) {
+  CHECK_MODE(MASK_SET_VALUES);
+  return set_values(c, __func__, GM_FMU_Integer, vr, nvr, value);
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                          const fmi2Boolean value[]) {
+  CHECK_MODE(MASK_SET_VALUES);
+  return set_values(c, __func__, GM_FMU_Boolean, vr, nvr, value);
+}
+
+fmi2Status fmi2SetString(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                         const fmi2String value[]) {
+  CHECK_MODE(MASK_SET_VALUES);
+  (void)value;
+  if (nvr == 0) return fmi2OK;
+  CHECK_POINTER(vr);
+  return error(c, "%s: value reference %u is not a variable of type String", __func__, (unsigned)vr[0]);
+}
+
+/* ---- FMU state -------------------------------------------------------------------------- */
+
+/* Serialized FMU state, native byte order (the binary is per platform):
+ *   "GearMesh" | u32 format version | GUID, NUL-padded to 40 bytes | u64 payload size | payload
+ *   payload = f64 time | u32 mode | model payload (model_state_save)
+ * An fmi2FMUstate holds exactly these bytes: taking, copying and serializing a state are one
+ * path, and a state owns all its data (no pointer into the instance). */
+#define STATE_MAGIC "GearMesh"
+#define STATE_FORMAT 1u
+#define STATE_GUID_SIZE 40
+#define STATE_HEADER_SIZE (8 + 4 + STATE_GUID_SIZE + 8)
+#define STATE_PAYLOAD_OFFSET (8 + 4) /* model payload after time and mode */
+
+_Static_assert(sizeof GM_FMU_GUID <= STATE_GUID_SIZE, "GUID does not fit the state header");
+
+typedef struct fmu_state {
+  size_t size;
+  unsigned char bytes[];
+} fmu_state;
+
+/* Payload size if bytes[0..size) is a state of this FMU, else 0 (logged). */
+static size_t check_state(const instance* c, const char* function, const unsigned char* bytes, size_t size) {
+  char guid[STATE_GUID_SIZE] = GM_FMU_GUID;
+  uint32_t format;
+  uint64_t payload;
+  if (size < STATE_HEADER_SIZE || memcmp(bytes, STATE_MAGIC, 8) != 0) {
+    error(c, "%s: not a GearMesh FMU state (%zu bytes)", function, size);
+    return 0;
+  }
+  memcpy(&format, bytes + 8, sizeof format);
+  memcpy(&payload, bytes + 8 + 4 + STATE_GUID_SIZE, sizeof payload);
+  if (format != STATE_FORMAT) {
+    error(c, "%s: FMU state format %u, this FMU reads format %u", function, (unsigned)format, STATE_FORMAT);
+    return 0;
+  }
+  if (memcmp(bytes + 12, guid, STATE_GUID_SIZE) != 0) {
+    error(c, "%s: FMU state is from another GearMesh build (GUID %.40s)", function, (const char*)bytes + 12);
+    return 0;
+  }
+  if (payload != size - STATE_HEADER_SIZE || payload < STATE_PAYLOAD_OFFSET) {
+    error(c, "%s: FMU state is truncated or padded (%zu bytes, header says %llu)", function, size,
+          (unsigned long long)(payload + STATE_HEADER_SIZE));
+    return 0;
+  }
+  return (size_t)payload;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component component, fmi2FMUstate* FMUstate) {
+  CHECK_MODE(MASK_GET_STATE);
+  CHECK_POINTER(FMUstate);
+  uint64_t payload = STATE_PAYLOAD_OFFSET + model_state_size(c->model);
+  size_t size = STATE_HEADER_SIZE + (size_t)payload;
+  fmu_state* s = realloc(*FMUstate, sizeof *s + size); /* a previous state of ours is reused */
+  if (!s) return error(c, "fmi2GetFMUstate: out of memory");
+  *FMUstate = s;
+  char guid[STATE_GUID_SIZE] = GM_FMU_GUID;
+  uint32_t format = STATE_FORMAT, mode = (uint32_t)c->mode;
+  unsigned char* b = s->bytes;
+  s->size = size;
+  memcpy(b, STATE_MAGIC, 8);
+  memcpy(b + 8, &format, 4);
+  memcpy(b + 12, guid, STATE_GUID_SIZE);
+  memcpy(b + 12 + STATE_GUID_SIZE, &payload, 8);
+  b += STATE_HEADER_SIZE;
+  memcpy(b, &c->time, 8);
+  memcpy(b + 8, &mode, 4);
+  model_state_save(c->model, b + STATE_PAYLOAD_OFFSET);
+  return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component component, fmi2FMUstate FMUstate) {
+  CHECK_MODE(ANY_MODE);
+  CHECK_POINTER(FMUstate);
+  const fmu_state* s = FMUstate;
+  size_t payload = check_state(c, __func__, s->bytes, s->size);
+  if (!payload) return fmi2Error;
+  const unsigned char* b = s->bytes + STATE_HEADER_SIZE;
+  double time;
+  uint32_t mode;
+  memcpy(&time, b, 8);
+  memcpy(&mode, b + 8, 4);
+  if (!(mode & MASK_GET_STATE) || (mode & (mode - 1)) || !isfinite(time))
+    return error(c, "fmi2SetFMUstate: FMU state has an invalid mode or time");
+  if (model_state_load(c->model, b + STATE_PAYLOAD_OFFSET, payload - STATE_PAYLOAD_OFFSET, c->msg, sizeof c->msg))
+    return error(c, "fmi2SetFMUstate: %s", c->msg);
+  c->time = time;
+  c->mode = (fmu_mode)mode;
+  return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component component, fmi2FMUstate* FMUstate) {
+  CHECK_MODE(ANY_MODE);
+  if (FMUstate) {
+    free(*FMUstate);
+    *FMUstate = NULL;
+  }
+  return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component component, fmi2FMUstate FMUstate, size_t* size) {
+  CHECK_MODE(ANY_MODE);
+  CHECK_POINTER(FMUstate);
+  CHECK_POINTER(size);
+  *size = ((const fmu_state*)FMUstate)->size;
+  return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component component, fmi2FMUstate FMUstate, fmi2Byte serializedState[],
+                                 size_t size) {
+  CHECK_MODE(ANY_MODE);
+  CHECK_POINTER(FMUstate);
+  CHECK_POINTER(serializedState);
+  const fmu_state* s = FMUstate;
+  if (size < s->size) return error(c, "%s: buffer of %zu bytes, the state needs %zu", __func__, size, s->size);
+  memcpy(serializedState, s->bytes, s->size);
+  return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component component, const fmi2Byte serializedState[], size_t size,
+                                   fmi2FMUstate* FMUstate) {
+  CHECK_MODE(ANY_MODE);
+  CHECK_POINTER(serializedState);
+  CHECK_POINTER(FMUstate);
+  if (!check_state(c, __func__, (const unsigned char*)serializedState, size)) return fmi2Error;
+  fmu_state* s = realloc(*FMUstate, sizeof *s + size); /* a previous state of ours is reused */
+  if (!s) return error(c, "%s: out of memory", __func__);
+  s->size = size;
+  memcpy(s->bytes, serializedState, size);
+  *FMUstate = s;
+  return fmi2OK;
+}
+
+/* ---- capabilities this FMU does not provide --------------------------------------------- */
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component component, const fmi2ValueReference vUnknown_ref[],
+                                        size_t nUnknown, const fmi2ValueReference vKnown_ref[], size_t nKnown,
+                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
+  (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown, (void)dvUnknown;
+  CHECK_MODE(MASK_GET_VALUES);
+  return error(c, "fmi2GetDirectionalDerivative: not provided (providesDirectionalDerivative=\"false\")");
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+  (void)vr, (void)nvr, (void)order, (void)value;
+  CHECK_MODE(MASK_SET_VALUES);
+  return error(c, "fmi2SetRealInputDerivatives: not supported (canInterpolateInputs=\"false\")");
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+  (void)vr, (void)nvr, (void)order, (void)value;
+  CHECK_MODE(MASK_GET_VALUES);
+  return error(c, "fmi2GetRealOutputDerivatives: not supported (maxOutputDerivativeOrder=\"0\")");
+}
+
+fmi2Status fmi2CancelStep(fmi2Component component) {
+  CHECK_MODE(ANY_MODE);
+  return error(c, "fmi2CancelStep: not supported: fmi2DoStep is synchronous and never pending");
+}
+
+/* ---- co-simulation ---------------------------------------------------------------------- */
+
+fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoint,
+                      fmi2Real communicationStepSize, fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+  (void)noSetFMUStatePriorToCurrentPoint;
+  CHECK_MODE(StepComplete);
+  double tc = currentCommunicationPoint, h = communicationStepSize;
+  if (!(h > 0.0)) return error(c, "fmi2DoStep: communicationStepSize = %g must be > 0", h);
+  /* the master's time is the sum of its steps: allow its rounding, nothing more */
+  if (!(fabs(tc - c->time) <= 1e-9 * fmax(1.0, fabs(c->time))))
+    return error(c, "fmi2DoStep: currentCommunicationPoint = %.17g, but the FMU is at t = %.17g", tc, c->time);
+  double end = tc + h;
+  if (c->stop_defined && !(end <= c->stop_time + 1e-9 * fmax(1.0, fabs(c->stop_time))))
+    return error(c, "fmi2DoStep: step to t = %.17g goes past stopTime = %.17g", end, c->stop_time);
+  /* inputs are held over the step; the outputs published are those at tc + h */
+  if (model_evaluate(c->model, 0, end, c->msg, sizeof c->msg)) {
+    c->mode = Error; /* only fmi2SetFMUstate or fmi2Reset recover */
+    return error(c, "fmi2DoStep: t = %g s: %s", end, c->msg);
+  }
+  c->time = end;
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component component, const fmi2StatusKind s, fmi2Status* value) {
+  CHECK_MODE(MASK_STATUS);
+  CHECK_POINTER(value);
+  return discard(c, "fmi2GetStatus(%d): not available: fmi2DoStep never returns fmi2Pending", (int)s);
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component component, const fmi2StatusKind s, fmi2Real* value) {
+  CHECK_MODE(MASK_STATUS);
+  CHECK_POINTER(value);
+  if (s != fmi2LastSuccessfulTime) return discard(c, "fmi2GetRealStatus(%d): not available", (int)s);
+  *value = c->time;
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component component, const fmi2StatusKind s, fmi2Integer* value) {
+  CHECK_MODE(MASK_STATUS);
+  CHECK_POINTER(value);
+  return discard(c, "fmi2GetIntegerStatus(%d): not available", (int)s);
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component component, const fmi2StatusKind s, fmi2Boolean* value) {
+  CHECK_MODE(MASK_STATUS);
+  CHECK_POINTER(value);
+  if (s != fmi2Terminated) return discard(c, "fmi2GetBooleanStatus(%d): not available", (int)s);
+  *value = fmi2False; /* the FMU never asks to end the simulation */
+  return fmi2OK;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component component, const fmi2StatusKind s, fmi2String* value) {
+  CHECK_MODE(MASK_STATUS);
+  CHECK_POINTER(value);
+  return discard(c, "fmi2GetStringStatus(%d): not available: fmi2DoStep never returns fmi2Pending", (int)s);
+}

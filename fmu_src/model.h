@@ -1,0 +1,46 @@
+/* The model behind the generic FMI 2.0 layer (Reference-FMUs layering): fmi2_functions.c knows
+ * FMI (state machine, logging, time, FMU state framing); model_gearmesh.c holds the variable
+ * values and reaches the physics only through the core's C API. Errors come back as a nonzero
+ * return and a message in the caller's buffer. */
+#ifndef GEARMESH_FMU_MODEL_H
+#define GEARMESH_FMU_MODEL_H
+
+#include <stddef.h>
+
+#include "variables.h"
+
+typedef struct fmu_model fmu_model;
+
+/* Log hook into the generic layer, which drops messages of disabled categories. */
+typedef void (*fmu_log_fn)(void* context, gm_log_category category, const char* format, ...);
+
+/* The variable with value reference vr, or NULL if there is none. */
+const gm_fmu_variable* model_variable(unsigned vr);
+
+/* A model at the start values; NULL if out of memory. */
+fmu_model* model_new(fmu_log_fn log, void* log_context);
+void model_free(fmu_model* m);
+/* Back to the start values; the core model is dropped. */
+void model_reset(fmu_model* m);
+
+/* Values of v (Integer and Boolean are int). Setting a parameter or input marks the outputs
+ * stale; setting a parameter also the core model. */
+double model_get_real(const fmu_model* m, const gm_fmu_variable* v);
+int model_get_int(const fmu_model* m, const gm_fmu_variable* v);
+void model_set_real(fmu_model* m, const gm_fmu_variable* v, double x);
+void model_set_int(fmu_model* m, const gm_fmu_variable* v, int x);
+
+/* (Re)build the core model if the parameters changed since the last build. */
+int model_build(fmu_model* m, char* msg, size_t msg_size);
+/* Evaluate the contact at the held inputs and publish the outputs (time only labels log
+ * messages). restart forgets warm start and friction memory first. */
+int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t msg_size);
+/* 1 if the published outputs belong to the current parameters and inputs. */
+int model_outputs_current(const fmu_model* m);
+
+/* Model part of the FMU state: every parameter, input and output, plus the core's blob. */
+size_t model_state_size(const fmu_model* m);
+void model_state_save(const fmu_model* m, unsigned char* buf); /* writes model_state_size bytes */
+int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* msg, size_t msg_size);
+
+#endif /* GEARMESH_FMU_MODEL_H */

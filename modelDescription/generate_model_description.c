@@ -1,0 +1,257 @@
+/* Writes modelDescription.xml from the variable table (variables.h). Built and run by CMake.
+ *
+ * Start values of parameters come from gm_default_params(), so the defaults live in the core
+ * only. The table is checked here (unique names, legal causality/variability/initial, units
+ * defined) so that a bad row fails the build instead of producing an FMU that importers reject.
+ *
+ * Usage: generate_model_description <output.xml>
+ * GM_FMU_GUID and GM_FMU_VERSION are compile definitions set by CMake.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "variables.h"
+
+#define N_VARIABLES GM_FMU_VARIABLE_COUNT
+
+static const char* const units[] = {
+#define U(name, kg, m, s, rad) name,
+    GM_FMU_UNITS(U)
+#undef U
+};
+
+static const int exponents[][4] = {
+#define U(name, kg, m, s, rad) {kg, m, s, rad},
+    GM_FMU_UNITS(U)
+#undef U
+};
+
+static int failures = 0;
+
+static void fail(const char* what, const char* name) {
+  fprintf(stderr, "generate_model_description: %s: %s\n", name, what);
+  failures++;
+}
+
+static int unit_defined(const char* unit) {
+  for (size_t i = 0; i < sizeof units / sizeof units[0]; i++)
+    if (strcmp(units[i], unit) == 0) return 1;
+  return 0;
+}
+
+static int display_unit_defined(const char* unit, const char* display) {
+#define D(u, name, factor) \
+  if (strcmp(u, unit) == 0 && strcmp(name, display) == 0) return 1;
+  GM_FMU_DISPLAY_UNITS(D)
+#undef D
+  return 0;
+}
+
+/* The combinations this FMU uses, all legal in FMI 2.0 (spec table of causality/variability/initial). */
+static void check_row(const gm_fmu_variable* v, size_t index) {
+  static const char* const legal[][3] = {{"parameter", "fixed", "exact"},
+                                         {"calculatedParameter", "fixed", "calculated"},
+                                         {"input", "continuous", "exact"},
+                                         {"input", "discrete", "exact"},
+                                         {"output", "continuous", "calculated"},
+                                         {"output", "discrete", "calculated"}};
+  int ok = 0;
+  for (size_t i = 0; i < sizeof legal / sizeof legal[0]; i++)
+    ok |= strcmp(legal[i][0], v->causality_name) == 0 && strcmp(legal[i][1], v->variability) == 0 &&
+          strcmp(legal[i][2], v->initial) == 0;
+  if (!ok) fail("illegal causality/variability/initial combination", v->name);
+  if (v->type != GM_FMU_Real && strcmp(v->variability, "continuous") == 0)
+    fail("only Real variables can be continuous", v->name);
+  if (v->type != GM_FMU_Real && (v->unit[0] || v->display_unit[0])) fail("only Real variables carry units", v->name);
+  if (v->unit[0] && !unit_defined(v->unit)) fail("unit not in GM_FMU_UNITS", v->name);
+  if (v->display_unit[0] && !display_unit_defined(v->unit, v->display_unit))
+    fail("display unit not in GM_FMU_DISPLAY_UNITS for its unit", v->name);
+  if ((v->deps & D_SPIN_LINEAR) && v->type != GM_FMU_Real)
+    fail("dependenciesKind \"fixed\" is only for Real unknowns", v->name);
+  for (size_t j = 0; j < index; j++)
+    if (strcmp(gm_fmu_variables[j].name, v->name) == 0) fail("duplicate name", v->name);
+}
+
+static void put_escaped(FILE* f, const char* s) {
+  for (; *s; s++) {
+    switch (*s) {
+      case '&': fputs("&amp;", f); break;
+      case '<': fputs("&lt;", f); break;
+      case '>': fputs("&gt;", f); break;
+      case '"': fputs("&quot;", f); break;
+      default: fputc(*s, f);
+    }
+  }
+}
+
+/* Shortest of %.15g/%.16g/%.17g that reads back to the same double (C locale: no setlocale). */
+static void put_real(FILE* f, double x) {
+  char buf[32];
+  for (int digits = 15; digits <= 17; digits++) {
+    snprintf(buf, sizeof buf, "%.*g", digits, x);
+    if (strtod(buf, NULL) == x) break;
+  }
+  fputs(buf, f);
+}
+
+static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* start) {
+  const char* field = (const char*)start + v->offset;
+  fputs(" start=\"", f);
+  if (v->type == GM_FMU_Real) {
+    double x;
+    memcpy(&x, field, sizeof x);
+    if (!isfinite(x)) fail("start value is not finite", v->name);
+    put_real(f, x);
+  } else {
+    int i;
+    memcpy(&i, field, sizeof i);
+    if (v->type == GM_FMU_Integer) fprintf(f, "%d", i);
+    else fputs(i ? "true" : "false", f);
+  }
+  fputc('"', f);
+}
+
+static int is_known(const gm_fmu_variable* v, int initialization) {
+  return v->causality == GM_FMU_input || (initialization && v->causality == GM_FMU_parameter);
+}
+
+/* <Unknown> of variable `index`: its knowns are the inputs (communication points) or the inputs
+ * and parameters (Initialization Mode) whose dependency class it names. */
+static void put_unknown(FILE* f, size_t index, int initialization) {
+  const gm_fmu_variable* u = &gm_fmu_variables[index];
+  fprintf(f, "      <Unknown index=\"%zu\" dependencies=\"", index + 1);
+  const char* sep = "";
+  for (size_t j = 0; j < N_VARIABLES; j++) {
+    const gm_fmu_variable* k = &gm_fmu_variables[j];
+    if (is_known(k, initialization) && (k->deps & u->deps)) {
+      fprintf(f, "%s%zu", sep, j + 1);
+      sep = " ";
+    }
+  }
+  fputs("\" dependenciesKind=\"", f);
+  sep = "";
+  for (size_t j = 0; j < N_VARIABLES; j++) {
+    const gm_fmu_variable* k = &gm_fmu_variables[j];
+    if (is_known(k, initialization) && (k->deps & u->deps)) {
+      /* "fixed" is not allowed in InitialUnknowns: there the parameters are knowns too. */
+      int fixed = !initialization && (u->deps & D_SPIN_LINEAR) && (k->deps & D_SPIN);
+      fprintf(f, "%s%s", sep, fixed ? "fixed" : "dependent");
+      sep = " ";
+    }
+  }
+  fputs("\"/>\n", f);
+}
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    fprintf(stderr, "usage: %s <modelDescription.xml>\n", argv[0]);
+    return 2;
+  }
+  gm_fmu_values start;
+  memset(&start, 0, sizeof start); /* inputs start at the nominal pose, at rest */
+  gm_default_params(&start.p);
+  for (size_t i = 0; i < N_VARIABLES; i++) check_row(&gm_fmu_variables[i], i);
+  if (failures) return 1;
+
+  FILE* f = fopen(argv[1], "w");
+  if (!f) {
+    perror(argv[1]);
+    return 1;
+  }
+  fprintf(f,
+          "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+          "<fmiModelDescription fmiVersion=\"2.0\" modelName=\"GearMesh\" guid=\"%s\" version=\"%s\"\n"
+          "  description=\"Gear-mesh contact element: hybrid FE/analytical reduced-order tooth contact\"\n"
+          "  generationTool=\"GearMesh generate_model_description\" variableNamingConvention=\"structured\">\n",
+          GM_FMU_GUID, GM_FMU_VERSION);
+  fputs("  <CoSimulation modelIdentifier=\"GearMesh\" needsExecutionTool=\"false\"\n"
+        "    canHandleVariableCommunicationStepSize=\"true\" canInterpolateInputs=\"false\"\n"
+        "    maxOutputDerivativeOrder=\"0\" canRunAsynchronuously=\"false\"\n"
+        "    canBeInstantiatedOnlyOncePerProcess=\"false\" canNotUseMemoryManagementFunctions=\"true\"\n"
+        "    canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"true\" providesDirectionalDerivative=\"false\"/>\n",
+        f);
+
+  fputs("  <UnitDefinitions>\n", f);
+#define D(unit, name, factor)                                                                  \
+  if (strcmp(unit, current) == 0) {                                                            \
+    fputs("      <DisplayUnit name=\"", f);                                                    \
+    put_escaped(f, name);                                                                      \
+    fputs("\" factor=\"", f);                                                                  \
+    put_real(f, factor);                                                                       \
+    fputs("\"/>\n", f);                                                                        \
+  }
+  for (size_t u = 0; u < sizeof units / sizeof units[0]; u++) {
+    const char* current = units[u];
+    fputs("    <Unit name=\"", f);
+    put_escaped(f, current);
+    fputs("\">\n      <BaseUnit", f);
+    static const char* const base[] = {"kg", "m", "s", "rad"};
+    for (int b = 0; b < 4; b++)
+      if (exponents[u][b]) fprintf(f, " %s=\"%d\"", base[b], exponents[u][b]);
+    fputs("/>\n", f);
+    GM_FMU_DISPLAY_UNITS(D)
+    fputs("    </Unit>\n", f);
+  }
+#undef D
+  fputs("  </UnitDefinitions>\n", f);
+
+  fputs("  <LogCategories>\n", f);
+#define L(id, name, description) \
+  fputs("    <Category name=\"" name "\" description=\"", f); \
+  put_escaped(f, description);                                \
+  fputs("\"/>\n", f);
+  GM_FMU_LOG_CATEGORIES(L)
+#undef L
+  fputs("  </LogCategories>\n", f);
+
+  /* 10 mesh periods at about 1000 rpm, 100 steps per mesh period for the default 57 teeth. */
+  fputs("  <DefaultExperiment startTime=\"0\" stopTime=\"0.01\" stepSize=\"1e-05\"/>\n", f);
+
+  fputs("  <ModelVariables>\n", f);
+  for (size_t i = 0; i < N_VARIABLES; i++) {
+    const gm_fmu_variable* v = &gm_fmu_variables[i];
+    fprintf(f, "    <!-- index %zu -->\n    <ScalarVariable name=\"", i + 1);
+    put_escaped(f, v->name);
+    fprintf(f, "\" valueReference=\"%zu\" description=\"", i);
+    put_escaped(f, v->description);
+    fprintf(f, "\"\n      causality=\"%s\" variability=\"%s\"", v->causality_name, v->variability);
+    if (v->causality != GM_FMU_input) fprintf(f, " initial=\"%s\"", v->initial); /* inputs carry no initial */
+    fprintf(f, ">\n      <%s", v->type_name);
+    if (v->unit[0]) {
+      fputs(" unit=\"", f);
+      put_escaped(f, v->unit);
+      fputc('"', f);
+    }
+    if (v->display_unit[0]) {
+      fputs(" displayUnit=\"", f);
+      put_escaped(f, v->display_unit);
+      fputc('"', f);
+    }
+    if (v->min[0]) fprintf(f, " min=\"%s\"", v->min);
+    if (v->max[0]) fprintf(f, " max=\"%s\"", v->max);
+    if (strcmp(v->initial, "exact") == 0) put_start(f, v, &start);
+    fputs("/>\n    </ScalarVariable>\n", f);
+  }
+  fputs("  </ModelVariables>\n", f);
+
+  fputs("  <ModelStructure>\n    <Outputs>\n", f);
+  for (size_t i = 0; i < N_VARIABLES; i++)
+    if (gm_fmu_variables[i].causality == GM_FMU_output) put_unknown(f, i, 0);
+  fputs("    </Outputs>\n    <InitialUnknowns>\n", f);
+  for (size_t i = 0; i < N_VARIABLES; i++) {
+    const gm_fmu_variable* v = &gm_fmu_variables[i];
+    if (v->causality == GM_FMU_calculatedParameter ||
+        (v->causality == GM_FMU_output && strcmp(v->initial, "exact") != 0))
+      put_unknown(f, i, 1);
+  }
+  fputs("    </InitialUnknowns>\n  </ModelStructure>\n</fmiModelDescription>\n", f);
+
+  if (ferror(f) | fclose(f) || failures) {
+    fprintf(stderr, "generate_model_description: writing %s failed\n", argv[1]);
+    remove(argv[1]);
+    return 1;
+  }
+  return 0;
+}

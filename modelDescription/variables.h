@@ -1,0 +1,270 @@
+/* The FMU's variables, units and log categories: the single source of the C value-reference
+ * table (fmu_src), modelDescription.xml (generate_model_description.c) and the FMU state
+ * serialization. Adding a variable is one line here; the GUID is a hash of this file, so a
+ * binary and a modelDescription.xml built from different versions of it never pair up.
+ *
+ * Start values are not written here: parameters start at gm_default_params() (the core owns
+ * the defaults), inputs at 0 (nominal pose, at rest).
+ */
+#ifndef GEARMESH_FMU_VARIABLES_H
+#define GEARMESH_FMU_VARIABLES_H
+
+#include <stddef.h>
+
+#include "gearmesh/gearmesh.h"
+
+/* Every value of an FMU instance; each variable is bound to one field. */
+typedef struct gm_fmu_values {
+  gm_model_params p;  /* parameters */
+  gm_pair_geometry g; /* calculated parameters, from the core model */
+  gm_kinematics k;    /* inputs, held over a step */
+  gm_result y;        /* outputs published by the last evaluation */
+} gm_fmu_values;
+
+typedef enum { GM_FMU_Real, GM_FMU_Integer, GM_FMU_Boolean } gm_fmu_type;
+typedef enum {
+  GM_FMU_parameter,
+  GM_FMU_calculatedParameter,
+  GM_FMU_input,
+  GM_FMU_output
+} gm_fmu_causality;
+
+/* Dependency classes for <ModelStructure>. A known (parameter, input) names its class, an
+ * unknown (output, calculated parameter) the classes it depends on. */
+enum {
+  D_GEO = 1,   /* parameter that enters the pair geometry */
+  D_SET = 2,   /* other parameter: material, stiffness model, friction, damping, solver */
+  D_SPIN = 4,  /* input: spin angle */
+  D_POSE = 8,  /* input: other position (centre translation, tilt) */
+  D_RATE = 16, /* input: velocity (friction and damping use them) */
+  /* unknown that is linear in the spin angles with factors fixed by parameters (TE = r_b1 phi_1
+   * + s r_b2 phi_2, PHYSICS 0): dependenciesKind "fixed" at communication points */
+  D_SPIN_LINEAR = 32,
+  D_TE = D_GEO | D_SPIN | D_SPIN_LINEAR,
+  D_CONTACT = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE
+};
+
+/* Unit definitions: name and SI base exponents (kg, m, s, rad). */
+#define GM_FMU_UNITS(U)   \
+  U("m", 0, 1, 0, 0)      \
+  U("rad", 0, 0, 0, 1)    \
+  U("N", 1, 1, -2, 0)     \
+  U("N.m", 1, 2, -2, 0)   \
+  U("m/s", 0, 1, -1, 0)   \
+  U("rad/s", 0, 0, -1, 1) \
+  U("Pa", 1, -1, -2, 0)   \
+  U("N/m", 1, 0, -2, 0)   \
+  U("N/m2", 1, -1, -2, 0) \
+  U("N.s/m2", 1, -1, -1, 0) \
+  U("W", 1, 2, -3, 0)
+
+/* Display units: unit, name, factor (display value = factor * SI value). */
+#define GM_FMU_DISPLAY_UNITS(D)               \
+  D("m", "mm", 1e3)                           \
+  D("m", "um", 1e6)                           \
+  D("rad", "deg", 57.295779513082323)         \
+  D("rad", "mrad", 1e3)                       \
+  D("N", "kN", 1e-3)                          \
+  D("N.m", "N.mm", 1e3)                       \
+  D("m/s", "mm/s", 1e3)                       \
+  D("rad/s", "rpm", 9.5492965855137202)       \
+  D("Pa", "MPa", 1e-6)                        \
+  D("Pa", "GPa", 1e-9)                        \
+  D("N/m", "N/mm", 1e-3)                      \
+  D("N/m", "N/um", 1e-6)                      \
+  D("N/m2", "N/(mm.um)", 1e-9)                \
+  D("N.s/m2", "N.s/mm2", 1e-6)                \
+  D("W", "kW", 1e-3)
+
+/* Log categories: enum id, name, description. Errors are logged whatever is enabled. */
+#define GM_FMU_LOG_CATEGORIES(L)                                                        \
+  L(GM_LOG_EVENTS, "logEvents", "mode changes, resource location")                     \
+  L(GM_LOG_WARNING, "logStatusWarning", "calls that return fmi2Warning")                \
+  L(GM_LOG_ERROR, "logStatusError", "calls that return fmi2Error (always logged)")     \
+  L(GM_LOG_FATAL, "logStatusFatal", "calls that return fmi2Fatal (always logged)")     \
+  L(GM_LOG_ALL, "logAll", "enables every category")                                    \
+  L(GM_LOG_CONTACT, "contact", "tooth pairs and flank in contact when they change")    \
+  L(GM_LOG_SOLVER, "solver", "iterations and residual of every force solve")
+
+typedef enum {
+#define L(id, name, description) id,
+  GM_FMU_LOG_CATEGORIES(L)
+#undef L
+  GM_LOG_COUNT
+} gm_log_category;
+
+/* Parameters of gear i (field index n = i - 1). */
+#define GM_FMU_GEAR_PARAMETERS(X, i, n)                                                                            \
+  X("gear" #i ".teeth", Integer, parameter, fixed, exact, "", "", "1", "", p.gear[n].teeth, D_GEO,                 \
+    "number of teeth z (magnitude; an internal ring is flagged by pair.internal)")                                 \
+  X("gear" #i ".profile_shift", Real, parameter, fixed, exact, "", "", "", "", p.gear[n].profile_shift, D_GEO,     \
+    "profile shift coefficient x")                                                                                 \
+  X("gear" #i ".face_width", Real, parameter, fixed, exact, "m", "mm", "", "", p.gear[n].face_width, D_GEO,        \
+    "face width b")                                                                                                \
+  X("gear" #i ".tip_diameter", Real, parameter, fixed, exact, "m", "mm", "", "", p.gear[n].tip_diameter, D_GEO,    \
+    "tip diameter d_a (ring: inner diameter); 0 = from the basic rack")                                            \
+  X("gear" #i ".thickness_allowance", Real, parameter, fixed, exact, "m", "um", "", "",                            \
+    p.gear[n].thickness_allowance, D_GEO, "normal tooth thickness allowance E_sn (<= 0)")                          \
+  X("gear" #i ".axial_offset", Real, parameter, fixed, exact, "m", "mm", "", "", p.gear[n].axial_offset, D_GEO,    \
+    "mid-face position along the gear axis from the gear centre")                                                  \
+  X("gear" #i ".youngs_modulus", Real, parameter, fixed, exact, "Pa", "GPa", "", "", p.gear[n].youngs_modulus,     \
+    D_SET, "Young's modulus E")                                                                                    \
+  X("gear" #i ".poisson_ratio", Real, parameter, fixed, exact, "", "", "", "", p.gear[n].poisson_ratio, D_SET,     \
+    "Poisson's ratio nu")
+
+/* Calculated parameters of gear i. */
+#define GM_FMU_GEAR_GEOMETRY(X, i, n)                                                                              \
+  X("gear" #i ".base_diameter", Real, calculatedParameter, fixed, calculated, "m", "mm", "", "", g.gear[n].d_b,    \
+    D_GEO, "base diameter d_b")                                                                                    \
+  X("gear" #i ".tip_diameter_used", Real, calculatedParameter, fixed, calculated, "m", "mm", "", "",               \
+    g.gear[n].d_a, D_GEO, "tip diameter d_a actually used (ring: inner diameter)")                                 \
+  X("gear" #i ".form_diameter", Real, calculatedParameter, fixed, calculated, "m", "mm", "", "", g.gear[n].d_Ff,   \
+    D_GEO, "root form diameter d_Ff")
+
+/* Inputs of gear i, in the housing frame H (PHYSICS 0). */
+#define GM_FMU_GEAR_INPUTS(X, i, n)                                                                                 \
+  X("gear" #i ".ux", Real, input, continuous, exact, "m", "um", "", "", k.u[n][0], D_POSE, "centre displacement x") \
+  X("gear" #i ".uy", Real, input, continuous, exact, "m", "um", "", "", k.u[n][1], D_POSE, "centre displacement y") \
+  X("gear" #i ".uz", Real, input, continuous, exact, "m", "um", "", "", k.u[n][2], D_POSE, "centre displacement z") \
+  X("gear" #i ".rx", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][0], D_POSE, "tilt about H's x")  \
+  X("gear" #i ".ry", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][1], D_POSE, "tilt about H's y")  \
+  X("gear" #i ".phi", Real, input, continuous, exact, "rad", "deg", "", "", k.phi[n], D_SPIN,                       \
+    "spin angle about the gear's own axis (unbounded)")                                                             \
+  X("gear" #i ".vx", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][0], D_RATE, "centre velocity x") \
+  X("gear" #i ".vy", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][1], D_RATE, "centre velocity y") \
+  X("gear" #i ".vz", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][2], D_RATE, "centre velocity z") \
+  X("gear" #i ".wx", Real, input, continuous, exact, "rad/s", "", "", "", k.w[n][0], D_RATE, "tilt rate about x")   \
+  X("gear" #i ".wy", Real, input, continuous, exact, "rad/s", "", "", "", k.w[n][1], D_RATE, "tilt rate about y")   \
+  X("gear" #i ".omega", Real, input, continuous, exact, "rad/s", "rpm", "", "", k.omega[n], D_RATE, "spin rate")
+
+/* Outputs of gear i. */
+#define GM_FMU_GEAR_OUTPUTS(X, i, n)                                                                               \
+  X("gear" #i ".fx", Real, output, continuous, calculated, "N", "kN", "", "", y.force[n][0], D_CONTACT,            \
+    "contact force on the gear, x in H")                                                                           \
+  X("gear" #i ".fy", Real, output, continuous, calculated, "N", "kN", "", "", y.force[n][1], D_CONTACT,            \
+    "contact force on the gear, y in H")                                                                           \
+  X("gear" #i ".fz", Real, output, continuous, calculated, "N", "kN", "", "", y.force[n][2], D_CONTACT,            \
+    "contact force on the gear, z in H")                                                                           \
+  X("gear" #i ".mx", Real, output, continuous, calculated, "N.m", "", "", "", y.moment[n][0], D_CONTACT,           \
+    "contact moment about the gear centre, x in H")                                                                \
+  X("gear" #i ".my", Real, output, continuous, calculated, "N.m", "", "", "", y.moment[n][1], D_CONTACT,           \
+    "contact moment about the gear centre, y in H")                                                                \
+  X("gear" #i ".mz", Real, output, continuous, calculated, "N.m", "", "", "", y.moment[n][2], D_CONTACT,           \
+    "contact moment about the gear centre, z in H")
+
+/* X(name, type, causality, variability, initial, unit, displayUnit, min, max, field of gm_fmu_values,
+ *   dependency class, description). Value reference = position in this list. */
+#define GM_FMU_VARIABLES(X)                                                                                        \
+  X("pair.center_distance", Real, parameter, fixed, exact, "m", "mm", "", "", p.pair.center_distance, D_GEO,       \
+    "operating centre distance a (positive also for internal pairs)")                                              \
+  X("pair.normal_module", Real, parameter, fixed, exact, "m", "mm", "", "", p.pair.normal_module, D_GEO,           \
+    "normal module m_n")                                                                                           \
+  X("pair.pressure_angle", Real, parameter, fixed, exact, "rad", "deg", "", "", p.pair.pressure_angle, D_GEO,      \
+    "normal pressure angle alpha_n")                                                                               \
+  X("pair.helix_angle", Real, parameter, fixed, exact, "rad", "deg", "", "", p.pair.helix_angle, D_GEO,            \
+    "helix angle beta of gear 1 (sign = hand, + right)")                                                           \
+  X("pair.internal", Boolean, parameter, fixed, exact, "", "", "", "", p.pair.internal, D_GEO,                     \
+    "gear 2 is an internal ring")                                                                                  \
+  X("pair.rack_addendum", Real, parameter, fixed, exact, "", "", "", "", p.pair.rack_addendum, D_GEO,              \
+    "basic rack addendum h_aP*, in modules")                                                                       \
+  X("pair.rack_dedendum", Real, parameter, fixed, exact, "", "", "", "", p.pair.rack_dedendum, D_GEO,              \
+    "basic rack dedendum h_fP*, in modules")                                                                       \
+  X("pair.rack_tip_radius", Real, parameter, fixed, exact, "", "", "", "", p.pair.rack_tip_radius, D_GEO,          \
+    "basic rack tip radius rho_fP*, in modules")                                                                   \
+  GM_FMU_GEAR_PARAMETERS(X, 1, 0)                                                                                  \
+  GM_FMU_GEAR_PARAMETERS(X, 2, 1)                                                                                  \
+  X("model.stiffness", Integer, parameter, fixed, exact, "", "", "0", "5", p.stiffness_level, D_SET,               \
+    "stiffness level: 0 user constant, 1 user variable, 2 ISO 6336, 3 time-varying, 4 analytical, 5 FE")           \
+  X("model.user_stiffness", Real, parameter, fixed, exact, "N/m2", "N/(mm.um)", "", "", p.user_stiffness, D_SET,   \
+    "mesh stiffness per unit face width (level 0)")                                                                \
+  X("model.slices", Integer, parameter, fixed, exact, "", "", "1", "", p.slices, D_SET,                            \
+    "slices across the axial overlap")                                                                             \
+  X("model.coupled_teeth", Integer, parameter, fixed, exact, "", "", "0", "", p.coupled_teeth, D_SET,              \
+    "FE level: neighbouring teeth coupled on each side")                                                           \
+  X("model.friction_coefficient", Real, parameter, fixed, exact, "", "", "", "", p.friction_coefficient, D_SET,    \
+    "friction coefficient mu")                                                                                     \
+  X("model.friction_velocity", Real, parameter, fixed, exact, "m/s", "mm/s", "", "", p.friction_velocity, D_SET,   \
+    "friction regularization velocity v0")                                                                         \
+  X("model.damping", Real, parameter, fixed, exact, "N.s/m2", "", "", "", p.damping, D_SET,                        \
+    "normal damping per unit face width")                                                                          \
+  X("solver.tolerance", Real, parameter, fixed, exact, "m", "um", "", "", p.solver_tolerance, D_SET,               \
+    "tolerance of the force solve on the approach")                                                                \
+  X("solver.max_iterations", Integer, parameter, fixed, exact, "", "", "1", "", p.solver_max_iterations, D_SET,    \
+    "iteration cap of the force solve")                                                                            \
+  X("geometry.backlash", Real, calculatedParameter, fixed, calculated, "m", "um", "", "", g.j_bt, D_GEO,           \
+    "transverse backlash along the line of action j_bt")                                                           \
+  X("geometry.circumferential_backlash", Real, calculatedParameter, fixed, calculated, "m", "um", "", "", g.j_wt,  \
+    D_GEO, "circumferential backlash at the operating pitch circles j_wt")                                         \
+  X("geometry.operating_pressure_angle", Real, calculatedParameter, fixed, calculated, "rad", "deg", "", "",       \
+    g.alpha_wt, D_GEO, "operating transverse pressure angle alpha_wt")                                             \
+  X("geometry.contact_ratio", Real, calculatedParameter, fixed, calculated, "", "", "", "", g.eps_alpha, D_GEO,    \
+    "transverse contact ratio eps_alpha")                                                                          \
+  X("geometry.overlap_ratio", Real, calculatedParameter, fixed, calculated, "", "", "", "", g.eps_beta, D_GEO,     \
+    "overlap ratio eps_beta")                                                                                      \
+  X("geometry.base_pitch", Real, calculatedParameter, fixed, calculated, "m", "mm", "", "", g.p_bt, D_GEO,         \
+    "transverse base pitch p_bt")                                                                                  \
+  X("geometry.tight_center_distance", Real, calculatedParameter, fixed, calculated, "m", "mm", "", "", g.a_tight,  \
+    D_GEO, "centre distance of a zero-backlash mesh a_tight")                                                      \
+  GM_FMU_GEAR_GEOMETRY(X, 1, 0)                                                                                    \
+  GM_FMU_GEAR_GEOMETRY(X, 2, 1)                                                                                    \
+  GM_FMU_GEAR_INPUTS(X, 1, 0)                                                                                      \
+  GM_FMU_GEAR_INPUTS(X, 2, 1)                                                                                      \
+  GM_FMU_GEAR_OUTPUTS(X, 1, 0)                                                                                     \
+  GM_FMU_GEAR_OUTPUTS(X, 2, 1)                                                                                     \
+  X("mesh.te", Real, output, continuous, calculated, "m", "um", "", "", y.te, D_TE,                                \
+    "transmission error along the line of action")                                                                 \
+  X("mesh.te_angle", Real, output, continuous, calculated, "rad", "deg", "", "", y.te_angle, D_TE,                 \
+    "transmission error as an angle of gear 2")                                                                    \
+  X("mesh.normal_force", Real, output, continuous, calculated, "N", "kN", "", "", y.normal_force, D_CONTACT,        \
+    "sum of the normal slice forces")                                                                              \
+  X("mesh.stiffness", Real, output, continuous, calculated, "N/m", "N/um", "", "", y.stiffness, D_CONTACT,         \
+    "tangent mesh stiffness along the line of action")                                                             \
+  X("mesh.pairs_in_contact", Integer, output, discrete, calculated, "", "", "", "", y.pairs_in_contact, D_CONTACT, \
+    "loaded tooth pairs")                                                                                          \
+  X("mesh.flank", Integer, output, discrete, calculated, "", "", "0", "3", y.flank, D_CONTACT,                     \
+    "flank in contact: 0 none, 1 flank A, 2 flank B, 3 both")                                                      \
+  X("mesh.friction_power", Real, output, continuous, calculated, "W", "", "", "", y.friction_power, D_CONTACT,     \
+    "power dissipated by friction")                                                                                \
+  X("mesh.max_line_load", Real, output, continuous, calculated, "N/m", "N/mm", "", "", y.max_line_load, D_CONTACT, \
+    "largest slice line load")                                                                                     \
+  X("solver.iterations", Integer, output, discrete, calculated, "", "", "", "", y.solver_iterations, D_CONTACT,    \
+    "iterations of the last force solve (0 = closed form)")                                                        \
+  X("solver.residual", Real, output, continuous, calculated, "m", "um", "", "", y.solver_residual, D_CONTACT,      \
+    "residual of the last force solve")
+
+/* One row of the table as data, for the value-reference table and the generator. */
+typedef struct gm_fmu_variable {
+  const char* name;
+  gm_fmu_type type;
+  gm_fmu_causality causality;
+  const char* type_name;
+  const char* causality_name;
+  const char* variability;
+  const char* initial;
+  const char* unit;
+  const char* display_unit;
+  const char* min;
+  const char* max;
+  size_t offset; /* of the bound field in gm_fmu_values */
+  unsigned deps;
+  const char* description;
+} gm_fmu_variable;
+
+#define GM_FMU_VARIABLE_ROW(name, type, caus, var, init, unit, dunit, min, max, field, deps, desc)          \
+  {name, GM_FMU_##type, GM_FMU_##caus, #type, #caus, #var, #init, unit, dunit, min, max,                   \
+   offsetof(gm_fmu_values, field), deps, desc},
+
+static const gm_fmu_variable gm_fmu_variables[] = {GM_FMU_VARIABLES(GM_FMU_VARIABLE_ROW)};
+
+#define GM_FMU_VARIABLE_COUNT (sizeof gm_fmu_variables / sizeof gm_fmu_variables[0])
+
+/* A Real is bound to a double, an Integer or Boolean to an int: checked at compile time. */
+#define GM_FMU_CTYPE_Real double
+#define GM_FMU_CTYPE_Integer int
+#define GM_FMU_CTYPE_Boolean int
+#define GM_FMU_CHECK_FIELD_TYPE(name, type, caus, var, init, unit, dunit, min, max, field, deps, desc)       \
+  _Static_assert(__builtin_types_compatible_p(__typeof__(((gm_fmu_values*)0)->field), GM_FMU_CTYPE_##type), \
+                 name " is bound to a field of another C type");
+GM_FMU_VARIABLES(GM_FMU_CHECK_FIELD_TYPE)
+
+#endif /* GEARMESH_FMU_VARIABLES_H */
