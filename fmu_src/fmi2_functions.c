@@ -259,6 +259,12 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component component) {
     return error(c, "fmi2ExitInitializationMode: %s", c->msg);
   c->mode = StepComplete;
   log_event(c, "fmi2ExitInitializationMode: stepComplete at t = %g s", c->time);
+  /* design warnings (undercut, interference, contact ratio) are never silent: status Warning */
+  const char* warnings = model_warnings(c->model);
+  if (warnings[0]) {
+    warning(c, "fmi2ExitInitializationMode: %s", warnings);
+    return fmi2Warning;
+  }
   return fmi2OK;
 }
 

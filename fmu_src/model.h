@@ -35,6 +35,8 @@ int model_build(fmu_model* m, char* msg, size_t msg_size);
 /* Evaluate the contact at the held inputs and publish the outputs (time only labels log
  * messages). restart forgets warm start and friction memory first. */
 int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t msg_size);
+/* Design warnings of the built core model ("" if none or not built). */
+const char* model_warnings(const fmu_model* m);
 /* 1 if the published outputs belong to the current parameters and inputs. */
 int model_outputs_current(const fmu_model* m);
 

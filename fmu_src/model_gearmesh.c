@@ -141,6 +141,10 @@ int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t n) 
   return 0;
 }
 
+const char* model_warnings(const fmu_model* m) {
+  return m->core ? gm_model_warnings(m->core) : "";
+}
+
 int model_outputs_current(const fmu_model* m) {
   return m->outputs_current;
 }

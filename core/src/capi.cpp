@@ -1,5 +1,6 @@
 // The C API: argument checks, exception barrier, and ownership of model and data.
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <exception>
 #include <new>
@@ -28,6 +29,34 @@ gm_status build_geometry(const gm_model_params* p, gm_pair_geometry* g, std::str
   gm_status st = gm::validate_params(*p, text);
   if (st != GM_OK) return st;
   return gm::compute_pair_geometry(*p, *g, text);
+}
+
+// Design facts that do not stop the model but that a user must hear of (PHYSICS 1).
+std::string design_warnings(const gm_pair_geometry& g) {
+  std::string w;
+  const auto add = [&](const std::string& text) { w += (w.empty() ? "" : "; ") + text; };
+  char buf[200];
+  for (int i = 0; i < 2; ++i) {
+    const gm_gear_geometry& gi = g.gear[i];
+    if (gi.undercut) {
+      std::snprintf(buf, sizeof buf, "gear%d: the basic rack undercuts the tooth root", i + 1);
+      add(buf);
+    }
+    if (gi.interference) {
+      std::snprintf(buf, sizeof buf,
+                    "gear%d: involute interference: the mate's tip reaches beyond the form "
+                    "diameter %.6g mm (start of active profile %.6g mm)",
+                    i + 1, gi.d_Ff * 1e3, gi.d_sap * 1e3);
+      add(buf);
+    }
+  }
+  if (g.eps_alpha < 1) {
+    std::snprintf(buf, sizeof buf,
+                  "transverse contact ratio %.4g < 1: spur teeth lose contact between pairs",
+                  g.eps_alpha);
+    add(buf);
+  }
+  return w;
 }
 
 constexpr uint32_t kStateMagic = 0x53444d47u;  // "GMDS"
@@ -74,6 +103,7 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     m->geometry = g;
     m->layout = gm::make_mesh_layout(*p, g);
     m->slice_capacity = gm::slice_capacity(m->layout);
+    m->warnings = design_warnings(g);
     *out = m;
     copy_message("", msg, msg_size);
     return GM_OK;
@@ -91,6 +121,8 @@ void gm_model_free(gm_model* m) { delete m; }
 const gm_model_params* gm_model_parameters(const gm_model* m) { return m ? &m->params : nullptr; }
 
 const gm_pair_geometry* gm_model_geometry(const gm_model* m) { return m ? &m->geometry : nullptr; }
+
+const char* gm_model_warnings(const gm_model* m) { return m ? m->warnings.c_str() : ""; }
 
 gm_status gm_data_create(const gm_model* m, gm_data** out) {
   if (!m || !out) return GM_ERR_ARGUMENT;

@@ -13,6 +13,7 @@ struct gm_model {
   gm_pair_geometry geometry;   // derived at the nominal centre distance
   gm::MeshLayout layout;       // what detection needs, derived once
   int slice_capacity = 0;      // most candidate slices one evaluation can produce
+  std::string warnings;        // design warnings, "; "-separated ("" if none)
 };
 
 struct gm_data {

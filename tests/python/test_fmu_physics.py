@@ -171,3 +171,16 @@ def test_non_physical_penetration_is_a_clear_error(fmu_path):
         pb = fmu.get(["geometry.base_pitch"])["geometry.base_pitch"]
         with pytest.raises(FMUError, match="detection range"):
             fmu.step(pose(fmu, 0.3 * pb))
+
+
+def test_design_warnings_reach_the_user(fmu_path):
+    """An unshifted 12-tooth pinion is undercut (z < 17 for a 20 deg rack): initialization
+    returns fmi2Warning and the message names the gear; the default pair has no warning."""
+    with GearMeshFMU(fmu_path) as fmu:
+        assert fmu.warnings == []
+    undercut = {"gear1.teeth": 12, "gear1.profile_shift": 0.0, "gear2.profile_shift": 0.0,
+                "pair.center_distance": 0.0026 * (12 + 57) / 2 + 40e-6}
+    with GearMeshFMU(fmu_path, undercut) as fmu:
+        assert any("gear1" in w and "undercut" in w for w in fmu.warnings), fmu.warnings
+        fmu.step(pose(fmu, 5e-6))  # still usable
+        assert fmu.get(["mesh.normal_force"])["mesh.normal_force"] > 0

@@ -45,10 +45,17 @@ class GearMeshFMU:
                              instanceName=instance_name)
         self.time = start_time
         self._call(self.fmu.instantiate, callbacks=self._callbacks)
+        # Warnings (design warnings at initialization among them) are always wanted.
+        self._call(self.fmu.setDebugLogging, True, ["logStatusWarning"])
         self._call(self.fmu.setupExperiment, startTime=start_time)
         self.set(parameters or {})
         self._call(self.fmu.enterInitializationMode)
         self._call(self.fmu.exitInitializationMode)
+
+    @property
+    def warnings(self) -> list[str]:
+        """Messages the FMU logged with status Warning."""
+        return [m for m in self.messages if m.startswith("[logStatusWarning]")]
 
     def _make_callbacks(self) -> fmi2CallbackFunctions:
         def log(_env, _name, status, category, message):

@@ -156,6 +156,9 @@ void gm_model_free(gm_model* m);
 /* The model's parameters and derived geometry (valid while m lives). */
 const gm_model_params* gm_model_parameters(const gm_model* m);
 const gm_pair_geometry* gm_model_geometry(const gm_model* m);
+/* Design warnings found at creation (undercut, involute interference, contact ratio below 1),
+ * "; "-separated; "" if none. The model is usable; callers must pass these on. */
+const char* gm_model_warnings(const gm_model* m);
 
 /* Allocate the per-instance state for m (all scratch included). */
 gm_status gm_data_create(const gm_model* m, gm_data** out);
