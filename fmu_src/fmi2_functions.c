@@ -49,7 +49,7 @@ typedef struct instance {
   int stop_defined;
   double stop_time;
   fmu_model* model;
-  char msg[512]; /* message from the model layer */
+  char msg[1024]; /* message from the model layer (may hold a path in resources/) */
 } instance;
 
 #define ALL_CATEGORIES ((1u << GM_LOG_COUNT) - 1u)
@@ -66,7 +66,7 @@ static void vlog(const instance* c, fmi2Status status, gm_log_category category,
                  va_list args) {
   int always = category == GM_LOG_ERROR || category == GM_LOG_FATAL;
   if (!c->logger || !(always || (c->categories >> category & 1u))) return;
-  char text[512];
+  char text[1200];
   vsnprintf(text, sizeof text, format, args);
   size_t n = strlen(text);
   while (n && (text[n - 1] == '\n' || text[n - 1] == '\r')) text[--n] = '\0';
@@ -193,11 +193,16 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
   }
   c->categories = loggingOn ? ALL_CATEGORIES : 0u;
   c->mode = Instantiated;
-  /* The generic FMU has no resources; the location is decoded now for scenes that have some. */
+  /* The generic FMU has no resources; a scene FMU has its start values and data files there. */
   c->resources = fmu_uri_to_path(fmuResourceLocation);
   if (fmuResourceLocation && !c->resources)
     warning(c, "fmi2Instantiate: resource location is not a local file URI: %s", fmuResourceLocation);
   log_event(c, "fmi2Instantiate: resources at %s", c->resources ? c->resources : "(none)");
+  if (model_set_resources(c->model, c->resources, c->msg, sizeof c->msg)) {
+    error(c, "fmi2Instantiate: %s", c->msg);
+    fmi2FreeInstance(c);
+    return NULL;
+  }
   return c;
 }
 
@@ -277,7 +282,10 @@ fmi2Status fmi2Terminate(fmi2Component component) {
 
 fmi2Status fmi2Reset(fmi2Component component) {
   CHECK_MODE(ANY_MODE);
-  model_reset(c->model);
+  if (model_reset(c->model)) {
+    c->mode = Error;
+    return error(c, "fmi2Reset: out of memory for the start values");
+  }
   c->mode = Instantiated;
   c->time = 0.0;
   c->stop_defined = 0;
@@ -287,7 +295,7 @@ fmi2Status fmi2Reset(fmi2Component component) {
 
 /* ---- values ----------------------------------------------------------------------------- */
 
-static const char* const type_names[] = {"Real", "Integer", "Boolean"};
+static const char* const type_names[] = {"Real", "Integer", "Boolean", "String"};
 
 /* The variable of value reference vr if it has the given type, else NULL (logged). */
 static const gm_fmu_variable* variable(const instance* c, const char* function, fmi2ValueReference vr,
@@ -319,16 +327,19 @@ static fmi2Status get_values(instance* c, const char* function, gm_fmu_type type
   for (size_t i = 0; i < nvr; i++) {
     const gm_fmu_variable* v = model_variable(vr[i]);
     if (type == GM_FMU_Real) ((fmi2Real*)values)[i] = model_get_real(c->model, v);
+    else if (type == GM_FMU_String) ((fmi2String*)values)[i] = model_get_string(c->model, v);
     else ((fmi2Integer*)values)[i] = model_get_int(c->model, v); /* fmi2Boolean is an int too */
   }
   return fmi2OK;
 }
 
-/* All values are checked before any is set, so a refused call changes nothing. */
+/* All values are checked (and strings copied) before any is set, so a refused call changes
+ * nothing. The instance owns a copy of every string it is given. */
 static fmi2Status set_values(instance* c, const char* function, gm_fmu_type type, const fmi2ValueReference vr[],
                              size_t nvr, const void* values) {
   if (nvr == 0) return fmi2OK;
   if (!vr || !values) return error(c, "%s: vr[] and value[] must not be NULL", function);
+  char** copies = NULL;
   for (size_t i = 0; i < nvr; i++) {
     const gm_fmu_variable* v = variable(c, function, vr[i], type);
     if (!v) return fmi2Error;
@@ -341,12 +352,27 @@ static fmi2Status set_values(instance* c, const char* function, gm_fmu_type type
     if (type == GM_FMU_Real && !isfinite(((const fmi2Real*)values)[i]))
       return error(c, "%s: %s = %g is not finite; it keeps %g", function, v->name, ((const fmi2Real*)values)[i],
                    model_get_real(c->model, v));
+    if (type == GM_FMU_String && !((const fmi2String*)values)[i])
+      return error(c, "%s: %s = NULL: a String value must not be NULL (\"\" for none); it keeps \"%s\"", function,
+                   v->name, model_get_string(c->model, v));
+  }
+  if (type == GM_FMU_String) {
+    copies = calloc(nvr, sizeof *copies);
+    for (size_t i = 0; copies && i < nvr; i++) {
+      if ((copies[i] = copy_string(((const fmi2String*)values)[i]))) continue;
+      while (i) free(copies[--i]);
+      free(copies);
+      copies = NULL;
+    }
+    if (!copies) return error(c, "%s: out of memory for the strings", function);
   }
   for (size_t i = 0; i < nvr; i++) {
     const gm_fmu_variable* v = model_variable(vr[i]);
     if (type == GM_FMU_Real) model_set_real(c->model, v, ((const fmi2Real*)values)[i]);
+    else if (type == GM_FMU_String) model_set_string(c->model, v, copies[i]);
     else model_set_int(c->model, v, ((const fmi2Integer*)values)[i]);
   }
+  free(copies);
   return fmi2OK;
 }
 
@@ -370,10 +396,7 @@ fmi2Status fmi2GetBoolean(fmi2Component component, const fmi2ValueReference vr[]
 fmi2Status fmi2GetString(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                          fmi2String value[]) {
   CHECK_MODE(MASK_GET_VALUES);
-  (void)value;
-  if (nvr == 0) return fmi2OK;
-  CHECK_POINTER(vr);
-  return error(c, "%s: value reference %u is not a variable of type String", __func__, (unsigned)vr[0]);
+  return get_values(c, __func__, GM_FMU_String, vr, nvr, value);
 }
 
 fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
@@ -397,10 +420,7 @@ fmi2Status fmi2SetBoolean(fmi2Component component, const fmi2ValueReference vr[]
 fmi2Status fmi2SetString(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                          const fmi2String value[]) {
   CHECK_MODE(MASK_SET_VALUES);
-  (void)value;
-  if (nvr == 0) return fmi2OK;
-  CHECK_POINTER(vr);
-  return error(c, "%s: value reference %u is not a variable of type String", __func__, (unsigned)vr[0]);
+  return set_values(c, __func__, GM_FMU_String, vr, nvr, value);
 }
 
 /* ---- FMU state -------------------------------------------------------------------------- */
@@ -408,10 +428,11 @@ fmi2Status fmi2SetString(fmi2Component component, const fmi2ValueReference vr[],
 /* Serialized FMU state, native byte order (the binary is per platform):
  *   "GearMesh" | u32 format version | GUID, NUL-padded to 40 bytes | u64 payload size | payload
  *   payload = f64 time | u32 mode | model payload (model_state_save)
+ * Format 2: String values (u32 length + bytes) in the model payload; format 1 had none.
  * An fmi2FMUstate holds exactly these bytes: taking, copying and serializing a state are one
  * path, and a state owns all its data (no pointer into the instance). */
 #define STATE_MAGIC "GearMesh"
-#define STATE_FORMAT 1u
+#define STATE_FORMAT 2u
 #define STATE_GUID_SIZE 40
 #define STATE_HEADER_SIZE (8 + 4 + STATE_GUID_SIZE + 8)
 #define STATE_PAYLOAD_OFFSET (8 + 4) /* model payload after time and mode */

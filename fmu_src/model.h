@@ -17,18 +17,26 @@ typedef void (*fmu_log_fn)(void* context, gm_log_category category, const char* 
 /* The variable with value reference vr, or NULL if there is none. */
 const gm_fmu_variable* model_variable(unsigned vr);
 
-/* A model at the start values; NULL if out of memory. */
+/* A model at the generic start values (the core's defaults); NULL if out of memory. */
 fmu_model* model_new(fmu_log_fn log, void* log_context);
 void model_free(fmu_model* m);
-/* Back to the start values; the core model is dropped. */
-void model_reset(fmu_model* m);
+/* The FMU's local resources directory (ending in '/'; NULL if the importer gave none), once,
+ * before anything else: file names in String parameters are resolved against it, and a scene
+ * FMU's start values (values.h, FMU_START_VALUES_FILE) are read from it and become the start
+ * values. Nonzero on error (a malformed start values file), with msg. */
+int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t msg_size);
+/* Back to the start values; the core model is dropped. Nonzero if out of memory. */
+int model_reset(fmu_model* m);
 
-/* Values of v (Integer and Boolean are int). Setting a parameter or input marks the outputs
- * stale; setting a parameter also the core model. */
+/* Values of v (Integer and Boolean are int; a String is never NULL and stays valid until it is
+ * set again or the model is reset or freed). Setting a parameter or input marks the outputs
+ * stale; setting a parameter also the core model. model_set_string takes over a malloc'd copy. */
 double model_get_real(const fmu_model* m, const gm_fmu_variable* v);
 int model_get_int(const fmu_model* m, const gm_fmu_variable* v);
+const char* model_get_string(const fmu_model* m, const gm_fmu_variable* v);
 void model_set_real(fmu_model* m, const gm_fmu_variable* v, double x);
 void model_set_int(fmu_model* m, const gm_fmu_variable* v, int x);
+void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned);
 
 /* (Re)build the core model if the parameters changed since the last build. */
 int model_build(fmu_model* m, char* msg, size_t msg_size);
@@ -40,7 +48,8 @@ const char* model_warnings(const fmu_model* m);
 /* 1 if the published outputs belong to the current parameters and inputs. */
 int model_outputs_current(const fmu_model* m);
 
-/* Model part of the FMU state: every parameter, input and output, plus the core's blob. */
+/* Model part of the FMU state: every parameter, input and output (values.h), plus the core's
+ * blob. */
 size_t model_state_size(const fmu_model* m);
 void model_state_save(const fmu_model* m, unsigned char* buf); /* writes model_state_size bytes */
 int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* msg, size_t msg_size);

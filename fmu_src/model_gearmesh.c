@@ -7,9 +7,12 @@
 #include <string.h>
 
 #include "model.h"
+#include "values.h"
 
 struct fmu_model {
   gm_fmu_values v;
+  gm_fmu_values start; /* start values: the core's defaults, or a scene FMU's */
+  char* resources;     /* local resources directory ending in '/', or NULL */
   gm_model* core;      /* built from v.p; NULL until needed */
   gm_data* data;       /* evaluation memory of core */
   int params_changed;  /* v.p differs from the parameters core was built from */
@@ -22,11 +25,12 @@ const gm_fmu_variable* model_variable(unsigned vr) {
   return vr < GM_FMU_VARIABLE_COUNT ? &gm_fmu_variables[vr] : NULL;
 }
 
-static void set_start_values(fmu_model* m) {
-  memset(&m->v, 0, sizeof m->v); /* inputs: nominal pose, at rest */
-  gm_default_params(&m->v.p);    /* parameters: the core's defaults, as in modelDescription.xml */
+static int set_start_values(fmu_model* m) {
+  values_free_strings(&m->v);
+  int failed = values_copy(&m->v, &m->start);
   m->params_changed = 1;
   m->outputs_current = 0;
+  return failed;
 }
 
 static void drop_core(fmu_model* m) {
@@ -41,19 +45,44 @@ fmu_model* model_new(fmu_log_fn log, void* log_context) {
   if (!m) return NULL;
   m->log = log;
   m->log_context = log_context;
-  set_start_values(m);
+  gm_fmu_values defaults;
+  memset(&defaults, 0, sizeof defaults); /* inputs: nominal pose, at rest */
+  gm_default_params(&defaults.p);        /* parameters: the core's defaults, as in modelDescription.xml */
+  /* the instance owns its strings, also the start values of String parameters */
+  if (values_copy(&m->start, &defaults) || set_start_values(m)) {
+    model_free(m);
+    return NULL;
+  }
   return m;
 }
 
 void model_free(fmu_model* m) {
   if (!m) return;
   drop_core(m);
+  values_free_strings(&m->v);
+  values_free_strings(&m->start);
+  free(m->resources);
   free(m);
 }
 
-void model_reset(fmu_model* m) {
+int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t n) {
+  if (resources) {
+    size_t size = strlen(resources) + 1;
+    if (!(m->resources = malloc(size))) return snprintf(msg, n, "out of memory"), 1;
+    memcpy(m->resources, resources, size);
+  }
+  int count;
+  if (values_read_start_file(&m->start, m->resources, &count, msg, n)) return 1;
+  if (count)
+    m->log(m->log_context, GM_LOG_EVENTS, "%d start values of the scene from resources/" FMU_START_VALUES_FILE,
+           count);
+  if (set_start_values(m)) return snprintf(msg, n, "out of memory"), 1;
+  return 0;
+}
+
+int model_reset(fmu_model* m) {
   drop_core(m);
-  set_start_values(m);
+  return set_start_values(m);
 }
 
 static void* field(const fmu_model* m, const gm_fmu_variable* v) {
@@ -88,9 +117,76 @@ void model_set_int(fmu_model* m, const gm_fmu_variable* v, int x) {
   mark_changed(m, v);
 }
 
+const char* model_get_string(const fmu_model* m, const gm_fmu_variable* v) {
+  return values_get_string(&m->v, v);
+}
+
+void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned) {
+  values_set_string(&m->v, v, owned);
+  mark_changed(m, v);
+}
+
+/* 1 if a '/'-separated component of path is "..". */
+static int has_parent_component(const char* path) {
+  for (const char* s = path;; s++) {
+    if (s[0] == '.' && s[1] == '.' && (s[2] == '/' || s[2] == '\0')) return 1;
+    if (!(s = strchr(s, '/'))) return 0;
+  }
+}
+
+/* The absolute path of gear<i>.deviations = name inside resources/ in *path (NULL for ""), or
+ * nonzero with msg if the name would leave resources/ or there is no resources directory. */
+static int resolve_deviations(const fmu_model* m, int gear, const char* name, char** path, char* msg, size_t n) {
+  *path = NULL;
+  if (!name || !name[0]) return 0;
+  const char* why = NULL;
+  if (name[0] == '/') why = "is an absolute path";
+  else if (strchr(name, '\\')) why = "contains a backslash";
+  else if (has_parent_component(name)) why = "has a \"..\" component";
+  if (why) {
+    snprintf(msg, n,
+             "gear%d.deviations = \"%s\" %s; allowed: the name of a file inside the FMU's resources/ folder "
+             "(relative, '/' separators, no \"..\")",
+             gear, name, why);
+    return 1;
+  }
+  if (!m->resources) {
+    snprintf(msg, n,
+             "gear%d.deviations = \"%s\" names a file in resources/, but the FMU was instantiated without a local "
+             "resource location (fmuResourceLocation NULL or not a file URI); set it to \"\" or give the location",
+             gear, name);
+    return 1;
+  }
+  size_t dir = strlen(m->resources), size = strlen(name) + 1;
+  if (!(*path = malloc(dir + size))) return snprintf(msg, n, "out of memory"), 1;
+  memcpy(*path, m->resources, dir);
+  memcpy(*path + dir, name, size);
+  return 0;
+}
+
+/* The core's parameters for the FMU's p: the FMU has one micro-geometry per gear (bound to
+ * flank A), which flank B gets too; gear<i>.deviations, a file name inside resources/, becomes
+ * an absolute path in paths[i - 1] (the caller frees both). */
+static int core_params(const fmu_model* m, const gm_model_params* p, gm_model_params* q, char* paths[2], char* msg,
+                       size_t n) {
+  *q = *p;
+  paths[0] = paths[1] = NULL;
+  for (int i = 0; i < 2; i++) {
+    q->gear[i].flank[1] = q->gear[i].flank[0];
+    if (resolve_deviations(m, i + 1, p->gear[i].deviations, &paths[i], msg, n)) return 1;
+    q->gear[i].deviations = paths[i];
+  }
+  return 0;
+}
+
 /* A new core model and data for parameters p; nothing changes in m on failure. */
-static int create_core(const gm_model_params* p, gm_model** core, gm_data** data, char* msg, size_t n) {
-  gm_status s = gm_model_create(p, core, msg, n);
+static int create_core(const fmu_model* m, const gm_model_params* p, gm_model** core, gm_data** data, char* msg,
+                       size_t n) {
+  gm_model_params q;
+  char* paths[2];
+  gm_status s = core_params(m, p, &q, paths, msg, n) ? GM_ERR_PARAMETER : gm_model_create(&q, core, msg, n);
+  free(paths[0]);
+  free(paths[1]);
   if (s != GM_OK) return 1;
   if (gm_data_create(*core, data) != GM_OK) {
     snprintf(msg, n, "out of memory for the contact data");
@@ -112,7 +208,7 @@ int model_build(fmu_model* m, char* msg, size_t n) {
   if (m->core && !m->params_changed) return 0;
   gm_model* core;
   gm_data* data;
-  if (create_core(&m->v.p, &core, &data, msg, n)) return 1;
+  if (create_core(m, &m->v.p, &core, &data, msg, n)) return 1;
   install_core(m, core, data);
   m->outputs_current = 0;
   return 0;
@@ -150,17 +246,8 @@ int model_outputs_current(const fmu_model* m) {
 }
 
 /* State payload, native byte order (the binary is per platform):
- *   u32 variable count | each parameter, input, output in table order (f64, or i32) |
- *   u8 flags (1 outputs current, 2 core built) | u64 core blob size | core blob
- * Calculated parameters are not stored: they follow from the parameters. */
-static int stored(const gm_fmu_variable* v) {
-  return v->causality != GM_FMU_calculatedParameter;
-}
-
-static size_t value_size(const gm_fmu_variable* v) {
-  return v->type == GM_FMU_Real ? sizeof(double) : sizeof(int32_t);
-}
-
+ *   values (values_state_save: every parameter, input, output in table order) |
+ *   u8 flags (1 outputs current, 2 core built) | u64 core blob size | core blob */
 enum { OUTPUTS_CURRENT = 1, CORE_BUILT = 2 };
 
 /* The core's evaluation memory belongs to the state only if the core matches the parameters. */
@@ -169,22 +256,12 @@ static int core_built(const fmu_model* m) {
 }
 
 size_t model_state_size(const fmu_model* m) {
-  size_t n = sizeof(uint32_t) + sizeof(uint8_t) + sizeof(uint64_t);
-  for (size_t i = 0; i < GM_FMU_VARIABLE_COUNT; i++)
-    if (stored(&gm_fmu_variables[i])) n += value_size(&gm_fmu_variables[i]);
+  size_t n = values_state_size(&m->v) + sizeof(uint8_t) + sizeof(uint64_t);
   return n + (core_built(m) ? gm_data_state_size(m->core, m->data) : 0);
 }
 
 void model_state_save(const fmu_model* m, unsigned char* buf) {
-  uint32_t count = GM_FMU_VARIABLE_COUNT;
-  memcpy(buf, &count, sizeof count);
-  buf += sizeof count;
-  for (size_t i = 0; i < GM_FMU_VARIABLE_COUNT; i++) {
-    const gm_fmu_variable* v = &gm_fmu_variables[i];
-    if (!stored(v)) continue;
-    memcpy(buf, field(m, v), value_size(v)); /* int is int32_t on every FMI platform */
-    buf += value_size(v);
-  }
+  buf = values_state_save(&m->v, buf);
   *buf++ = (uint8_t)((m->outputs_current ? OUTPUTS_CURRENT : 0) | (core_built(m) ? CORE_BUILT : 0));
   uint64_t blob = core_built(m) ? gm_data_state_size(m->core, m->data) : 0;
   memcpy(buf, &blob, sizeof blob);
@@ -192,39 +269,13 @@ void model_state_save(const fmu_model* m, unsigned char* buf) {
   if (blob) gm_data_state_save(m->core, m->data, buf, (size_t)blob);
 }
 
-static int same_parameters(const gm_fmu_values* a, const gm_fmu_values* b) {
-  for (size_t i = 0; i < GM_FMU_VARIABLE_COUNT; i++) {
-    const gm_fmu_variable* v = &gm_fmu_variables[i];
-    if (v->causality == GM_FMU_parameter &&
-        memcmp((const char*)a + v->offset, (const char*)b + v->offset, value_size(v)) != 0)
-      return 0;
-  }
-  return 1;
-}
-
-int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* msg, size_t n) {
+/* Load into v (an owning copy of the values); m changes only on success. */
+static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, size_t size, char* msg, size_t n) {
   const unsigned char* end = buf + size;
-  uint32_t count;
-  size_t values = 0;
-  for (size_t i = 0; i < GM_FMU_VARIABLE_COUNT; i++)
-    if (stored(&gm_fmu_variables[i])) values += value_size(&gm_fmu_variables[i]);
-  if (size < sizeof count + values + sizeof(uint8_t) + sizeof(uint64_t)) {
+  if (values_state_load(v, &buf, end, msg, n)) return 1;
+  if ((size_t)(end - buf) < sizeof(uint8_t) + sizeof(uint64_t)) {
     snprintf(msg, n, "FMU state is truncated");
     return 1;
-  }
-  memcpy(&count, buf, sizeof count);
-  buf += sizeof count;
-  if (count != GM_FMU_VARIABLE_COUNT) {
-    snprintf(msg, n, "FMU state holds %u variables, this FMU has %u", (unsigned)count,
-             (unsigned)GM_FMU_VARIABLE_COUNT);
-    return 1;
-  }
-  gm_fmu_values v = m->v;
-  for (size_t i = 0; i < GM_FMU_VARIABLE_COUNT; i++) {
-    const gm_fmu_variable* var = &gm_fmu_variables[i];
-    if (!stored(var)) continue;
-    memcpy((char*)&v + var->offset, buf, value_size(var));
-    buf += value_size(var);
   }
   unsigned flags = *buf++;
   uint64_t blob;
@@ -239,8 +290,8 @@ int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* 
   if (flags & CORE_BUILT) { /* restore the core's evaluation memory exactly */
     gm_model* core = m->core;
     gm_data* data = m->data;
-    int fresh = !core || m->params_changed || !same_parameters(&v, &m->v);
-    if (fresh && create_core(&v.p, &core, &data, msg, n)) return 1;
+    int fresh = !core || m->params_changed || !values_equal(v, &m->v, GM_FMU_parameter);
+    if (fresh && create_core(m, &v->p, &core, &data, msg, n)) return 1;
     if (gm_data_state_load(core, data, buf, (size_t)blob) != GM_OK) {
       snprintf(msg, n, "FMU state: %s", gm_data_message(data));
       if (fresh) {
@@ -250,13 +301,27 @@ int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* 
       return 1;
     }
     if (fresh) install_core(m, core, data);
-    v.g = m->v.g;
-    m->v = v;
+    v->g = m->v.g;
     m->params_changed = 0;
   } else { /* taken before the core was built: build lazily, as after setting parameters */
-    m->v = v;
     m->params_changed = 1;
   }
+  values_free_strings(&m->v);
+  m->v = *v; /* m takes over v's strings */
   m->outputs_current = (flags & OUTPUTS_CURRENT) && (flags & CORE_BUILT);
+  return 0;
+}
+
+int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* msg, size_t n) {
+  gm_fmu_values v;
+  if (values_copy(&v, &m->v)) {
+    values_free_strings(&v);
+    snprintf(msg, n, "out of memory");
+    return 1;
+  }
+  if (state_load(m, &v, buf, size, msg, n)) {
+    values_free_strings(&v);
+    return 1;
+  }
   return 0;
 }

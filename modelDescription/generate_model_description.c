@@ -65,6 +65,8 @@ static void check_row(const gm_fmu_variable* v, size_t index) {
   if (v->type != GM_FMU_Real && strcmp(v->variability, "continuous") == 0)
     fail("only Real variables can be continuous", v->name);
   if (v->type != GM_FMU_Real && (v->unit[0] || v->display_unit[0])) fail("only Real variables carry units", v->name);
+  if ((v->type == GM_FMU_Boolean || v->type == GM_FMU_String) && (v->min[0] || v->max[0]))
+    fail("only Real and Integer variables have min and max", v->name);
   if (v->unit[0] && !unit_defined(v->unit)) fail("unit not in GM_FMU_UNITS", v->name);
   if (v->display_unit[0] && !display_unit_defined(v->unit, v->display_unit))
     fail("display unit not in GM_FMU_DISPLAY_UNITS for its unit", v->name);
@@ -99,7 +101,11 @@ static void put_real(FILE* f, double x) {
 static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* start) {
   const char* field = (const char*)start + v->offset;
   fputs(" start=\"", f);
-  if (v->type == GM_FMU_Real) {
+  if (v->type == GM_FMU_String) {
+    const char* s;
+    memcpy(&s, field, sizeof s);
+    put_escaped(f, s ? s : ""); /* NULL = "", as in the binary */
+  } else if (v->type == GM_FMU_Real) {
     double x;
     memcpy(&x, field, sizeof x);
     if (!isfinite(x)) fail("start value is not finite", v->name);

@@ -4,7 +4,13 @@
  * binary and a modelDescription.xml built from different versions of it never pair up.
  *
  * Start values are not written here: parameters start at gm_default_params() (the core owns
- * the defaults), inputs at 0 (nominal pose, at rest).
+ * the defaults), inputs at 0 (nominal pose, at rest). A scene FMU (tools/gearmesh/scene_fmu.py)
+ * overrides some of them: it rewrites their start attributes in modelDescription.xml and lists
+ * the same values in resources/gearmesh-start-values.txt, which the binary reads at
+ * fmi2Instantiate (model.h, model_set_resources).
+ *
+ * Types: a Real is bound to a double, an Integer or Boolean to an int, a String to a
+ * const char* that the FMU instance owns (NULL = ""; copied on fmi2SetString).
  */
 #ifndef GEARMESH_FMU_VARIABLES_H
 #define GEARMESH_FMU_VARIABLES_H
@@ -21,7 +27,7 @@ typedef struct gm_fmu_values {
   gm_result y;        /* outputs published by the last evaluation */
 } gm_fmu_values;
 
-typedef enum { GM_FMU_Real, GM_FMU_Integer, GM_FMU_Boolean } gm_fmu_type;
+typedef enum { GM_FMU_Real, GM_FMU_Integer, GM_FMU_Boolean, GM_FMU_String } gm_fmu_type;
 typedef enum {
   GM_FMU_parameter,
   GM_FMU_calculatedParameter,
@@ -33,7 +39,7 @@ typedef enum {
  * unknown (output, calculated parameter) the classes it depends on. */
 enum {
   D_GEO = 1,   /* parameter that enters the pair geometry */
-  D_SET = 2,   /* other parameter: material, stiffness model, friction, damping, solver */
+  D_SET = 2,   /* other parameter: micro-geometry, material, stiffness model, friction, solver */
   D_SPIN = 4,  /* input: spin angle */
   D_POSE = 8,  /* input: other position (centre translation, tilt) */
   D_RATE = 16, /* input: velocity (friction and damping use them) */
@@ -93,6 +99,34 @@ typedef enum {
   GM_LOG_COUNT
 } gm_log_category;
 
+/* Micro-geometry of gear i (PHYSICS 2), one set per gear for BOTH flanks: the rows are bound to
+ * flank A, p.gear[n].flank[0], and the model binding copies flank[0] to flank[1] just before
+ * gm_model_create (model_gearmesh.c, core_params). Asymmetric or per-tooth deviations come
+ * through the deviation file (gear<i>.deviations). One line per variable:
+ * F(X, i, n, field = FMU name suffix, type, unit, display unit, min, description). */
+#define GM_FMU_FLANK(X, i, n, field, type, unit, dunit, min, desc)                                                  \
+  X("gear" #i "." #field, type, parameter, fixed, exact, unit, dunit, min, "", p.gear[n].flank[0].field, D_SET,    \
+    desc "; applied to flank A and flank B")
+#define GM_FMU_GEAR_MICROGEOMETRY(X, i, n)                                                                          \
+  GM_FMU_FLANK(X, i, n, profile_crowning, Real, "m", "um", "0",                                                     \
+               "profile crowning C_alpha: parabola over the active profile, C at both ends")                        \
+  GM_FMU_FLANK(X, i, n, tip_relief, Real, "m", "um", "0", "tip relief C_a at the tip")                              \
+  GM_FMU_FLANK(X, i, n, tip_relief_length, Real, "m", "mm", "0", "roll length L_a of the tip relief from the tip")  \
+  GM_FMU_FLANK(X, i, n, tip_relief_parabolic, Boolean, "", "", "",                                                  \
+               "tip relief shape: false linear, true parabolic")                                                    \
+  GM_FMU_FLANK(X, i, n, root_relief, Real, "m", "um", "0", "root relief C_f at the start of active profile")        \
+  GM_FMU_FLANK(X, i, n, root_relief_length, Real, "m", "mm", "0",                                                   \
+               "roll length L_f of the root relief from the start of active profile")                               \
+  GM_FMU_FLANK(X, i, n, root_relief_parabolic, Boolean, "", "", "",                                                 \
+               "root relief shape: false linear, true parabolic")                                                   \
+  GM_FMU_FLANK(X, i, n, profile_slope, Real, "m", "um", "",                                                         \
+               "profile slope f_Halpha: gap at the tip minus gap at the start")                                     \
+  GM_FMU_FLANK(X, i, n, lead_crowning, Real, "m", "um", "0", "lead crowning C_beta: parabola, C at both face ends") \
+  GM_FMU_FLANK(X, i, n, helix_slope, Real, "m", "um", "",                                                           \
+               "helix slope f_Hbeta: gap at face end y = +b/2 minus gap at y = -b/2")                               \
+  GM_FMU_FLANK(X, i, n, end_relief, Real, "m", "um", "0", "end relief C_I at both face ends, linear")               \
+  GM_FMU_FLANK(X, i, n, end_relief_length, Real, "m", "mm", "0", "length of the end relief from each face end")
+
 /* Parameters of gear i (field index n = i - 1). */
 #define GM_FMU_GEAR_PARAMETERS(X, i, n)                                                                            \
   X("gear" #i ".teeth", Integer, parameter, fixed, exact, "", "", "1", "", p.gear[n].teeth, D_GEO,                 \
@@ -110,7 +144,11 @@ typedef enum {
   X("gear" #i ".youngs_modulus", Real, parameter, fixed, exact, "Pa", "GPa", "", "", p.gear[n].youngs_modulus,     \
     D_SET, "Young's modulus E")                                                                                    \
   X("gear" #i ".poisson_ratio", Real, parameter, fixed, exact, "", "", "", "", p.gear[n].poisson_ratio, D_SET,     \
-    "Poisson's ratio nu")
+    "Poisson's ratio nu")                                                                                          \
+  GM_FMU_GEAR_MICROGEOMETRY(X, i, n)                                                                               \
+  X("gear" #i ".deviations", String, parameter, fixed, exact, "", "", "", "", p.gear[n].deviations, D_SET,         \
+    "file name of a flank deviation file (measured grids, pitch; per tooth and flank) inside the FMU's "           \
+    "resources/ folder, \"\" = none; relative, without \"..\" or backslashes")
 
 /* Calculated parameters of gear i. */
 #define GM_FMU_GEAR_GEOMETRY(X, i, n)                                                                              \
@@ -258,10 +296,12 @@ static const gm_fmu_variable gm_fmu_variables[] = {GM_FMU_VARIABLES(GM_FMU_VARIA
 
 #define GM_FMU_VARIABLE_COUNT (sizeof gm_fmu_variables / sizeof gm_fmu_variables[0])
 
-/* A Real is bound to a double, an Integer or Boolean to an int: checked at compile time. */
+/* A Real is bound to a double, an Integer or Boolean to an int, a String to a const char*:
+ * checked at compile time. */
 #define GM_FMU_CTYPE_Real double
 #define GM_FMU_CTYPE_Integer int
 #define GM_FMU_CTYPE_Boolean int
+#define GM_FMU_CTYPE_String const char*
 #define GM_FMU_CHECK_FIELD_TYPE(name, type, caus, var, init, unit, dunit, min, max, field, deps, desc)       \
   _Static_assert(__builtin_types_compatible_p(__typeof__(((gm_fmu_values*)0)->field), GM_FMU_CTYPE_##type), \
                  name " is bound to a field of another C type");

@@ -1,5 +1,7 @@
 // The C API: argument checks, exception barrier, and ownership of model and data.
 #include <cstdint>
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -8,6 +10,7 @@
 
 #include "evaluate.hpp"
 #include "geometry.hpp"
+#include "microgeometry.hpp"
 #include "model.hpp"
 #include "params.hpp"
 
@@ -29,6 +32,35 @@ gm_status build_geometry(const gm_model_params* p, gm_pair_geometry* g, std::str
   gm_status st = gm::validate_params(*p, text);
   if (st != GM_OK) return st;
   return gm::compute_pair_geometry(*p, *g, text);
+}
+
+// Validated modifications and the deviation files of both gears, over their active profiles.
+gm_status build_microgeometry(const gm_model_params& p, const gm_pair_geometry& g,
+                              gm::GearMicrogeometry micro[2], std::string& text) {
+  for (int i = 0; i < 2; ++i) {
+    const gm_gear_geometry& gi = g.gear[i];
+    const std::string prefix = "gear" + std::to_string(i + 1);
+    const gm::ActiveFlank active{0.5 * std::sqrt(std::max(0.0, gi.d_sap * gi.d_sap - gi.d_b * gi.d_b)),
+                                 gi.rho_a, p.gear[i].face_width};
+    for (const gm_flank_modification& f : p.gear[i].flank) {
+      gm_status st = gm::validate_modification(prefix.c_str(), f, active, text);
+      if (st != GM_OK) return st;
+    }
+    gm::DeviationTable table;
+    const char* path = p.gear[i].deviations;
+    if (path && *path) {
+      gm_status st = gm::load_deviations(path, p.gear[i].teeth, p.gear[i].face_width, table, text);
+      if (st == GM_OK) st = gm::validate_deviation_coverage(prefix.c_str(), table, active, text);
+      if (st != GM_OK) {
+        if (text.rfind(prefix + ".deviations", 0) != 0) text = prefix + ".deviations: " + text;
+        if (text.find("allowed") == std::string::npos)
+          text += "; allowed: a readable GearMesh deviation file (format 1)";
+        return st;
+      }
+    }
+    micro[i] = gm::make_microgeometry(p.gear[i], active, std::move(table));
+  }
+  return GM_OK;
 }
 
 // Design facts that do not stop the model but that a user must hear of (PHYSICS 1).
@@ -98,10 +130,17 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
       copy_message(text, msg, msg_size);
       return st;
     }
+    gm::GearMicrogeometry micro[2];
+    st = build_microgeometry(*p, g, micro, text);
+    if (st != GM_OK) {
+      copy_message(text, msg, msg_size);
+      return st;
+    }
     gm_model* m = new gm_model;
     m->params = *p;
+    m->params.gear[0].deviations = m->params.gear[1].deviations = nullptr;  // read, not kept
     m->geometry = g;
-    m->layout = gm::make_mesh_layout(*p, g);
+    m->layout = gm::make_mesh_layout(*p, g, std::move(micro[0]), std::move(micro[1]));
     m->slice_capacity = gm::slice_capacity(m->layout);
     m->warnings = design_warnings(g);
     *out = m;

@@ -1,9 +1,12 @@
-// Contact detection for aligned spur pairs, external and internal (PHYSICS.md section 3).
+// Contact detection: helical and spur, external and internal, both flanks, slices, tilts (two
+// steps), micro-geometry, tip contact, contact velocities (PHYSICS.md section 3).
 #include "detection.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+
+#include <Eigen/Geometry>
 
 #include "geometry.hpp"
 
@@ -11,6 +14,7 @@ namespace gm {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr int kMaxSlices = 200;  // = the parameter range of model.slices
 
 // Integer part n and fraction f of x / period with x = n period + f, 0 <= f < period.
 void split_periods(double x, double period, double& n, double& f) {
@@ -27,19 +31,102 @@ int tooth_index(double n, double m, int sigma, int z) {
   return static_cast<int>(k) % z;
 }
 
+double wrap_angle(double x) { return x - 2 * kPi * std::nearbyint(x / (2 * kPi)); }
+
+Eigen::Vector2d unit(double angle) { return {std::cos(angle), std::sin(angle)}; }
+
+// A gear's axis in H: its centre in the plane z is c + (z - c_z) slope (first order in tilt).
+struct Axis {
+  Eigen::Vector3d c;
+  Eigen::Vector2d slope;
+};
+
+// The transverse frame of one slice plane.
+struct Section {
+  double z = 0;                 // plane, m
+  Eigen::Vector2d c[2];         // gear centres in the plane, m
+  double gamma = 0;             // direction of the centre line, rad
+  double alpha_w = 0;           // operating pressure angle of this plane, rad
+  double T1T2 = 0;              // m
+  double t_lo = 0, t_hi = 0;    // active contact positions from T1, m
+  bool tip1_ends = false;       // t_hi is gear 1's tip (beyond it: gear 1's tip edge)
+  bool tip2_starts = false;     // t_lo is gear 2's tip (before it: gear 2's tip edge)
+};
+
+bool make_section(const MeshLayout& L, const Axis ax[2], double z, Section& S, std::string& msg) {
+  S.z = z;
+  for (int i = 0; i < 2; ++i) S.c[i] = ax[i].c.head<2>() + (z - ax[i].c.z()) * ax[i].slope;
+  const Eigen::Vector2d d = S.c[1] - S.c[0];
+  const double a = d.norm();
+  S.gamma = std::atan2(d.y(), d.x());
+  S.alpha_w = operating_pressure_angle(L.base_radius[0], L.base_radius[1], L.sign < 0, a);
+  if (!std::isfinite(S.alpha_w)) {
+    char buf[220];
+    std::snprintf(buf, sizeof buf,
+                  "centre distance %.6g m at z = %.6g m (from the gear positions and tilts) is "
+                  "below the base-circle limit %.6g m: the gears cannot mesh there",
+                  a, z,
+                  L.sign > 0 ? L.base_radius[0] + L.base_radius[1]
+                             : L.base_radius[1] - L.base_radius[0]);
+    msg = buf;
+    return false;
+  }
+  S.T1T2 = a * std::sin(S.alpha_w);
+  // Gear 1 between its form and tip circles, gear 2 likewise, with rho_2 = T1T2 - s t.
+  const double hi1 = L.rho_tip[0];
+  const double hi2 = L.sign > 0 ? S.T1T2 - L.rho_form[1] : L.rho_form[1] - S.T1T2;
+  const double lo1 = L.rho_form[0];
+  const double lo2 = L.sign > 0 ? S.T1T2 - L.rho_tip[1] : L.rho_tip[1] - S.T1T2;
+  S.t_hi = std::min(hi1, hi2);
+  S.t_lo = std::max(lo1, lo2);
+  S.tip1_ends = hi1 <= hi2;
+  S.tip2_starts = lo2 >= lo1;
+  return true;
+}
+
+// Penetration of point p into the flank sigma of the tooth (ring: space) of gear h whose
+// centreline lies at angle theta_c, measured along that flank's involute normal: involutes of
+// one base circle are parallel curves, so the distance is r_b times their angle difference.
+// Also returns the normal line's tangency point and the roll distance of p on it.
+bool involute_penetration(const MeshLayout& L, int h, int sigma, double theta_c,
+                          const Eigen::Vector2d& centre, const Eigen::Vector2d& p, double& pen,
+                          Eigen::Vector2d& tangency, double& roll) {
+  const double rb = L.base_radius[h];
+  const Eigen::Vector2d d = p - centre;
+  const double r = d.norm();
+  if (r <= rb) return false;
+  const double alpha_r = std::acos(rb / r);
+  const double theta_p = std::atan2(d.y(), d.x());
+  const double into_tooth = rb * (sigma * wrap_angle(theta_c - theta_p) + L.eta[h] -
+                                  involute(alpha_r));
+  const bool ring = h == 1 && L.sign < 0;  // for the ring the "tooth" is the space
+  pen = ring ? -into_tooth : into_tooth;
+  tangency = centre + rb * unit(theta_p - sigma * alpha_r);
+  roll = rb * std::tan(alpha_r);
+  return true;
+}
+
 }  // namespace
 
-MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g) {
+MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
+                            GearMicrogeometry micro1, GearMicrogeometry micro2) {
   MeshLayout L;
   L.sign = p.pair.internal ? -1 : 1;
   L.base_pitch = g.p_bt;
   L.center_distance = p.pair.center_distance;
   L.slices = p.slices;
+  L.tan_beta_b = std::tan(g.beta_b);
+  L.cos_beta_b = std::cos(g.beta_b);
+  L.sin_beta_b = std::sin(g.beta_b);
+  const int hand1 = p.pair.helix_angle > 0 ? 1 : (p.pair.helix_angle < 0 ? -1 : 0);
+  L.hand[0] = hand1;
+  L.hand[1] = L.sign > 0 ? -hand1 : hand1;  // external: opposite hands; internal: same hand
   const double inv_w = involute(g.alpha_wt);
   for (int i = 0; i < 2; ++i) {
     const gm_gear_geometry& gi = g.gear[i];
     L.teeth[i] = p.gear[i].teeth;
     L.base_radius[i] = 0.5 * gi.d_b;
+    L.tip_radius[i] = 0.5 * gi.d_a;
     L.eta[i] = gi.eta_b;
     L.rho_tip[i] = gi.rho_a;
     L.rho_form[i] = gi.rho_Ff;
@@ -49,115 +136,210 @@ MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g)
     // inside the ring at the ring's -x side, so both see the mesh at -x.
     L.zeta[i] = (i == 0 && L.sign > 0) ? 0.0 : kPi;
     // Reference configuration (PHYSICS 0): at phi = 0 the flank A involutes of tooth 0 and of
-    // tooth (space) 0 meet at the pitch point, rho_i = r_bi tan alpha_wt.
+    // tooth (space) 0 meet at the pitch point, rho_i = r_bi tan alpha_wt, in the plane of the
+    // gear centres.
     L.theta0[i] = L.zeta[i] + inv_w - L.eta[i];
   }
+  L.micro[0] = std::move(micro1);
+  L.micro[1] = std::move(micro2);
   return L;
 }
 
 int slice_capacity(const MeshLayout& L) {
-  // Tooth pairs per flank: the active span of gear 1's flank in base pitches, plus margin.
+  // Tooth pairs per flank: the active span in base pitches, widened by the helical spread over
+  // the face and by the margins of the enumeration (tip contact beyond both path ends).
   const double span1 = L.rho_tip[0] - L.rho_form[0];
   const double span2 = std::fabs(L.rho_tip[1] - L.rho_form[1]);
-  const int pairs = static_cast<int>(std::ceil(std::min(span1, span2) / L.base_pitch)) + 3;
+  const double spread = L.tan_beta_b * std::min(L.face_width[0], L.face_width[1]);
+  const int pairs =
+      static_cast<int>(std::ceil((std::min(span1, span2) + spread) / L.base_pitch)) + 5;
   return 2 * pairs * L.slices;
 }
 
 int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
                     std::string& msg) {
   const int s = L.sign;
-  const Eigen::Vector3d c1(kin.u[0][0], kin.u[0][1], kin.u[0][2]);
-  const Eigen::Vector3d c2(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2]);
-  const double dx = c2.x() - c1.x(), dy = c2.y() - c1.y();
-  const double a = std::hypot(dx, dy);
-  const double gamma = std::atan2(dy, dx);
-  const double alpha_w =
-      operating_pressure_angle(L.base_radius[0], L.base_radius[1], s < 0, a);
-  if (!std::isfinite(alpha_w)) {
-    char buf[200];
-    std::snprintf(buf, sizeof buf,
-                  "centre distance %.6g m (from gear1.ux/uy, gear2.ux/uy) is below the base-circle "
-                  "limit %.6g m: the gears cannot mesh there",
-                  a, s > 0 ? L.base_radius[0] + L.base_radius[1]
-                           : L.base_radius[1] - L.base_radius[0]);
-    msg = buf;
-    return -1;
+  Axis ax[2];
+  for (int i = 0; i < 2; ++i) {
+    ax[i].c = Eigen::Vector3d(kin.u[i][0] + (i == 1 ? L.center_distance : 0.0), kin.u[i][1],
+                              kin.u[i][2]);
+    // axis direction exp([r_x, r_y, 0]^) e_z = (r_y, -r_x, 1) to first order
+    ax[i].slope = Eigen::Vector2d(kin.r[i][1], -kin.r[i][0]);
   }
-  const double T1T2 = a * std::sin(alpha_w);
+  const bool aligned = kin.r[0][0] == 0 && kin.r[0][1] == 0 && kin.r[1][0] == 0 &&
+                       kin.r[1][1] == 0;
 
   // Axial overlap of the two face widths, split into equal slices.
-  const double z1lo = c1.z() + L.axial_offset[0] - 0.5 * L.face_width[0];
-  const double z2lo = c2.z() + L.axial_offset[1] - 0.5 * L.face_width[1];
+  const double z1lo = ax[0].c.z() + L.axial_offset[0] - 0.5 * L.face_width[0];
+  const double z2lo = ax[1].c.z() + L.axial_offset[1] - 0.5 * L.face_width[1];
   const double zlo = std::max(z1lo, z2lo);
   const double zhi = std::min(z1lo + L.face_width[0], z2lo + L.face_width[1]);
   if (zhi <= zlo) return 0;
   const double width = (zhi - zlo) / L.slices;
+  const double z_mid = 0.5 * (zlo + zhi);
 
-  // Active range of the contact position t (from T1 along the line of action): gear 1 between
-  // its form and tip circles, gear 2 likewise, with rho_2 = T1T2 - s t.
-  double t_lo = L.rho_form[0], t_hi = L.rho_tip[0];
-  if (s > 0) {
-    t_lo = std::max(t_lo, T1T2 - L.rho_tip[1]);
-    t_hi = std::min(t_hi, T1T2 - L.rho_form[1]);
-  } else {
-    t_lo = std::max(t_lo, L.rho_tip[1] - T1T2);
-    t_hi = std::min(t_hi, L.rho_form[1] - T1T2);
+  // Coarse step: the section in the middle of the overlap finds the candidate pairs.
+  Section mid;
+  if (!make_section(L, ax, z_mid, mid, msg)) return -1;
+  // Fine step: each slice's own section (only when tilted; aligned slices share `mid`).
+  Section sections[kMaxSlices];
+  double tilt_margin = 0;
+  if (!aligned) {
+    for (int k = 0; k < L.slices; ++k) {
+      Section& S = sections[k];
+      if (!make_section(L, ax, zlo + (k + 0.5) * width, S, msg)) return -1;
+      tilt_margin = std::max(
+          tilt_margin, (L.base_radius[0] + L.base_radius[1]) *
+                               (std::fabs(S.gamma - mid.gamma) + std::fabs(S.alpha_w - mid.alpha_w)) +
+                           std::fabs(S.T1T2 - mid.T1T2));
+    }
   }
-  if (t_hi <= t_lo) return 0;
 
   const double pb = L.base_pitch;
   const double rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   const double tau1 = 2 * kPi / L.teeth[0], tau2 = 2 * kPi / L.teeth[1];
+  const double tb = L.tan_beta_b;
+  const double margin = pb + 0.5 * tb * (zhi - zlo) + tilt_margin;
+  const double alpha_a1 = std::acos(rb1 / L.tip_radius[0]);
+  const double alpha_a2 = std::acos(rb2 / L.tip_radius[1]);
+  const Eigen::Vector3d omega1(kin.w[0][0], kin.w[0][1], kin.omega[0]);
+  const Eigen::Vector3d omega2(kin.w[1][0], kin.w[1][1], kin.omega[1]);
+  const Eigen::Vector3d vc1(kin.v[0][0], kin.v[0][1], kin.v[0][2]);
+  const Eigen::Vector3d vc2(kin.v[1][0], kin.v[1][1], kin.v[1][2]);
+
   int count = 0, pair = 0;
   for (int sigma = 1; sigma >= -1; sigma -= 2) {
-    // Reduce the unbounded angles to a period so that roll distances keep full precision.
+    const int fl = sigma > 0 ? 0 : 1;  // flank index for the micro-geometry
+    // Reduce the unbounded angles to a period so that roll distances keep full precision. The
+    // helical sections turn by h_i y_i tan(beta_b)/r_bi, y_i along gear i's axis from its centre.
     double n1, f1, n2, f2;
-    split_periods(sigma * (L.theta0[0] + kin.phi[0] - gamma - L.zeta[0]), tau1, n1, f1);
-    split_periods(sigma * (L.theta0[1] + kin.phi[1] - gamma - L.zeta[1]), tau2, n2, f2);
-    const double base1 = rb1 * (f1 + L.eta[0] + alpha_w);  // rho_1 = base1 + m1 p_bt
-    const double base2 = rb2 * (f2 + L.eta[1] + alpha_w);  // rho_2 = base2 + m2 p_bt
-    const double m_first = std::ceil((t_lo - 0.5 * pb - base1) / pb);
-    const double m_last = std::floor((t_hi + 0.5 * pb - base1) / pb);
-    const double th_T1 = gamma + L.zeta[0] - sigma * alpha_w;
-    const Eigen::Vector3d T1 = c1 + rb1 * Eigen::Vector3d(std::cos(th_T1), std::sin(th_T1), 0);
-    const double cg = std::cos(gamma), sg = std::sin(gamma);
-    const double nx = s * std::sin(alpha_w), ny = s * sigma * std::cos(alpha_w);
-    const Eigen::Vector3d normal(cg * nx - sg * ny, sg * nx + cg * ny, 0);
+    split_periods(sigma * (L.theta0[0] + kin.phi[0] +
+                           L.hand[0] * (z_mid - ax[0].c.z()) * tb / rb1 - mid.gamma - L.zeta[0]),
+                  tau1, n1, f1);
+    split_periods(sigma * (L.theta0[1] + kin.phi[1] +
+                           L.hand[1] * (z_mid - ax[1].c.z()) * tb / rb2 - mid.gamma - L.zeta[1]),
+                  tau2, n2, f2);
+    const double base1 = rb1 * (f1 + L.eta[0] + mid.alpha_w);  // rho_1 = base1 + m1 p_bt
+    const double base2 = rb2 * (f2 + L.eta[1] + mid.alpha_w);  // rho_2 = base2 + m2 p_bt
+    const double m_first = std::ceil((mid.t_lo - margin - base1) / pb);
+    const double m_last = std::floor((mid.t_hi + margin - base1) / pb);
     for (double m1 = m_first; m1 <= m_last; m1 += 1) {
-      const double rho1 = base1 + m1 * pb;
-      const double m2 = std::nearbyint((T1T2 - s * rho1 - base2) / pb);
-      const double rho2 = base2 + m2 * pb;
-      const double approach = rho1 + s * rho2 - s * T1T2;
-      const double t = rho1 - 0.5 * approach;  // contact point midway between the two flanks
-      if (t < t_lo || t > t_hi) continue;
-      if (approach > 0.25 * pb) {
-        char buf[240];
-        std::snprintf(buf, sizeof buf,
-                      "flank %c approach %.6g m exceeds the detection range (a quarter base "
-                      "pitch, %.6g m): the spin angles gear1.phi/gear2.phi are not physical",
-                      sigma > 0 ? 'A' : 'B', approach, 0.25 * pb);
-        msg = buf;
-        return -1;
-      }
-      const Eigen::Vector3d on_line = T1 + t * normal;
+      const double rho1_mid = base1 + m1 * pb;
+      const double m2 = std::nearbyint((mid.T1T2 - s * rho1_mid - base2) / pb);
+      const double rho2_mid = base2 + m2 * pb;
+      const int tooth1 = tooth_index(n1, m1, sigma, L.teeth[0]);
+      const int tooth2 = tooth_index(n2, m2, sigma, L.teeth[1]);
+      bool emitted = false;
       for (int k = 0; k < L.slices; ++k) {
+        const Section& S = aligned ? mid : sections[k];
+        const double z = zlo + (k + 0.5) * width;
+        const double dz = z - z_mid;
+        // Roll distances in this slice's section: helical turn and the section's own frame.
+        double rho1 = rho1_mid + sigma * L.hand[0] * tb * dz;
+        double rho2 = rho2_mid + sigma * L.hand[1] * tb * dz;
+        const double cg = std::cos(S.gamma), sg = std::sin(S.gamma);
+        const Eigen::Vector2d n_line(cg * s * std::sin(S.alpha_w) - sg * s * sigma * std::cos(S.alpha_w),
+                                     sg * s * std::sin(S.alpha_w) + cg * s * sigma * std::cos(S.alpha_w));
+        const Eigen::Vector2d T1 = S.c[0] + rb1 * unit(S.gamma + L.zeta[0] - sigma * S.alpha_w);
+        double dz1 = 0, dz2 = 0;  // tilt: axial position of the contact in each gear's own frame
+        if (!aligned) {
+          rho1 += rb1 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
+          rho2 += rb2 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
+          if (tb != 0) {
+            // A tilted helical gear meets the slice plane at body height z + r x (X - c): the
+            // contact point X sits a pitch radius off the axis, so this is first order.
+            const double t0 = rho1 - 0.5 * (rho1 + s * rho2 - s * S.T1T2);
+            const Eigen::Vector2d X = T1 + t0 * n_line;
+            dz1 = ax[0].slope.dot(X - ax[0].c.head<2>());
+            dz2 = ax[1].slope.dot(X - ax[1].c.head<2>());
+            rho1 += sigma * L.hand[0] * tb * dz1;
+            rho2 += sigma * L.hand[1] * tb * dz2;
+          }
+        }
+        double approach_t = rho1 + s * rho2 - s * S.T1T2;
+        const double t = rho1 - 0.5 * approach_t;  // contact midway between the two flanks
+        // face coordinates from each gear's mid-face
+        const double y1 = z - ax[0].c.z() + dz1 - L.axial_offset[0];
+        const double y2 = z - ax[1].c.z() + dz2 - L.axial_offset[1];
+        Eigen::Vector2d n_t, point;
+        double roll1, roll2;
+        int kind = kFlankContact;
+        if (t >= S.t_lo && t <= S.t_hi) {
+          roll1 = t;
+          roll2 = S.T1T2 - s * t;
+          n_t = n_line;
+          point = T1 + t * n_line;
+        } else if ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts)) {
+          // Tip (corner) contact outside the path: the tip edge of one gear against the mate's
+          // flank, with the mate's involute normal (paper 2.1; PHYSICS 3).
+          const int g = t > S.t_hi ? 0 : 1, h = 1 - g;
+          const double theta_rel1 = sigma * (rho1 / rb1 - L.eta[0] - S.alpha_w);
+          const double theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
+          const double theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1,
+                                     S.gamma + L.zeta[1] + theta_rel2};
+          const double alpha_a = g == 0 ? alpha_a1 : alpha_a2;
+          const Eigen::Vector2d corner =
+              S.c[g] + L.tip_radius[g] *
+                           unit(theta_c[g] + sigma * (L.eta[g] - (std::tan(alpha_a) - alpha_a)));
+          double pen, roll_h;
+          Eigen::Vector2d tangency;
+          if (!involute_penetration(L, h, sigma, theta_c[h], S.c[h], corner, pen, tangency,
+                                    roll_h))
+            continue;
+          if (pen <= 0) continue;  // an open tip edge carries nothing: not a candidate
+          approach_t = pen;
+          kind = g == 0 ? kTipOfGear1 : kTipOfGear2;
+          roll1 = g == 0 ? L.rho_tip[0] : roll_h;
+          roll2 = g == 0 ? roll_h : L.rho_tip[1];
+          // outward normal of the mate's material; the force on gear 2 follows from it
+          const bool ring_h = h == 1 && s < 0;
+          const Eigen::Vector2d out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
+          n_t = g == 0 ? Eigen::Vector2d(-out_h) : out_h;
+          point = corner;
+        } else {
+          continue;
+        }
+        // micro-geometry gaps are along the flank normal (PHYSICS 2): Delta_n = Delta_t cos(beta_b) - gap
+        if (L.micro[0].any) approach_t -= flank_gap(L.micro[0], fl, tooth1, roll1, y1) / L.cos_beta_b;
+        if (L.micro[1].any) approach_t -= flank_gap(L.micro[1], fl, tooth2, roll2, y2) / L.cos_beta_b;
+        if (approach_t > 0.25 * pb) {
+          char buf[240];
+          std::snprintf(buf, sizeof buf,
+                        "flank %c approach %.6g m exceeds the detection range (a quarter base "
+                        "pitch, %.6g m): the gear poses (phi, u, r inputs) are not physical",
+                        sigma > 0 ? 'A' : 'B', approach_t, 0.25 * pb);
+          msg = buf;
+          return -1;
+        }
         if (count >= capacity) {
-          msg = "internal error: more candidate slices than the model's capacity";
+          msg = "more candidate slices than the model's capacity: the tilts are far outside "
+                "the small-tilt range of the detection";
           return -1;
         }
         ContactSlice& c = out[count++];
         c.flank = sigma;
-        c.tooth[0] = tooth_index(n1, m1, sigma, L.teeth[0]);
-        c.tooth[1] = tooth_index(n2, m2, sigma, L.teeth[1]);
+        c.kind = kind;
+        c.tooth[0] = tooth1;
+        c.tooth[1] = tooth2;
         c.pair = pair;
-        c.approach = approach;
+        c.approach = approach_t * L.cos_beta_b;
         c.width = width;
-        c.roll[0] = t;
-        c.roll[1] = T1T2 - s * t;
-        c.point = Eigen::Vector3d(on_line.x(), on_line.y(), zlo + (k + 0.5) * width);
-        c.normal = normal;
+        c.roll[0] = roll1;
+        c.roll[1] = roll2;
+        c.point = Eigen::Vector3d(point.x(), point.y(), z);
+        // The flank normal lies in the plane of action, inclined by beta_b to the transverse
+        // plane; its axial part follows the helix hand of gear 1.
+        c.normal = Eigen::Vector3d(L.cos_beta_b * n_t.x(), L.cos_beta_b * n_t.y(),
+                                   -sigma * L.hand[0] * L.sin_beta_b);
+        // Contact velocities from the input velocities (rigid bodies, small tilts).
+        const Eigen::Vector3d v1 = vc1 + omega1.cross(c.point - ax[0].c);
+        const Eigen::Vector3d v2 = vc2 + omega2.cross(c.point - ax[1].c);
+        c.approach_rate = (v1 - v2).dot(c.normal);
+        const Eigen::Vector2d towards_root1 = -unit(S.gamma + L.zeta[0] - sigma * S.alpha_w);
+        c.sliding_velocity = (v1 - v2).head<2>().dot(towards_root1);
+        emitted = true;
       }
-      ++pair;
+      pair += emitted;
     }
   }
   return count;

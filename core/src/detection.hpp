@@ -1,14 +1,21 @@
-// Contact detection for involute gear pairs (paper section 2.1; PHYSICS.md sections 0 and 3).
+// Contact detection for cylindrical involute gear pairs (paper section 2.1; PHYSICS.md 0-3).
 //
-// Every tooth pair on both flanks is a candidate; the approach of a flank pair is exact for
-// any centre distance because involutes stay conjugate: along the line of action of flank
-// sigma (A = +1, B = -1) the flank of gear i sits at roll distance
+// Every tooth pair on both flanks is a candidate. In a transverse section the approach of a
+// flank pair is exact for any centre distance because involutes stay conjugate: along the line
+// of action of flank sigma (A = +1, B = -1) the flank of gear i sits at roll distance
 //   rho_i = r_bi (sigma (theta_ci - gamma - zeta_i) + eta_i + alpha_w)
-// from its tangency point T_i, with theta_ci the tooth (ring: space) centreline angle, gamma
-// the direction of the centre line, zeta_i = 0 or pi the side of the mesh, eta_i the half
-// base-circle angle of the tooth (ring: space) and alpha_w the operating pressure angle of the
-// actual centre distance. The approach is Delta = rho_1 + s rho_2 - s T1T2 (s = +1 external,
-// -1 internal), positive when the flanks overlap.
+// from its tangency point T_i, with theta_ci the tooth (ring: space) centreline angle of that
+// section (helical: turned by h_i y tan(beta_b)/r_bi across the face), gamma the direction of
+// the centre line, zeta_i = 0 or pi the side of the mesh, eta_i the half base-circle angle of
+// the tooth (ring: space) and alpha_w the operating pressure angle of the section's centre
+// distance. The transverse approach is Delta_t = rho_1 + s rho_2 - s T1T2 (s = +1 external,
+// -1 internal), positive when the flanks overlap, less the micro-geometry of both flanks; the
+// normal approach is Delta_t cos(beta_b).
+//
+// Misalignment (the paper's two-step method): candidate pairs come from the section at the
+// middle of the axial overlap (coarse step); each slice then evaluates them in its own plane,
+// with each gear's centre placed there from its tilted axis (fine step). Tilts enter to first
+// order; the neglected terms are of order r_a r^2 (README, "Misalignment").
 #pragma once
 
 #include <string>
@@ -16,6 +23,7 @@
 #include <Eigen/Core>
 
 #include "gearmesh/gearmesh.h"
+#include "microgeometry.hpp"
 
 namespace gm {
 
@@ -23,33 +31,50 @@ namespace gm {
 struct MeshLayout {
   int sign = 1;                    // s: +1 external pair, -1 internal (gear 2 is the ring)
   int teeth[2] = {0, 0};           // z_i (magnitudes)
+  int hand[2] = {0, 0};            // h_i: +1 right, -1 left, 0 spur
   double base_radius[2] = {0, 0};  // r_bi, m
+  double tip_radius[2] = {0, 0};   // r_ai, m (ring: inner)
   double eta[2] = {0, 0};          // half base-circle angle of tooth (ring: space), rad
   double theta0[2] = {0, 0};       // body angle of tooth (ring: space) 0 at phi = 0, rad
   double zeta[2] = {0, 0};         // side of the mesh seen from gear i: 0 or pi, rad
   double rho_tip[2] = {0, 0};      // roll distance of the tip circle, m
   double rho_form[2] = {0, 0};     // roll distance of the form circle, m
+  double tan_beta_b = 0;           // tan of the base helix angle (magnitude)
+  double cos_beta_b = 1, sin_beta_b = 0;
   double base_pitch = 0;           // p_bt, m
   double center_distance = 0;      // nominal a, m
   double face_width[2] = {0, 0};   // b_i, m
   double axial_offset[2] = {0, 0}; // mid-face position from the gear centre, m
   int slices = 1;                  // slices across the axial overlap
+  GearMicrogeometry micro[2];      // flank modifications and deviations of each gear
+};
+
+// Where a candidate slice touches.
+enum ContactKind {
+  kFlankContact = 0,  // flank against flank on the line of action
+  kTipOfGear1 = 1,    // gear 1's tip edge against gear 2's flank, outside the path of contact
+  kTipOfGear2 = 2     // gear 2's tip edge against gear 1's flank
 };
 
 // One candidate slice of one tooth pair on one flank.
 struct ContactSlice {
   int flank = 1;                   // +1 flank A, -1 flank B
+  int kind = kFlankContact;        // ContactKind
   int tooth[2] = {0, 0};           // tooth index on gear 1, tooth (ring: space) index on gear 2
   int pair = 0;                    // index of the tooth pair within this evaluation
-  double approach = 0;             // Delta, m: > 0 the flanks overlap, < 0 a gap
-  double width = 0;                // slice width, m
+  double approach = 0;             // normal approach Delta_n, m: > 0 overlap, < 0 gap
+  double width = 0;                // axial slice width L, m
   double roll[2] = {0, 0};         // roll distances of the contact point on both flanks, m
+  double approach_rate = 0;        // d(Delta_n)/dt from the input velocities, m/s
+  double sliding_velocity = 0;     // velocity of gear 1 relative to gear 2 along the profile, m/s
   Eigen::Vector3d point{0, 0, 0};  // contact point in H, m
   Eigen::Vector3d normal{0, 0, 0}; // unit direction of the normal force on gear 2, in H
 };
 
-// Derive the detection layout from validated parameters and their geometry.
-MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g);
+// Derive the detection layout from validated parameters, their geometry and the gears'
+// micro-geometry (moved in).
+MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
+                            GearMicrogeometry micro1, GearMicrogeometry micro2);
 
 // Most candidate slices detect_contacts can return for this layout.
 int slice_capacity(const MeshLayout& L);

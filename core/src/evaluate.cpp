@@ -29,15 +29,31 @@ bool inputs_finite(const gm_kinematics& k, std::string& msg) {
   return true;
 }
 
+// Tilts beyond this are refused: the two-step detection is first order in the tilt.
+constexpr double kMaxTilt = 0.02;  // rad
+
+bool tilts_in_range(const gm_kinematics& k, std::string& msg) {
+  for (int i = 0; i < 2; ++i) {
+    for (int a = 0; a < 2; ++a) {
+      if (std::fabs(k.r[i][a]) > kMaxTilt) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf,
+                      "gear%d.r%c = %g rad: outside the small-tilt range of the two-step "
+                      "detection; allowed range [-%g, %g] rad", i + 1, a == 0 ? 'x' : 'y',
+                      k.r[i][a], kMaxTilt, kMaxTilt);
+        msg = buf;
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 gm_status check_capabilities(const gm_model_params& p, std::string& msg) {
   char buf[240];
-  if (p.pair.helix_angle != 0) {
-    std::snprintf(buf, sizeof buf,
-                  "pair.helix_angle = %g rad: helical contact detection is not in this build "
-                  "yet; allowed value 0 (spur)", p.pair.helix_angle);
-  } else if (p.stiffness_level != GM_STIFFNESS_USER_CONSTANT) {
+  if (p.stiffness_level != GM_STIFFNESS_USER_CONSTANT) {
     std::snprintf(buf, sizeof buf,
                   "model.stiffness = %d: only level 0 (user constant) is in this build yet; "
                   "allowed value 0", p.stiffness_level);
@@ -58,22 +74,14 @@ gm_status check_capabilities(const gm_model_params& p, std::string& msg) {
 
 gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin, gm_result& res) {
   if (!inputs_finite(kin, d.message)) return GM_ERR_INPUT;
-  for (int i = 0; i < 2; ++i) {
-    for (int a = 0; a < 2; ++a) {
-      if (kin.r[i][a] != 0) {
-        char buf[200];
-        std::snprintf(buf, sizeof buf,
-                      "gear%d.r%c = %g rad: tilt misalignment is not in this build yet; allowed "
-                      "value 0", i + 1, a == 0 ? 'x' : 'y', kin.r[i][a]);
-        d.message = buf;
-        return GM_ERR_INPUT;
-      }
-    }
-  }
+  if (!tilts_in_range(kin, d.message)) return GM_ERR_INPUT;
   const MeshLayout& L = m.layout;
   const int n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
   if (n < 0) return GM_ERR_INPUT;
-  solve_user_constant(m.params.user_stiffness, d.slices.data(), n, d.forces.data(),
+  // Level 0: k' is per unit face width on the transverse line of action (ISO 6336-1's c'),
+  // so along the flank normal of a helical slice it is k' / cos^2(beta_b).
+  const double cb2 = L.cos_beta_b * L.cos_beta_b;
+  solve_user_constant(m.params.user_stiffness / cb2, d.slices.data(), n, d.forces.data(),
                       d.slice_stiffness.data());
 
   gm_result r{};
@@ -93,7 +101,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin, gm_r
     mom[1] += (s.point - c[1]).cross(on2);
     mom[0] -= (s.point - c[0]).cross(on2);
     r.normal_force += F;
-    r.stiffness += d.slice_stiffness[i];
+    r.stiffness += d.slice_stiffness[i] * cb2;  // along the transverse line of action
     r.flank |= s.flank > 0 ? 1 : 2;
     r.max_line_load = std::fmax(r.max_line_load, F / s.width);
     if (s.pair != last_loaded_pair) {

@@ -25,7 +25,7 @@ Pair make_pair(const gm_model_params& p) {
   std::string msg;
   EXPECT_EQ(gm::validate_params(p, msg), GM_OK) << msg;
   EXPECT_EQ(gm::compute_pair_geometry(p, out.g, msg), GM_OK) << msg;
-  out.L = gm::make_mesh_layout(p, out.g);
+  out.L = gm::make_mesh_layout(p, out.g, {}, {});
   return out;
 }
 
@@ -90,6 +90,7 @@ void check_conjugate(const gm_model_params& base, double da) {
     const Found f = detect(nominal.L, k);
     int pairs_a = 0;
     for (const auto& c : f.slices) {
+      if (c.kind != gm::kFlankContact) continue;  // tip contacts: test_detection_effects
       if (c.flank > 0) {
         ++pairs_a;
         if (std::isnan(c_ref)) c_ref = c.approach - te;
@@ -129,6 +130,7 @@ TEST(Detection, FlankBGapEqualsGeometricBacklash) {
     const Found f = detect(pr.L, k);
     int b = 0;
     for (const auto& c : f.slices) {
+      if (c.kind != gm::kFlankContact) continue;
       if (c.flank < 0) {
         EXPECT_NEAR(c.approach, -pr.g.j_bt, 1e-12);
         ++b;
@@ -152,7 +154,7 @@ TEST(Detection, DoubleContactShareEqualsContactRatioMinusOne) {
     k.phi[0] = phi1;
     k.phi[1] = phi2_for(pr.L, 1e-6, phi1);
     int a = 0;
-    for (const auto& c : detect(pr.L, k).slices) a += c.flank > 0;
+    for (const auto& c : detect(pr.L, k).slices) a += c.flank > 0 && c.kind == gm::kFlankContact;
     doubles += a == 2;
   }
   EXPECT_NEAR(static_cast<double>(doubles) / steps, pr.g.eps_alpha - 1, 2.0 / per_pitch);
@@ -168,7 +170,7 @@ TEST(Detection, LargeSpinAnglesKeepPrecision) {
     k.phi[0] = phi1;
     k.phi[1] = phi2_for(pr.L, te, phi1);
     for (const auto& c : detect(pr.L, k).slices) {
-      if (c.flank > 0) {
+      if (c.flank > 0 && c.kind == gm::kFlankContact) {
         EXPECT_NEAR(c.approach, te, 1e-9 + 1e-13 * revs);
       }
     }
@@ -183,6 +185,7 @@ TEST(Detection, NormalsAndPointsLieOnTheLinesOfAction) {
     gm_kinematics k{};
     const double a = pr.p.pair.center_distance;
     for (const auto& c : detect(pr.L, k).slices) {
+      if (c.kind != gm::kFlankContact) continue;
       EXPECT_NEAR(c.normal.norm(), 1.0, 1e-14);
       EXPECT_NEAR(std::fabs(c.normal.y()), std::cos(pr.g.alpha_wt), 1e-12);
       // distance of the line (point, normal) from each centre equals the base radius

@@ -58,12 +58,12 @@ gm_model_params ring() {
 }
 
 // The middle of the first run of poses (over one base pitch of gear 1) with `pairs` loaded
-// pairs, so that small changes of the approach keep the pair count.
-double pose_with_pairs(Instance& in, int pairs) {
+// pairs at the approach te; mid-run poses are away from the path ends, so no tip contact.
+double pose_with_pairs(Instance& in, int pairs, double te) {
   const double step = in.geo().p_bt / in.rb(0) / 400;
   int first = -1, last = -1;
   for (int s = 0; s < 800 && (last < 0 || last == s - 1); ++s) {
-    if (in.at(1e-6, s * step).pairs_in_contact == pairs) {
+    if (in.at(te, s * step).pairs_in_contact == pairs) {
       if (first < 0) first = s;
       last = s;
     }
@@ -72,21 +72,21 @@ double pose_with_pairs(Instance& in, int pairs) {
   return 0.5 * (first + last) * step;
 }
 
-double single_contact_phi1(Instance& in) { return pose_with_pairs(in, 1); }
-double double_contact_phi1(Instance& in) { return pose_with_pairs(in, 2); }
+double single_contact_phi1(Instance& in, double te = 1e-6) { return pose_with_pairs(in, 1, te); }
+double double_contact_phi1(Instance& in, double te = 1e-6) { return pose_with_pairs(in, 2, te); }
 
 TEST(Evaluate, ForceIsStiffnessTimesWidthTimesApproach) {
   for (const gm_model_params& p : {paper(), ring()}) {
     Instance in(p);
     const double kb = p.user_stiffness * p.gear[0].face_width;
     const double delta = 7e-6;
-    const gm_result single = in.at(delta, single_contact_phi1(in));
+    const gm_result single = in.at(delta, single_contact_phi1(in, delta));
     EXPECT_EQ(single.pairs_in_contact, 1);
     EXPECT_EQ(single.flank, 1);
     EXPECT_NEAR(single.normal_force, kb * delta, 1e-9 * kb * delta);
     EXPECT_NEAR(single.stiffness, kb, 1e-9 * kb);
     EXPECT_NEAR(single.max_line_load, p.user_stiffness * delta, 1e-6);
-    const gm_result dbl = in.at(delta, double_contact_phi1(in));
+    const gm_result dbl = in.at(delta, double_contact_phi1(in, delta));
     EXPECT_EQ(dbl.pairs_in_contact, 2);
     EXPECT_NEAR(dbl.normal_force, 2 * kb * delta, 1e-9 * kb * delta);
     EXPECT_NEAR(dbl.stiffness, 2 * kb, 1e-9 * kb);
@@ -121,7 +121,10 @@ TEST(Evaluate, ForceAndMomentBalance) {
     const double j = in.geo().j_bt;
     const double aw = in.geo().alpha_wt;
     for (double te : {5e-6, -j - 5e-6}) {
-      const gm_result r = in.at(te, 0.37);
+      // a mid-zone pose of flank A; its mirror (PHYSICS 9) for flank B, so no tip contact
+      const double phi_a = double_contact_phi1(in, 5e-6);
+      const double theta0 = std::tan(in.geo().alpha_wt) - in.geo().alpha_wt - in.geo().gear[0].eta_b;
+      const gm_result r = in.at(te, te > 0 ? phi_a : -phi_a - 2 * theta0);
       const double F = r.normal_force;
       ASSERT_GT(F, 0);
       for (int a = 0; a < 3; ++a) EXPECT_NEAR(r.force[0][a], -r.force[1][a], 1e-9 * F);
@@ -191,6 +194,67 @@ TEST(Evaluate, AxialOffsetGivesTiltingMoments) {
   EXPECT_NEAR(r.moment[0][1], 0.004 * r.force[0][0], 1e-9 * r.normal_force);
 }
 
+// Spur, aligned: every slice sees the same approach, so the resultants do not depend on the
+// slice count (issue 3).
+TEST(Evaluate, SpurAlignedResultsDoNotDependOnTheSliceCount) {
+  gm_model_params one = paper();
+  gm_model_params many = paper();
+  many.slices = 7;
+  Instance a(one), b(many);
+  for (double phi1 : {0.0, 0.013, 0.05}) {
+    for (double te : {3e-6, 12e-6}) {
+      const gm_result ra = a.at(te, phi1), rb = b.at(te, phi1);
+      EXPECT_NEAR(rb.normal_force, ra.normal_force, 1e-9 * ra.normal_force);
+      EXPECT_NEAR(rb.stiffness, ra.stiffness, 1e-9 * ra.stiffness);
+      EXPECT_EQ(rb.pairs_in_contact, ra.pairs_in_contact);
+      for (int g = 0; g < 2; ++g)
+        for (int c = 0; c < 3; ++c) {
+          EXPECT_NEAR(rb.force[g][c], ra.force[g][c], 1e-9 * ra.normal_force);
+          EXPECT_NEAR(rb.moment[g][c], ra.moment[g][c], 1e-9 * ra.normal_force);
+        }
+    }
+  }
+}
+
+// Helical: the normal force leans by beta_b out of the transverse plane, so the axial force
+// is F_t tan(beta_b) and the spin moments are F_t r_b with F_t = F_n cos(beta_b) (ISO 6336-1
+// force components); the level-0 stiffness is k' per unit face width on the transverse line of
+// action, so F_t = k' b Delta_t for one full-width pair.
+TEST(Evaluate, HelicalForceComponentsAndBalance) {
+  gm_model_params p = paper();
+  p.pair.helix_angle = 15 * kPi / 180;
+  p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
+  p.pair.center_distance = 0.0026 / std::cos(p.pair.helix_angle) * 57 + 50e-6;
+  p.slices = 12;
+  // a short, deep tip relief keeps the tip edges off the mate (tip contact acts along other
+  // normals; it is tested in test_detection_effects)
+  for (auto& g : p.gear)
+    for (auto& f : g.flank) {
+      f.tip_relief = 30e-6;
+      f.tip_relief_length = 0.3e-3;
+    }
+  Instance in(p);
+  const double bb = in.geo().beta_b;
+  for (double te : {4e-6, -in.geo().j_bt - 4e-6}) {
+    const gm_result r = in.at(te, 0.011);
+    const double Fn = r.normal_force, Ft = Fn * std::cos(bb);
+    ASSERT_GT(Fn, 0);
+    const double flank = te > 0 ? 1 : -1;
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.force[0][c], -r.force[1][c], 1e-9 * Fn);
+    EXPECT_NEAR(std::fabs(r.force[1][2]), Ft * std::tan(bb), 1e-9 * Fn);
+    EXPECT_NEAR(std::hypot(r.force[1][0], r.force[1][1]), Ft, 1e-9 * Fn);
+    EXPECT_NEAR(r.moment[0][2], -flank * Ft * in.rb(0), 1e-9 * Fn);
+    EXPECT_NEAR(r.moment[1][2], -flank * Ft * in.rb(1), 1e-9 * Fn);
+    // k' b Delta_t summed over the contact lines, less what the relief takes near the tips
+    const double approach_t = te > 0 ? te : -in.geo().j_bt - te;
+    EXPECT_LE(Ft, r.stiffness * approach_t * (1 + 1e-9));
+    EXPECT_GT(Ft, 0.8 * r.stiffness * approach_t);
+  }
+  // the hands: flank A of a right-hand gear 1 pushes gear 2 axially one way, flank B the other
+  const gm_result a = in.at(4e-6, 0.011), b = in.at(-in.geo().j_bt - 4e-6, 0.011);
+  EXPECT_LT(a.force[1][2] * b.force[1][2], 0);
+}
+
 TEST(Evaluate, NonFiniteInputIsNamed) {
   Instance in(paper());
   gm_kinematics k{};
@@ -204,13 +268,15 @@ TEST(Evaluate, NonFiniteInputIsNamed) {
   EXPECT_EQ(gm_evaluate(in.m, in.d, &k, &r), GM_OK);
 }
 
-TEST(Evaluate, TiltIsRejectedUntilMisalignmentLands) {
+TEST(Evaluate, TiltBeyondTheSmallTiltRangeIsRejected) {
   Instance in(paper());
   gm_kinematics k{};
-  k.r[0][1] = 1e-4;
+  k.r[0][1] = 0.05;
   gm_result r{};
   EXPECT_EQ(gm_evaluate(in.m, in.d, &k, &r), GM_ERR_INPUT);
   EXPECT_NE(std::string(gm_data_message(in.d)).find("gear1.ry"), std::string::npos);
+  k.r[0][1] = 1e-3;  // inside the range: evaluates
+  EXPECT_EQ(gm_evaluate(in.m, in.d, &k, &r), GM_OK) << gm_data_message(in.d);
 }
 
 TEST(Evaluate, ParameterErrorsNameTheParameter) {
@@ -226,7 +292,8 @@ TEST(Evaluate, ParameterErrorsNameTheParameter) {
       {"gear1.face_width", [](gm_model_params& p) { p.gear[0].face_width = NAN; }},
       {"model.slices", [](gm_model_params& p) { p.slices = 0; }},
       {"model.user_stiffness", [](gm_model_params& p) { p.user_stiffness = -1; }},
-      {"pair.helix_angle", [](gm_model_params& p) { p.pair.helix_angle = 0.2; }},
+      {"gear1.tip_relief", [](gm_model_params& p) { p.gear[0].flank[1].tip_relief = -1e-6; }},
+      {"gear2.deviations", [](gm_model_params& p) { p.gear[1].deviations = "/nonexistent/dev.txt"; }},
       {"model.friction_coefficient", [](gm_model_params& p) { p.friction_coefficient = 0.1; }},
   };
   for (const Case& c : cases) {

@@ -8,8 +8,8 @@ import sys
 from gearmesh.scene import SceneError, load_scene
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-# Set B of the paper (profile crowning) joins when micro-geometry lands (issue 3).
-DEFAULT_SCENES = [REPO / "scenarios" / "paper_setA_3U4U.toml"]
+DEFAULT_SCENES = [REPO / "scenarios" / "paper_setA_3U4U.toml",
+                  REPO / "scenarios" / "paper_setB_P1P2.toml"]
 
 
 def main(argv: list[str] | None = None) -> int:

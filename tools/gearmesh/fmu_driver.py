@@ -89,14 +89,17 @@ class GearMeshFMU:
             refs.append(var.valueReference)
             vals.append(value)
         setters = {"Real": self.fmu.setReal, "Integer": self.fmu.setInteger,
-                   "Boolean": self.fmu.setBoolean}
+                   "Boolean": self.fmu.setBoolean, "String": self._set_strings}
         for kind, (refs, vals) in groups.items():
             self._call(setters[kind], refs, vals)
+
+    def _set_strings(self, refs, values):
+        self.fmu.setString(refs, [v.encode("utf-8") if isinstance(v, str) else v for v in values])
 
     def get(self, names: list[str]) -> dict:
         """Values of the named variables."""
         getters = {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger,
-                   "Boolean": self.fmu.getBoolean}
+                   "Boolean": self.fmu.getBoolean, "String": self.fmu.getString}
         out = {}
         for name in names:
             var = self.variables[name]

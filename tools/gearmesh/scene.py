@@ -21,7 +21,7 @@ class Key:
     factor: float = 1.0  # scene unit -> SI
     lo: float = -math.inf
     hi: float = math.inf
-    kind: type = float   # float, int or bool
+    kind: type = float   # float, int, bool or str
     unit: str = ""       # the unit the key's name carries, for messages
 
 
@@ -50,6 +50,20 @@ SCHEMA: dict[str, dict[str, Key]] = {
             "axial_offset_mm": Key(f"gear{i}.axial_offset", 1e-3, -2000, 2000, unit="mm"),
             "youngs_modulus_GPa": Key(f"gear{i}.youngs_modulus", 1e9, 0.1, 10000, unit="GPa"),
             "poisson_ratio": Key(f"gear{i}.poisson_ratio", 1.0, 0.0, 0.499),
+            # micro-geometry, both flanks alike (PHYSICS 2; flank-specific: deviations_file)
+            "profile_crowning_um": Key(f"gear{i}.profile_crowning", 1e-6, 0, 1000, unit="um"),
+            "tip_relief_um": Key(f"gear{i}.tip_relief", 1e-6, 0, 1000, unit="um"),
+            "tip_relief_length_mm": Key(f"gear{i}.tip_relief_length", 1e-3, 0, 1000, unit="mm"),
+            "tip_relief_parabolic": Key(f"gear{i}.tip_relief_parabolic", kind=bool),
+            "root_relief_um": Key(f"gear{i}.root_relief", 1e-6, 0, 1000, unit="um"),
+            "root_relief_length_mm": Key(f"gear{i}.root_relief_length", 1e-3, 0, 1000, unit="mm"),
+            "root_relief_parabolic": Key(f"gear{i}.root_relief_parabolic", kind=bool),
+            "profile_slope_um": Key(f"gear{i}.profile_slope", 1e-6, -1000, 1000, unit="um"),
+            "lead_crowning_um": Key(f"gear{i}.lead_crowning", 1e-6, 0, 1000, unit="um"),
+            "helix_slope_um": Key(f"gear{i}.helix_slope", 1e-6, -1000, 1000, unit="um"),
+            "end_relief_um": Key(f"gear{i}.end_relief", 1e-6, 0, 1000, unit="um"),
+            "end_relief_length_mm": Key(f"gear{i}.end_relief_length", 1e-3, 0, 1000, unit="mm"),
+            "deviations_file": Key(f"gear{i}.deviations", kind=str),
         }
         for i in (1, 2)
     },
@@ -77,11 +91,16 @@ class Scene:
     path: pathlib.Path
     description: str
     assumptions: list[str]
-    parameters: dict[str, float | int | bool] = field(default_factory=dict)  # FMU name -> SI
+    parameters: dict[str, float | int | bool | str] = field(default_factory=dict)  # FMU name -> SI
+    resources: dict[str, pathlib.Path] = field(default_factory=dict)  # name in resources/ -> file
     run: dict[str, float | int] = field(default_factory=dict)                # run key -> SI
 
 
 def _convert(where: str, key: Key, value):
+    if key.kind is str:
+        if not isinstance(value, str) or not value:
+            raise SceneError(f"{where} = {value!r}: expected a non-empty file name")
+        return value
     if key.kind is bool:
         if not isinstance(value, bool):
             raise SceneError(f"{where} = {value!r}: expected true or false")
@@ -124,7 +143,16 @@ def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
             if spec is None:
                 allowed = ", ".join(sorted(SCHEMA[section]))
                 raise SceneError(f"{section}.{key}: unknown key; allowed: {allowed}")
-            scene.parameters[spec.variable] = _convert(f"{section}.{key}", spec, value)
+            value = _convert(f"{section}.{key}", spec, value)
+            if spec.kind is str:  # a file beside the scene, shipped in the FMU's resources/
+                source = (path.parent / value).resolve()
+                if not source.is_file():
+                    raise SceneError(f"{section}.{key} = {value!r}: no such file next to the "
+                                     f"scene ({source})")
+                name = f"{section}_{source.name}"
+                scene.resources[name] = source
+                value = name
+            scene.parameters[spec.variable] = value
     for key, value in raw.get("run", {}).items():
         spec = RUN_SCHEMA.get(key)
         if spec is None:

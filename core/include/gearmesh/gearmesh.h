@@ -35,6 +35,24 @@ typedef enum gm_stiffness_level {
   GM_STIFFNESS_FE = 5
 } gm_stiffness_level;
 
+/* Micro-geometry of one flank (PHYSICS 2): material removed, positive = gap, along the flank
+ * normal. Profile terms run over the active profile (start of active profile to tip, roll
+ * distance rho), lead terms over the face width (face coordinate y from mid-face). */
+typedef struct gm_flank_modification {
+  double profile_crowning;   /* C_alpha: parabola, 0 at the middle of the active profile, C at both ends, m */
+  double tip_relief;         /* C_a at the tip, m */
+  double tip_relief_length;  /* L_a, roll length from the tip over which the relief runs, m */
+  int tip_relief_parabolic;  /* 0 linear, 1 parabolic */
+  double root_relief;        /* C_f at the start of the active profile, m */
+  double root_relief_length; /* L_f, roll length from the start of the active profile, m */
+  int root_relief_parabolic; /* 0 linear, 1 parabolic */
+  double profile_slope;      /* f_Halpha: gap at the tip minus gap at the start, linear, 0 at the middle, m */
+  double lead_crowning;      /* C_beta: parabola, 0 at mid-face, C at both face ends, m */
+  double helix_slope;        /* f_Hbeta: gap at y = +b/2 minus gap at y = -b/2, linear, 0 at mid-face, m */
+  double end_relief;         /* C_I at both face ends, linear, m */
+  double end_relief_length;  /* length from each face end over which the end relief runs, m */
+} gm_flank_modification;
+
 /* Parameters of one gear. */
 typedef struct gm_gear_params {
   int teeth;                  /* z, number of teeth (magnitude; the ring is flagged on the pair) */
@@ -45,6 +63,9 @@ typedef struct gm_gear_params {
   double axial_offset;        /* mid-face position along the gear axis from the gear centre, m */
   double youngs_modulus;      /* E, Pa */
   double poisson_ratio;       /* nu, - */
+  gm_flank_modification flank[2]; /* micro-geometry of flank A [0] and flank B [1] */
+  const char* deviations;     /* path of a flank deviation file (measured grid, pitch), or NULL;
+                                 read at gm_model_create, not kept */
 } gm_gear_params;
 
 /* Parameters of the pair (shared basic rack). */

@@ -1,0 +1,119 @@
+#include "hertz.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace gm {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// 2 (1 - nu^2)/(pi E), m^2/N: the factor of w in delta_i (PHYSICS.md section 4).
+double body_compliance(const HertzBody& b) {
+  return 2.0 * (1.0 - b.poisson_ratio * b.poisson_ratio) / (kPi * b.youngs_modulus);
+}
+
+}  // namespace
+
+double reduced_radius(double rho1, double rho2) {
+  const double curvature = 1.0 / rho1 + 1.0 / rho2;  // PHYSICS.md section 4
+  return curvature > 0 && std::isfinite(curvature) ? 1.0 / curvature
+                                                    : std::numeric_limits<double>::quiet_NaN();
+}
+
+double reduced_modulus(const HertzBody& body1, const HertzBody& body2) {
+  // 1/E* = sum (1 - nu_i^2)/E_i (PHYSICS.md section 4)
+  auto term = [](const HertzBody& b) {
+    return (1.0 - b.poisson_ratio * b.poisson_ratio) / b.youngs_modulus;
+  };
+  return 1.0 / (term(body1) + term(body2));
+}
+
+double hertz_half_width(double line_load, double reduced_radius, double reduced_modulus) {
+  return std::sqrt(4.0 * line_load * reduced_radius / (kPi * reduced_modulus));  // PHYSICS.md 4
+}
+
+double hertz_body_approach(double w, double b, const HertzBody& body) {
+  const double h = body.depth, nu = body.poisson_ratio;
+  return body_compliance(body) * w *
+         (std::asinh(h / b) - nu / (1.0 - nu) * h / (std::sqrt(h * h + b * b) + h));
+}
+
+double weber_banaschek_approach(double w, double b, const HertzBody& body) {
+  const double nu = body.poisson_ratio;
+  return body_compliance(body) * w * (std::log(2.0 * body.depth / b) - nu / (2.0 * (1.0 - nu)));
+}
+
+const char* local_law_error(const LocalLaw& law) {
+  if (law.width == 0) return nullptr;  // no local law
+  if (!(law.width > 0) || !std::isfinite(law.width)) return "slice width must be finite and > 0";
+  if (!(law.reduced_radius > 0) || !std::isfinite(law.reduced_radius))
+    return "reduced radius of curvature R' must be finite and > 0";
+  for (const HertzBody& b : law.body) {
+    if (!(b.youngs_modulus > 0) || !std::isfinite(b.youngs_modulus))
+      return "Young's modulus must be finite and > 0";
+    if (!(b.poisson_ratio >= 0 && b.poisson_ratio < 0.5))
+      return "Poisson ratio must be in [0, 0.5)";
+    if (!(b.depth > 0) || !std::isfinite(b.depth)) return "depth h must be finite and > 0";
+  }
+  return nullptr;
+}
+
+// Per body, with q = b_H/h and r = sqrt(1 + q^2) (so h/(sqrt(h^2 + b_H^2) + h) = 1/(r + 1) and
+// r - 1 = q^2/(r + 1) without cancellation), A = asinh(1/q), k = nu/(1 - nu), a = 2(1-nu^2)/(pi E):
+//   delta      = a w [A - k/(r+1)]                                               (PHYSICS.md 4)
+//   d delta/dw = a [A - k/(r+1) - (1 - k (r-1)/(r+1))/(2r)]
+//   int_0^w delta = a w^2 [A/2 + (r+2)/(6 (r+1)^2) - k (2r+1)/(3 (r+1)^2)]
+// Derivation of the integral: with x = h/b_H = 1/q, proportional to w^(-1/2), substitute
+// v = w x^2/xi^2 so that int_0^w v phi(x(v)) dv = 2 w^2 x^4 int_x^inf phi(xi) xi^-5 dxi,
+// phi = asinh(xi) - k (xi sqrt(1+xi^2) - xi^2). By parts, int asinh(xi) 2 xi^-5 =
+// -asinh(xi)/(2 xi^4) + sqrt(1+xi^2)(2 xi^2 - 1)/(6 xi^3), and int 2 (xi sqrt(1+xi^2) - xi^2) xi^-5
+// = -2 (1+xi^2)^(3/2)/(3 xi^3) + 1/xi^2; evaluated from x to inf and multiplied by x^4 these
+// give A/2 + (r-1)^2 (r+2)/(6 q^4) and (r-1)^2 (2r+1)/(3 q^4), i.e. the forms above. The
+// substitution w = t^2 with integration by parts gives the same. The large-x limit
+// a w^2 [ln(2x)/2 + 1/8 - k/4] matches integrating Weber-Banaschek's form term by term.
+LocalLawValue evaluate_local_law(const LocalLaw& law, double force) {
+  LocalLawValue v;
+  if (!has_local_law(law)) return v;
+  const double w = force / law.width;
+  const double E_star = reduced_modulus(law.body[0], law.body[1]);
+  const double b = hertz_half_width(w, law.reduced_radius, E_star);
+  if (!(b > 0)) {  // F = 0, or so small that b_H underflows
+    v.slope = std::numeric_limits<double>::infinity();
+    return v;
+  }
+  double slope_w = 0, energy_w = 0;
+  for (const HertzBody& body : law.body) {
+    const double a = body_compliance(body);
+    const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
+    const double q = b / body.depth;
+    const double r = std::sqrt(1.0 + q * q);
+    const double r1 = r + 1.0;
+    const double A = std::asinh(1.0 / q);
+    const double bracket = A - k / r1;
+    v.approach += a * w * bracket;
+    slope_w += a * (bracket - (1.0 - k * q * q / (r1 * r1)) / (2.0 * r));
+    energy_w += a * w * w *
+                (0.5 * A + (r + 2.0) / (6.0 * r1 * r1) - k * (2.0 * r + 1.0) / (3.0 * r1 * r1));
+  }
+  v.slope = slope_w / law.width;    // d/dF = (1/L) d/dw
+  v.energy = energy_w * law.width;  // int dF = L int dw
+  return v;
+}
+
+double local_law_newton_slope(const LocalLaw& law, double force, double min_line_load) {
+  return evaluate_local_law(law, std::fmax(force, min_line_load * law.width)).slope;
+}
+
+double local_law_energy_change(const LocalLaw& law, double force, double step) {
+  if (!has_local_law(law) || step == 0) return 0;
+  if (std::abs(step) <= 0.25 * force) {
+    const double half = 0.5 * step, mid = force + half, off = half * std::sqrt(0.6);
+    auto f = [&](double F) { return evaluate_local_law(law, F).approach; };
+    return half * (5.0 * f(mid - off) + 8.0 * f(mid) + 5.0 * f(mid + off)) / 9.0;
+  }
+  return evaluate_local_law(law, force + step).energy - evaluate_local_law(law, force).energy;
+}
+
+}  // namespace gm

@@ -1,0 +1,73 @@
+// Local (surface-to-depth) compliance of one contact slice: 2-D Hertz with the approach of
+// each body measured to a point at depth h_i (PHYSICS.md section 4; paper section 2.2, the
+// non-linear term f of eq. 1, after Weber and Banaschek [16]).
+//
+// f(F) is the sum over both bodies of
+//   delta_i = (2 w (1 - nu_i^2)/(pi E_i))
+//             [asinh(h_i/b_H) - (nu_i/(1 - nu_i)) h_i/(sqrt(h_i^2 + b_H^2) + h_i)]
+// with w = F/L and b_H = sqrt(4 w R'/(pi E*)). f(0) = 0; f is increasing and concave
+// (f' falls from +inf at F = 0 like -ln(F)/2 and grows like sqrt(F) for b_H >> h_i), checked
+// for 0 <= nu < 0.5 over b_H/h from 1e-9 to 1e3 and tested over line loads 1e-3..1e7 N/m. Its
+// integral P is what the solver minimises, so P is exact too (closed form in hertz.cpp).
+#pragma once
+
+namespace gm {
+
+// One body at a slice.
+struct HertzBody {
+  double youngs_modulus = 0;  // E_i, Pa
+  double poisson_ratio = 0;   // nu_i, 0 <= nu_i < 0.5
+  double depth = 0;           // h_i, m: depth of the point the global compliance refers to
+};
+
+// The local law of one slice. A default LocalLaw (width 0) means "no local law": f = 0, the
+// linear stiffness levels.
+struct LocalLaw {
+  double width = 0;           // L, m
+  double reduced_radius = 0;  // R', m, 1/R' = 1/rho_1 + 1/rho_2; must be > 0
+  HertzBody body[2];
+};
+
+// The value, slope and integral of f at one force.
+struct LocalLawValue {
+  double approach = 0;  // f(F), m
+  double slope = 0;     // f'(F), m/N; +inf at F = 0
+  double energy = 0;    // P(F) = int_0^F f, J
+};
+
+// R' from the radii of curvature of both flanks, m; rho < 0 for a concave (internal) flank.
+// NaN unless R' > 0 (a concave flank flatter than its convex mate).
+double reduced_radius(double rho1, double rho2);
+
+// E*, Pa: 1/E* = sum (1 - nu_i^2)/E_i.
+double reduced_modulus(const HertzBody& body1, const HertzBody& body2);
+
+// Hertz half-width b_H = sqrt(4 w R'/(pi E*)), m, for line load w (N/m).
+double hertz_half_width(double line_load, double reduced_radius, double reduced_modulus);
+
+// delta_i of PHYSICS.md section 4 for line load w (N/m) and a given half-width b_H (m), literally
+// as written there; the law below evaluates the same formula in a cancellation-free form.
+double hertz_body_approach(double line_load, double half_width, const HertzBody& body);
+
+// Weber-Banaschek's h >> b_H limit of delta_i:
+// (2 w (1 - nu^2)/(pi E)) [ln(2h/b_H) - nu/(2(1 - nu))].
+double weber_banaschek_approach(double line_load, double half_width, const HertzBody& body);
+
+// nullptr if law is usable (or is "no local law"), else a static text naming the fault.
+const char* local_law_error(const LocalLaw& law);
+
+inline bool has_local_law(const LocalLaw& law) { return law.width > 0; }
+
+// f, f' and P at force F >= 0 (N). Zero for "no local law". At F = 0 (or F so small that b_H
+// underflows): approach = energy = 0, slope = +inf. Cost: 3 sqrt and 2 asinh.
+LocalLawValue evaluate_local_law(const LocalLaw& law, double force);
+
+// f'(max(F, w_min L)) for a Newton matrix: finite, and never used in the merit function.
+double local_law_newton_slope(const LocalLaw& law, double force, double min_line_load);
+
+// P(F + s) - P(F), J, for F >= 0 and F + s >= 0, without the cancellation of the closed-form
+// difference when |s| << F: 3-point Gauss-Legendre quadrature of f when |s| <= F/4 (f is smooth
+// there; relative error below 1e-8 at |s| = F/4, falling like (s/F)^6), closed form otherwise.
+double local_law_energy_change(const LocalLaw& law, double force, double step);
+
+}  // namespace gm

@@ -1,0 +1,350 @@
+#include "nlcp.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Cholesky>
+
+namespace gm {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+constexpr double kArmijo = 1e-4;         // sigma of the Armijo rule
+constexpr int kMaxBacktracks = 60;       // alpha down to ~1e-18
+constexpr double kMinPivotRatio = 1e-12; // L_jj^2/H_jj below this: row j numerically dependent
+constexpr double kSingularPivot = 1e-8;  // |L_jj^2| below this H_jj: singular, not indefinite
+constexpr double kSymmetryTol = 1e-9;    // |C_ij - C_ji| <= this sqrt(C_ii C_jj)
+
+const LocalLaw kNoLaw{};
+
+const LocalLaw& law_of(const LocalLaw* laws, int i) { return laws ? laws[i] : kNoLaw; }
+
+
+}  // namespace
+
+NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
+    : capacity_(std::max(capacity, 0)),
+      options_(options),
+      newton_(capacity_, capacity_),
+      cf_(capacity_),
+      g_(capacity_),
+      f_(capacity_),
+      slope_(capacity_),
+      step_(capacity_),
+      trial_(capacity_),
+      c_trial_(capacity_),
+      rhs_(capacity_),
+      best_(capacity_),
+      delta_(capacity_),
+      free_(capacity_) {}
+
+const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                                Eigen::Ref<Eigen::VectorXd> F, int& index) const {
+  const Eigen::Index n = delta.size();
+  index = -1;
+  if (n > capacity_) return "more unknowns than the solver's capacity";
+  if (C.rows() != n || C.cols() != n) return "compliance matrix C must be n x n";
+  if (F.size() != n) return "force vector must have n entries";
+  for (int i = 0; i < n; ++i) {
+    index = i;
+    if (!std::isfinite(delta[i])) return "approach Delta is not finite";
+    if (!C.col(i).allFinite()) return "compliance matrix C is not finite";
+    if (!(C(i, i) > 0))
+      return "compliance matrix C: diagonal entry <= 0 (C must be positive definite)";
+    if (const char* err = local_law_error(law_of(laws, i))) return err;
+  }
+  for (int i = 0; i < n; ++i) {
+    index = i;
+    for (int j = 0; j < i; ++j) {
+      const double d = C(i, j) - C(j, i);
+      if (d * d > kSymmetryTol * kSymmetryTol * C(i, i) * C(j, j))
+        return "compliance matrix C is not symmetric";
+    }
+  }
+  index = -1;
+  for (int i = 0; i < n; ++i)  // the warm start: anything but a finite F >= 0 counts as 0
+    if (!(F[i] > 0) || !std::isfinite(F[i])) F[i] = 0;
+  return nullptr;
+}
+
+// Fills f_, slope_ (floored), C F, g and phi_ = Phi(F) for F; returns the KKT residual
+// ||min(diag(C) F, g)||_inf.
+double NlcpSolver::evaluate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                            const Eigen::Ref<const Eigen::VectorXd>& F) {
+  const Eigen::Index n = delta.size();
+  cf_.head(n).noalias() = C * F;
+  double residual = 0, energy = 0;
+  for (int i = 0; i < n; ++i) {
+    const LocalLaw& law = law_of(laws, i);
+    const LocalLawValue v = evaluate_local_law(law, F[i]);
+    f_[i] = v.approach;
+    energy += v.energy;
+    slope_[i] = F[i] >= options_.min_line_load * law.width
+                    ? v.slope
+                    : local_law_newton_slope(law, F[i], options_.min_line_load);
+    g_[i] = cf_[i] + f_[i] - delta[i];  // paper eq. 1
+    residual = std::max(residual, std::abs(std::min(C(i, i) * F[i], g_[i])));
+  }
+  phi_ = 0.5 * F.dot(cf_.head(n)) + energy - delta.dot(F);  // PHYSICS.md section 6
+  return residual;
+}
+
+// LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in newton_ (the decomposition
+// object is a view on the preallocated storage, so nothing is allocated), then rhs_[0..m) <-
+// H_JJ^-1 rhs_[0..m). A pivot with L_jj^2 < kMinPivotRatio H_jj counts as singular.
+NlcpSolver::Fault NlcpSolver::factor_and_solve(const ConstMat& C, int m) {
+  for (int b = 0; b < m; ++b) {
+    for (int a = b; a < m; ++a) newton_(a, b) = C(free_[a], free_[b]);
+    newton_(b, b) += slope_[free_[b]];
+  }
+  Eigen::Ref<Eigen::MatrixXd> H = newton_.topLeftCorner(m, m);
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(H);
+  bool ok = llt.info() == Eigen::Success;
+  for (int j = 0; j < m && ok; ++j)
+    ok = H(j, j) * H(j, j) >= kMinPivotRatio * (C(free_[j], free_[j]) + slope_[free_[j]]);
+  if (ok) {
+    llt.solveInPlace(rhs_.head(m));
+    return Fault{};
+  }
+  // Failure (rare): redo the factorization column by column to name the first unknown whose
+  // pivot, the Schur complement of the ones before it, is ~0 (a dependent row) or negative.
+  for (int b = 0; b < m; ++b) {
+    for (int a = b; a < m; ++a) H(a, b) = C(free_[a], free_[b]);
+    H(b, b) += slope_[free_[b]];
+  }
+  for (int k = 0; k < m; ++k) {
+    const double Hkk = H(k, k);
+    const double pivot = Hkk - H.row(k).head(k).squaredNorm();
+    if (pivot < kMinPivotRatio * Hkk) return Fault{k, pivot > -kSingularPivot * Hkk};
+    H(k, k) = std::sqrt(pivot);
+    for (int i = k + 1; i < m; ++i)
+      H(i, k) = (H(i, k) - H.row(i).head(k).dot(H.row(k).head(k))) / H(k, k);
+  }
+  return Fault{m - 1, true};  // LLT failed on rounding at the threshold
+}
+
+const char* NlcpSolver::fault_message(const Fault& fault) {
+  return fault.singular ? "C + diag(f') is numerically singular on the loaded unknowns "
+                          "(e.g. duplicated slices without a local law)"
+                        : "C + diag(f') is not positive definite on the loaded unknowns";
+}
+
+NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                               Eigen::Ref<Eigen::VectorXd> F) {
+  const int n = static_cast<int>(delta.size());
+  NlcpResult res;
+  res.status = NlcpStatus::iteration_cap;
+  res.tolerance = options_.tolerance +
+                  options_.relative_tolerance * (n ? delta.cwiseAbs().maxCoeff() : 0.0);
+  double r = evaluate(C, delta, laws, F);
+  if (phi_ > 0) {  // a stale warm start, worse than F = 0 (Phi(0) = 0 >= min Phi): drop it
+    F.setZero();
+    r = evaluate(C, delta, laws, F);
+  }
+  double best_r = r;
+  best_.head(n) = F;
+  for (;;) {
+    if (r <= res.tolerance) {
+      res.status = NlcpStatus::converged;
+      break;
+    }
+    if (res.iterations >= options_.max_iterations) {
+      res.message = "iteration cap reached";
+      break;
+    }
+    // eps-active set (Bertsekas 1982, eq. 31 with a diagonal scaling D = diag(1/H_ii)):
+    // eps = ||F - [F - D g]^+||_inf; unknowns with F_i <= eps and g_i > 0 take the scaled
+    // gradient step -D_i g_i, the others (free) a Newton step on H_II = C_II + diag(f'_I).
+    double eps = 0;
+    for (int i = 0; i < n; ++i)
+      eps = std::max(eps, F[i] - std::max(0.0, F[i] - g_[i] / (C(i, i) + slope_[i])));
+    int m = 0;
+    for (int i = 0; i < n; ++i) {
+      if (F[i] <= eps && g_[i] > 0)
+        step_[i] = -g_[i] / (C(i, i) + slope_[i]);
+      else
+        free_[m++] = i;
+    }
+    double decrease_free = 0;  // -g_I^T d_I = g_I^T H_II^-1 g_I
+    if (m > 0) {
+      for (int a = 0; a < m; ++a) rhs_[a] = -g_[free_[a]];
+      const Fault fault = factor_and_solve(C, m);
+      if (fault.position >= 0) {
+        res.status = NlcpStatus::bad_input;
+        res.index = free_[fault.position];
+        res.message = fault_message(fault);
+        break;
+      }
+      for (int a = 0; a < m; ++a) {
+        step_[free_[a]] = rhs_[a];
+        decrease_free -= g_[free_[a]] * rhs_[a];
+      }
+    }
+    // Armijo rule on Phi along the projection arc F(alpha) = [F + alpha d]^+ (Bertsekas 1982,
+    // eq. 34). Phi(F + s) - Phi(F) = (C F - Delta)^T s + s^T C s/2 + sum dP_i, each term computed
+    // from s itself so that short steps near the solution are not lost to cancellation.
+    bool accepted = false;
+    double alpha = 1;
+    for (int k = 0; k < kMaxBacktracks && !accepted; ++k, alpha *= 0.5) {
+      double change = 0, size = 0, decrease_active = 0;
+      for (int i = 0; i < n; ++i) {
+        const double s = std::max(0.0, F[i] + alpha * step_[i]) - F[i];
+        trial_[i] = s;
+        const double dP = local_law_energy_change(law_of(laws, i), F[i], s);
+        change += (cf_[i] - delta[i]) * s + dP;
+        size += std::abs((cf_[i] - delta[i]) * s) + std::abs(dP);
+        if (F[i] <= eps && g_[i] > 0) decrease_active -= g_[i] * s;
+      }
+      c_trial_.head(n).noalias() = C * trial_.head(n);
+      const double quadratic = 0.5 * trial_.head(n).dot(c_trial_.head(n));
+      change += quadratic;
+      // Allowance for rounding in the sum only (a few ulps of its terms).
+      const double rounding = 8 * kEps * (size + quadratic);
+      accepted = change <= -kArmijo * (alpha * decrease_free + decrease_active) + rounding;
+    }
+    if (!accepted) {
+      res.message = "line search stalled at the rounding floor";
+      break;
+    }
+    F += trial_.head(n);
+    ++res.iterations;
+    r = evaluate(C, delta, laws, F);
+    if (r < best_r) {
+      best_r = r;
+      best_.head(n) = F;
+    }
+  }
+  if (res.status != NlcpStatus::converged && best_r < r) {
+    F = best_.head(n);
+    r = evaluate(C, delta, laws, F);
+  }
+  res.residual = r;
+  return res;
+}
+
+NlcpResult NlcpSolver::solve(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                             Eigen::Ref<Eigen::VectorXd> force) {
+  NlcpResult res;
+  if (const char* err = prepare(C, delta, laws, force, res.index)) {
+    if (force.size() == delta.size()) force.setZero();
+    res.message = err;
+    res.residual = kInf;
+    return res;
+  }
+  return iterate(C, delta, laws, force);
+}
+
+// Slope of w^T F(lambda): w_J^T H_JJ^-1 w_J over J = loaded unknowns and the unknowns with
+// w_i > 0 at their threshold (g_i <= tol; raising lambda closes them), so that the right
+// derivative is found at a kink. Leaves J in free_[0..m) and H_JJ^-1 w_J in rhs_[0..m).
+// Returns 0 if no weighted unknown is in J; fault as from factor_and_solve.
+double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
+                                     const Eigen::Ref<const Eigen::VectorXd>& F, double tol,
+                                     int& m, Fault& fault) {
+  const int n = static_cast<int>(weights.size());
+  bool weighted = false;
+  m = 0;
+  for (int i = 0; i < n; ++i) {
+    if (F[i] > 0 || (weights[i] > 0 && g_[i] <= tol)) {
+      rhs_[m] = weights[i];
+      weighted = weighted || weights[i] != 0;
+      free_[m++] = i;
+    }
+  }
+  fault = Fault{};
+  if (!weighted) return 0;
+  fault = factor_and_solve(C, m);
+  double slope = 0;
+  for (int a = 0; a < m; ++a) slope += weights[free_[a]] * rhs_[a];
+  return slope;
+}
+
+NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, const LocalLaw* laws,
+                                   const ConstVec& weights, double total_force,
+                                   Eigen::Ref<Eigen::VectorXd> force, double& lambda) {
+  const int n = static_cast<int>(delta0.size());
+  NlcpResult res;
+  const char* err = prepare(C, delta0, laws, force, res.index);
+  if (!err && weights.size() != n) err = "weights must have n entries";
+  if (!err) {
+    bool weighted = false;
+    for (int i = 0; i < n && !err; ++i) {
+      if (!std::isfinite(weights[i])) {
+        err = "weights must be finite";
+        res.index = i;
+      }
+      weighted = weighted || weights[i] > 0;
+    }
+    if (!err && !weighted) err = "weights: at least one must be > 0";
+  }
+  if (!err && !(total_force > 0 && std::isfinite(total_force)))
+    err = "total force must be finite and > 0";
+  if (err) {
+    if (force.size() == n) force.setZero();
+    res.message = err;
+    res.residual = kInf;
+    return res;
+  }
+  if (!std::isfinite(lambda)) lambda = 0;
+
+  // Safeguarded Newton on s(lambda) = w^T F(lambda) = total_force: s is continuous and
+  // non-decreasing for weights of any sign (it is total_force minus the derivative of the
+  // concave dual function), strictly increasing while a weighted unknown carries load, so the
+  // root is unique. Bisection replaces a Newton
+  // step that leaves the bracket or does not halve the previous one (rtsafe, Numerical Recipes
+  // section 9.4).
+  double lo = -kInf, hi = kInf, last_step = kInf;
+  for (;;) {
+    delta_.head(n) = delta0 + lambda * weights;
+    const NlcpResult inner = iterate(C, delta_.head(n), laws, force);
+    res.iterations += inner.iterations;
+    res.tolerance = inner.tolerance;
+    res.status = inner.status;
+    res.message = inner.message;
+    res.index = inner.index;
+    if (inner.status == NlcpStatus::bad_input) return res;
+    const double mismatch = weights.dot(force) - total_force;
+    int m = 0;
+    Fault fault;
+    const double slope = total_force_slope(C, weights, force, inner.tolerance, m, fault);
+    if (fault.position >= 0) {
+      res.status = NlcpStatus::bad_input;
+      res.index = free_[fault.position];
+      res.message = fault_message(fault);
+      return res;
+    }
+    const double correction = slope > 0 ? std::abs(mismatch) / slope : kInf;  // lambda error, m
+    const double lambda_error = std::min(correction, hi - lo);
+    res.residual = std::max(inner.residual, lambda_error);
+    if (inner.status == NlcpStatus::converged && lambda_error <= inner.tolerance) return res;
+    if (res.approach_updates >= options_.max_approach_updates) {
+      res.status = NlcpStatus::iteration_cap;
+      res.message = "cap on updates of the rigid approach reached";
+      return res;
+    }
+    (mismatch < 0 ? lo : hi) = lambda;
+    double next;
+    if (slope > 0) {
+      next = lambda - mismatch / slope;
+    } else {  // no weighted unknown loaded: move to the first threshold, lambda + min g_i/w_i
+      double jump = kInf;
+      for (int i = 0; i < n; ++i)
+        if (weights[i] > 0) jump = std::min(jump, g_[i] / weights[i]);
+      next = lambda + jump;
+    }
+    const bool bracketed = std::isfinite(lo) && std::isfinite(hi);
+    const bool slow = 2 * std::abs(next - lambda) > std::abs(last_step);
+    if (bracketed && (!(next > lo && next < hi) || slow)) next = 0.5 * (lo + hi);
+    last_step = next - lambda;
+    if (slope > 0)  // first-order predictor F_J += H_JJ^-1 w_J dlambda as the next warm start
+      for (int a = 0; a < m; ++a)
+        force[free_[a]] = std::max(0.0, force[free_[a]] + rhs_[a] * last_step);
+    lambda = next;
+    ++res.approach_updates;
+  }
+}
+
+}  // namespace gm

@@ -1,0 +1,128 @@
+// Normal slice forces: the non-linear complementarity problem of paper eq. 1-4
+// (PHYSICS.md section 6)
+//
+//   g(F) = C F + f(F) - Delta >= 0,   F >= 0,   F^T g = 0,
+//
+// C symmetric positive definite (m/N), f separable and increasing with f_i(0) = 0 (hertz.hpp, or
+// f_i = 0), Delta the approaches (m). It is the optimality condition of the strictly convex
+//
+//   min Phi(F) = 1/2 F^T C F + sum_i P_i(F_i) - Delta^T F   subject to F >= 0,
+//
+// solved by a projected Newton method (Bertsekas 1982, "Projected Newton methods for
+// optimization problems with simple constraints", SIAM J. Control Optim. 20(2)): Newton on the
+// free unknowns, scaled gradient on the eps-active ones, Armijo search on Phi along the
+// projection arc. Globally convergent from any start, quadratic once the active set is found;
+// warm-started from the caller's previous forces.
+//
+// Stopping: r = ||min(diag(C) F, g)||_inf <= tol, both terms in metres (the force is scaled by
+// the slice's own compliance), tol = tolerance + relative_tolerance * max_i |Delta_i|. A gap
+// error r is a force error of about r times the mesh stiffness, so the defaults (1e-15 m +
+// 1e-10 |Delta|) give forces to ~1e-10 relative, well above the rounding floor of g
+// (~n eps |Delta|).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "hertz.hpp"
+
+namespace gm {
+
+enum class NlcpStatus {
+  converged,      // residual <= tolerance
+  iteration_cap,  // not converged (cap, or the line search hit the rounding floor): best iterate
+  bad_input,      // message says why; force is finite (zero if nothing could be done)
+};
+
+struct NlcpOptions {
+  double tolerance = 1e-15;           // m, absolute part of tol
+  double relative_tolerance = 1e-10;  // -, part of tol proportional to max |Delta_i|
+  int max_iterations = 50;            // Newton iterations per solve (quasi-static: per lambda)
+  int max_approach_updates = 60;      // quasi-static: updates of lambda
+  double min_line_load = 1.0;         // N/m: the Newton matrix takes f' at no less than this w
+};
+
+struct NlcpResult {
+  NlcpStatus status = NlcpStatus::bad_input;
+  int iterations = 0;         // Newton iterations (quasi-static: summed over all lambda updates)
+  int approach_updates = 0;   // quasi-static only: Newton/bisection updates of lambda
+  double residual = 0;        // m: ||min(diag(C) F, g)||_inf; quasi-static: max with |lambda error|
+  double tolerance = 0;       // m, tol used
+  int index = -1;             // bad_input: the unknown at fault, if one is
+  const char* message = "";   // static text; empty when converged
+};
+
+// Owns a workspace sized once for up to `capacity` unknowns; solve() and solve_total() then
+// allocate nothing (pass C, Delta and F as contiguous column-major storage, e.g. MatrixXd,
+// VectorXd or their topLeftCorner/head, so that the Ref arguments bind without a copy).
+class NlcpSolver {
+ public:
+  explicit NlcpSolver(int capacity, const NlcpOptions& options = NlcpOptions());
+
+  int capacity() const { return capacity_; }
+  const NlcpOptions& options() const { return options_; }
+  void set_options(const NlcpOptions& options) { options_ = options; }
+
+  // Solve for n = delta.size() unknowns. laws: n entries (a default LocalLaw is f_i = 0), or
+  // nullptr for f = 0 throughout. force: in, the warm start (previous forces, which also carry
+  // the active set; zeros for a cold start; negative or non-finite entries count as 0, and a
+  // warm start with Phi > 0 = Phi(0) is replaced by 0); out, the solution or best iterate.
+  NlcpResult solve(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
+                   const Eigen::Ref<const Eigen::VectorXd>& delta, const LocalLaw* laws,
+                   Eigen::Ref<Eigen::VectorXd> force);
+
+  // Quasi-static loaded TE (PHYSICS.md section 6): the same problem with Delta = Delta0 +
+  // lambda w and the constraint w^T F = total_force (> 0, N); weights finite, at least one > 0.
+  // lambda (m) is the multiplier of the constraint: the rigid approach along w added to the pose
+  // at which Delta0 was detected. Spur: w_i = 1 on flank A slices, so lambda is the loaded TE
+  // increment; a flank B slice in contact (wedging) has w_i = -1 (TE opens it and its force
+  // takes torque back); helical: w_i = +-cos(beta_b) for a transverse TE. force and lambda: in,
+  // warm start; out, solution.
+  // Method: the dual function of lambda is concave with derivative total_force - w^T F(lambda),
+  // so lambda is found by a safeguarded Newton iteration (bisection fallback) on
+  // w^T F(lambda) = total_force, whose slope w_J^T H_JJ^-1 w_J is the lambda row of the KKT
+  // system of the active set (J: loaded unknowns, H = C + diag f'); each F(lambda) is a warm
+  // projected-Newton solve as above, started from the first-order predictor H_JJ^-1 w_J dlambda.
+  // Stops when the plain residual and the lambda correction are both below tol.
+  NlcpResult solve_total(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
+                         const Eigen::Ref<const Eigen::VectorXd>& delta0, const LocalLaw* laws,
+                         const Eigen::Ref<const Eigen::VectorXd>& weights, double total_force,
+                         Eigen::Ref<Eigen::VectorXd> force, double& lambda);
+
+ private:
+  using ConstMat = Eigen::Ref<const Eigen::MatrixXd>;
+  using ConstVec = Eigen::Ref<const Eigen::VectorXd>;
+
+  const char* prepare(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                      Eigen::Ref<Eigen::VectorXd> F, int& index) const;
+  double evaluate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                  const Eigen::Ref<const Eigen::VectorXd>& F);
+  struct Fault {
+    int position = -1;      // in the free set; -1: factorized
+    bool singular = false;  // pivot ~0 (dependent rows) rather than negative
+  };
+  Fault factor_and_solve(const ConstMat& C, int m);
+  static const char* fault_message(const Fault& fault);
+  NlcpResult iterate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                     Eigen::Ref<Eigen::VectorXd> F);
+  double total_force_slope(const ConstMat& C, const ConstVec& weights,
+                           const Eigen::Ref<const Eigen::VectorXd>& F, double tol, int& m,
+                           Fault& fault);
+
+  int capacity_;
+  NlcpOptions options_;
+  Eigen::MatrixXd newton_;    // H_II = C_II + diag(f'_I), free unknowns packed; its LLT in place
+  Eigen::VectorXd cf_;        // C F, m
+  Eigen::VectorXd g_;         // g(F), m
+  Eigen::VectorXd f_;         // f(F), m
+  Eigen::VectorXd slope_;     // f'(F) floored for the Newton matrix, m/N
+  Eigen::VectorXd step_;      // search direction d, N
+  Eigen::VectorXd trial_;     // projected step s = max(0, F + alpha d) - F, N
+  Eigen::VectorXd c_trial_;   // C s, m
+  Eigen::VectorXd rhs_;       // packed right-hand side / solution on the free set
+  Eigen::VectorXd best_;      // best iterate so far, N
+  Eigen::VectorXd delta_;     // quasi-static: Delta0 + lambda w, m
+  Eigen::VectorXi free_;      // indices of the free unknowns
+  double phi_ = 0;            // Phi at the last evaluated F, J
+};
+
+}  // namespace gm

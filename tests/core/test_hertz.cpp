@@ -1,0 +1,224 @@
+// Tests of core/src/hertz.cpp: the local law of PHYSICS.md section 4 (its worked check, the
+// Weber-Banaschek limit), and f', P and the solver helpers against independent numerics.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <string>
+
+#include "hertz.hpp"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kMm = 1e-3;
+
+gm::HertzBody steel(double depth) { return {206e9, 0.3, depth}; }
+
+// A slice at realistic spur gear values: 2 mm wide, R' = 10 mm, steel, depth 3 mm.
+gm::LocalLaw gear_slice() {
+  gm::LocalLaw law;
+  law.width = 2 * kMm;
+  law.reduced_radius = 10 * kMm;
+  law.body[0] = steel(3 * kMm);
+  law.body[1] = steel(3 * kMm);
+  return law;
+}
+
+double f(const gm::LocalLaw& law, double F) { return gm::evaluate_local_law(law, F).approach; }
+
+// Adaptive Simpson quadrature (relative tolerance tol) of fun over [a, b].
+double simpson(const std::function<double(double)>& fun, double a, double b, double fa, double fm,
+               double fb, double whole, double tol, int depth) {
+  const double m = 0.5 * (a + b), lm = 0.5 * (a + m), rm = 0.5 * (m + b);
+  const double flm = fun(lm), frm = fun(rm);
+  const double left = (m - a) / 6 * (fa + 4 * flm + fm), right = (b - m) / 6 * (fm + 4 * frm + fb);
+  if (depth <= 0 || std::abs(left + right - whole) <= 15 * tol)
+    return left + right + (left + right - whole) / 15;
+  return simpson(fun, a, m, fa, flm, fm, left, tol / 2, depth - 1) +
+         simpson(fun, m, b, fm, frm, fb, right, tol / 2, depth - 1);
+}
+
+double integrate(const std::function<double(double)>& fun, double a, double b, double tol) {
+  const double fa = fun(a), fm = fun(0.5 * (a + b)), fb = fun(b);
+  return simpson(fun, a, b, fa, fm, fb, (b - a) / 6 * (fa + 4 * fm + fb), tol, 50);
+}
+
+}  // namespace
+
+TEST(Hertz, PhysicsWorkedCheck) {
+  // PHYSICS.md section 4: w = 100 N/mm, steel, b_H = 0.05 mm, h = 1 mm.
+  const double w = 100.0 / kMm, b = 0.05 * kMm;
+  EXPECT_NEAR(gm::hertz_body_approach(w, b, steel(1 * kMm)) / kMm, 9.7736e-4, 0.00005e-4);
+  EXPECT_NEAR(gm::weber_banaschek_approach(w, b, steel(1 * kMm)) / kMm, 9.7714e-4, 0.00005e-4);
+
+  // The same through a LocalLaw whose R' gives b_H = 0.05 mm at that line load.
+  gm::LocalLaw law;
+  law.width = 2 * kMm;
+  law.body[0] = law.body[1] = steel(1 * kMm);
+  const double E_star = gm::reduced_modulus(law.body[0], law.body[1]);
+  EXPECT_NEAR(E_star, 206e9 / (2 * (1 - 0.09)), 1e-3);
+  law.reduced_radius = b * b * kPi * E_star / (4 * w);  // from b_H^2 = 4 w R'/(pi E*)
+  EXPECT_NEAR(gm::hertz_half_width(w, law.reduced_radius, E_star), b, 1e-18);
+  EXPECT_NEAR(f(law, w * law.width) / kMm, 2 * 9.7736e-4, 0.0001e-4);
+}
+
+TEST(Hertz, LawMatchesLiteralFormula) {
+  // evaluate_local_law uses the cancellation-free r-form; compare with PHYSICS.md 4 as written,
+  // with different bodies (materials and depths) on both sides.
+  gm::LocalLaw law = gear_slice();
+  law.body[1] = {110e9, 0.34, 2 * kMm};  // a bronze-like mate
+  const double E_star = gm::reduced_modulus(law.body[0], law.body[1]);
+  for (double w = 1e-3; w <= 1e8; w *= 3.7) {
+    const double b = gm::hertz_half_width(w, law.reduced_radius, E_star);
+    const double expected = gm::hertz_body_approach(w, b, law.body[0]) +
+                            gm::hertz_body_approach(w, b, law.body[1]);
+    EXPECT_NEAR(f(law, w * law.width), expected, 1e-13 * expected) << "w = " << w;
+  }
+}
+
+TEST(Hertz, WeberBanaschekLimit) {
+  // h >> b_H: asinh(h/b) = ln(2h/b) + O((b/h)^2) and 1/(r+1) = 1/2 + O((b/h)^2).
+  const gm::HertzBody body = steel(3 * kMm);
+  const double w = 1e5;
+  for (double q : {1e-2, 1e-3, 1e-4, 1e-5}) {
+    const double b = q * body.depth;
+    const double exact = gm::hertz_body_approach(w, b, body);
+    const double log_form = gm::weber_banaschek_approach(w, b, body);
+    const double scale = 2 * w * (1 - 0.09) / (kPi * body.youngs_modulus);
+    EXPECT_GT(exact, log_form);
+    EXPECT_LT(exact - log_form, scale * q * q) << "b/h = " << q;  // (1/4 + k/8) q^2 < q^2
+  }
+  // PHYSICS.md 4: the log form stops being monotone near b_H/h ~ 1 (its d/dw vanishes at
+  // b/h = 2 exp(-(1 + k)/2) = 0.98 for nu = 0.3); the exact form keeps increasing.
+  gm::LocalLaw law = gear_slice();
+  const double E_star = gm::reduced_modulus(law.body[0], law.body[1]);
+  auto wb = [&](double w) {
+    return 2 * gm::weber_banaschek_approach(w, gm::hertz_half_width(w, law.reduced_radius, E_star),
+                                            law.body[0]);
+  };
+  // Line load with b_H = 1.5 h.
+  const double w15 = std::pow(1.5 * law.body[0].depth, 2) * kPi * E_star / (4 * law.reduced_radius);
+  EXPECT_LT(wb(1.01 * w15), wb(w15));
+  EXPECT_GT(f(law, 1.01 * w15 * law.width), f(law, w15 * law.width));
+}
+
+TEST(Hertz, SlopeMatchesFiniteDifferences) {
+  const gm::LocalLaw law = gear_slice();
+  for (double w = 1e-3; w <= 1e7; w *= 2.9) {
+    const double F = w * law.width, dF = 1e-5 * F;
+    const double fd = (f(law, F + dF) - f(law, F - dF)) / (2 * dF);
+    EXPECT_NEAR(gm::evaluate_local_law(law, F).slope, fd, 1e-8 * fd) << "w = " << w;
+  }
+}
+
+TEST(Hertz, EnergyMatchesQuadrature) {
+  const gm::LocalLaw law = gear_slice();
+  for (double w = 1e-3; w <= 1e7; w *= 4.3) {
+    const double F = w * law.width;
+    // int_0^F f = int_0^1 f(F t^2) 2 F t dt: smooth at 0 where f ~ F ln F.
+    const double quad = integrate([&](double t) { return f(law, F * t * t) * 2 * F * t; }, 0, 1,
+                                  1e-15 * F * f(law, F));
+    EXPECT_NEAR(gm::evaluate_local_law(law, F).energy, quad, 1e-11 * quad) << "w = " << w;
+  }
+}
+
+TEST(Hertz, MonotoneAndConcaveOverLineLoads) {
+  // Line loads 1e-3..1e7 N/m, several materials, depths and radii: f > 0 increasing, f' > 0
+  // decreasing (f concave), P > 0 increasing.
+  for (double nu : {0.0, 0.3, 0.49})
+    for (double h : {0.5 * kMm, 3 * kMm, 20 * kMm})
+      for (double R : {1 * kMm, 30 * kMm}) {
+        gm::LocalLaw law = gear_slice();
+        law.reduced_radius = R;
+        law.body[0] = {206e9, nu, h};
+        law.body[1] = {70e9, 0.33, 2 * h};
+        gm::LocalLawValue prev = gm::evaluate_local_law(law, 1e-3 * law.width);
+        EXPECT_GT(prev.approach, 0);
+        for (double w = 1e-3 * 1.02; w <= 1e7; w *= 1.02) {
+          const gm::LocalLawValue v = gm::evaluate_local_law(law, w * law.width);
+          const std::string where = "nu " + std::to_string(nu) + " h " + std::to_string(h) +
+                                    " R " + std::to_string(R) + " w " + std::to_string(w);
+          ASSERT_GT(v.approach, prev.approach) << where;
+          ASSERT_GT(v.slope, 0) << where;
+          ASSERT_LT(v.slope, prev.slope) << where;
+          ASSERT_GT(v.energy, prev.energy);
+          prev = v;
+        }
+      }
+}
+
+TEST(Hertz, ZeroTinyAndHugeForces) {
+  const gm::LocalLaw law = gear_slice();
+  const gm::LocalLawValue zero = gm::evaluate_local_law(law, 0.0);
+  EXPECT_EQ(zero.approach, 0.0);
+  EXPECT_EQ(zero.energy, 0.0);
+  EXPECT_EQ(zero.slope, std::numeric_limits<double>::infinity());
+  for (double F : {1e-300, 1e-200, 1e-30, 1e9, 1e12}) {
+    const gm::LocalLawValue v = gm::evaluate_local_law(law, F);
+    EXPECT_TRUE(std::isfinite(v.approach) && std::isfinite(v.slope) && std::isfinite(v.energy))
+        << F;
+    EXPECT_GE(v.approach, 0) << F;
+    EXPECT_GT(v.slope, 0) << F;
+  }
+  // f' ~ -(a/L) ln(F)/2 per body as F -> 0: the slope keeps growing, without bound.
+  EXPECT_GT(gm::evaluate_local_law(law, 1e-200).slope, gm::evaluate_local_law(law, 1e-30).slope);
+  // The Newton floor: f' at the floor line load below it, the true slope above.
+  const double floor_F = 1.0 * law.width;
+  EXPECT_EQ(gm::local_law_newton_slope(law, 0.0, 1.0), gm::evaluate_local_law(law, floor_F).slope);
+  EXPECT_EQ(gm::local_law_newton_slope(law, 1e3, 1.0), gm::evaluate_local_law(law, 1e3).slope);
+}
+
+TEST(Hertz, NoLocalLawIsZero) {
+  const gm::LocalLaw none;
+  EXPECT_FALSE(gm::has_local_law(none));
+  EXPECT_EQ(gm::local_law_error(none), nullptr);
+  for (double F : {0.0, 1.0, 1e6}) {
+    const gm::LocalLawValue v = gm::evaluate_local_law(none, F);
+    EXPECT_EQ(v.approach, 0.0);
+    EXPECT_EQ(v.slope, 0.0);
+    EXPECT_EQ(v.energy, 0.0);
+    EXPECT_EQ(gm::local_law_newton_slope(none, F, 1.0), 0.0);
+    EXPECT_EQ(gm::local_law_energy_change(none, F, 1.0), 0.0);
+  }
+}
+
+TEST(Hertz, EnergyChange) {
+  // Against the closed-form difference where that has no cancellation (|s| >= F/1000).
+  const gm::LocalLaw law = gear_slice();
+  const double F = 200.0;
+  const double P = gm::evaluate_local_law(law, F).energy;
+  for (double s : {-0.25 * F, -0.1 * F, -1e-3 * F, 1e-3 * F, 0.1 * F, 0.25 * F, 2.0 * F, -F}) {
+    const double exact = gm::evaluate_local_law(law, F + s).energy - P;
+    EXPECT_NEAR(gm::local_law_energy_change(law, F, s), exact, 1e-8 * std::abs(exact)) << s;
+  }
+  // A tiny step: f(F) s to first order, with the second-order term f'(F) s^2/2.
+  const double s = 1e-9 * F;
+  const gm::LocalLawValue v = gm::evaluate_local_law(law, F);
+  EXPECT_NEAR(gm::local_law_energy_change(law, F, s), v.approach * s + 0.5 * v.slope * s * s,
+              1e-14 * v.approach * s);
+  EXPECT_EQ(gm::local_law_energy_change(law, 0.0, 5.0), gm::evaluate_local_law(law, 5.0).energy);
+}
+
+TEST(Hertz, InputChecksAndReducedRadius) {
+  EXPECT_NEAR(gm::reduced_radius(10 * kMm, 40 * kMm), 8 * kMm, 1e-15);
+  EXPECT_NEAR(gm::reduced_radius(10 * kMm, -40 * kMm), 40.0 / 3.0 * kMm, 1e-15);  // internal flank
+  EXPECT_TRUE(std::isnan(gm::reduced_radius(10 * kMm, -5 * kMm)));   // concave tighter than convex
+  EXPECT_TRUE(std::isnan(gm::reduced_radius(10 * kMm, -10 * kMm)));  // conforming: R' infinite
+  EXPECT_EQ(gm::local_law_error(gear_slice()), nullptr);
+  auto broken = [](auto edit) {
+    gm::LocalLaw law = gear_slice();
+    edit(law);
+    return gm::local_law_error(law);
+  };
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.width = -1; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.width = NAN; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.reduced_radius = 0; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.reduced_radius = NAN; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[1].youngs_modulus = 0; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[0].poisson_ratio = 0.5; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[0].poisson_ratio = -0.1; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[1].depth = 0; }), nullptr);
+  EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[1].depth = INFINITY; }), nullptr);
+}
