@@ -41,16 +41,20 @@ struct Axis {
   Eigen::Vector2d slope;
 };
 
-// The transverse frame of one slice plane.
+// The transverse frame of one slice plane (trivially constructible: an array of them is
+// scratch on the stack, filled only for the slices of a tilted pair).
 struct Section {
-  double z = 0;                 // plane, m
-  Eigen::Vector2d c[2];         // gear centres in the plane, m
-  double gamma = 0;             // direction of the centre line, rad
-  double alpha_w = 0;           // operating pressure angle of this plane, rad
-  double T1T2 = 0;              // m
-  double t_lo = 0, t_hi = 0;    // active contact positions from T1, m
-  bool tip1_ends = false;       // t_hi is gear 1's tip (beyond it: gear 1's tip edge)
-  bool tip2_starts = false;     // t_lo is gear 2's tip (before it: gear 2's tip edge)
+  double z;                 // plane, m
+  Eigen::Vector2d c[2];     // gear centres in the plane, m
+  double gamma;             // direction of the centre line, rad
+  double alpha_w;           // operating pressure angle of this plane, rad
+  double T1T2;              // m
+  double t_lo, t_hi;        // active contact positions from T1, m
+  bool tip1_ends;           // t_hi is gear 1's tip (beyond it: gear 1's tip edge)
+  bool tip2_starts;         // t_lo is gear 2's tip (before it: gear 2's tip edge)
+  // per flank [0] A, [1] B: line of action direction (force on gear 2), tangency point T1,
+  // and the unit vector from T1 towards gear 1's centre (towards gear 1's root along the profile)
+  Eigen::Vector2d n_line[2], T1[2], to_root1[2];
 };
 
 bool make_section(const MeshLayout& L, const Axis ax[2], double z, Section& S, std::string& msg) {
@@ -81,6 +85,16 @@ bool make_section(const MeshLayout& L, const Axis ax[2], double z, Section& S, s
   S.t_lo = std::max(lo1, lo2);
   S.tip1_ends = hi1 <= hi2;
   S.tip2_starts = lo2 >= lo1;
+  const double cg = std::cos(S.gamma), sg = std::sin(S.gamma);
+  const double sa = std::sin(S.alpha_w), ca = std::cos(S.alpha_w);
+  for (int f = 0; f < 2; ++f) {
+    const int sigma = f == 0 ? 1 : -1;
+    const double nx = L.sign * sa, ny = L.sign * sigma * ca;
+    S.n_line[f] = Eigen::Vector2d(cg * nx - sg * ny, sg * nx + cg * ny);
+    const Eigen::Vector2d e = unit(S.gamma + L.zeta[0] - sigma * S.alpha_w);
+    S.T1[f] = S.c[0] + L.base_radius[0] * e;
+    S.to_root1[f] = -e;
+  }
   return true;
 }
 
@@ -127,6 +141,7 @@ MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
     L.teeth[i] = p.gear[i].teeth;
     L.base_radius[i] = 0.5 * gi.d_b;
     L.tip_radius[i] = 0.5 * gi.d_a;
+    L.inv_tip[i] = involute(std::acos(gi.d_b / gi.d_a));
     L.eta[i] = gi.eta_b;
     L.rho_tip[i] = gi.rho_a;
     L.rho_form[i] = gi.rho_Ff;
@@ -200,8 +215,7 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
   const double tau1 = 2 * kPi / L.teeth[0], tau2 = 2 * kPi / L.teeth[1];
   const double tb = L.tan_beta_b;
   const double margin = pb + 0.5 * tb * (zhi - zlo) + tilt_margin;
-  const double alpha_a1 = std::acos(rb1 / L.tip_radius[0]);
-  const double alpha_a2 = std::acos(rb2 / L.tip_radius[1]);
+  const bool uniform = aligned && tb == 0;  // every slice has the same section and roll distances
   const Eigen::Vector3d omega1(kin.w[0][0], kin.w[0][1], kin.omega[0]);
   const Eigen::Vector3d omega2(kin.w[1][0], kin.w[1][1], kin.omega[1]);
   const Eigen::Vector3d vc1(kin.v[0][0], kin.v[0][1], kin.v[0][2]);
@@ -227,77 +241,89 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
       const double rho1_mid = base1 + m1 * pb;
       const double m2 = std::nearbyint((mid.T1T2 - s * rho1_mid - base2) / pb);
       const double rho2_mid = base2 + m2 * pb;
-      const int tooth1 = tooth_index(n1, m1, sigma, L.teeth[0]);
-      const int tooth2 = tooth_index(n2, m2, sigma, L.teeth[1]);
+      int tooth1 = -1, tooth2 = -1;  // found when the pair has a slice
       bool emitted = false;
+      // Aligned spur slices differ only in z: their contact geometry is computed once per pair.
+      Eigen::Vector2d n_t, point;
+      double roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0;
+      int kind = kFlankContact;
+      bool contact = false;
       for (int k = 0; k < L.slices; ++k) {
         const Section& S = aligned ? mid : sections[k];
         const double z = zlo + (k + 0.5) * width;
-        const double dz = z - z_mid;
-        // Roll distances in this slice's section: helical turn and the section's own frame.
-        double rho1 = rho1_mid + sigma * L.hand[0] * tb * dz;
-        double rho2 = rho2_mid + sigma * L.hand[1] * tb * dz;
-        const double cg = std::cos(S.gamma), sg = std::sin(S.gamma);
-        const Eigen::Vector2d n_line(cg * s * std::sin(S.alpha_w) - sg * s * sigma * std::cos(S.alpha_w),
-                                     sg * s * std::sin(S.alpha_w) + cg * s * sigma * std::cos(S.alpha_w));
-        const Eigen::Vector2d T1 = S.c[0] + rb1 * unit(S.gamma + L.zeta[0] - sigma * S.alpha_w);
-        double dz1 = 0, dz2 = 0;  // tilt: axial position of the contact in each gear's own frame
-        if (!aligned) {
-          rho1 += rb1 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
-          rho2 += rb2 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
-          if (tb != 0) {
-            // A tilted helical gear meets the slice plane at body height z + r x (X - c): the
-            // contact point X sits a pitch radius off the axis, so this is first order.
-            const double t0 = rho1 - 0.5 * (rho1 + s * rho2 - s * S.T1T2);
-            const Eigen::Vector2d X = T1 + t0 * n_line;
-            dz1 = ax[0].slope.dot(X - ax[0].c.head<2>());
-            dz2 = ax[1].slope.dot(X - ax[1].c.head<2>());
-            rho1 += sigma * L.hand[0] * tb * dz1;
-            rho2 += sigma * L.hand[1] * tb * dz2;
+        if (!uniform || k == 0) {
+          const double dz = z - z_mid;
+          // Roll distances in this slice's section: helical turn and the section's own frame.
+          double rho1 = rho1_mid + sigma * L.hand[0] * tb * dz;
+          double rho2 = rho2_mid + sigma * L.hand[1] * tb * dz;
+          const Eigen::Vector2d& n_line = S.n_line[fl];
+          const Eigen::Vector2d& T1 = S.T1[fl];
+          if (!aligned) {
+            rho1 += rb1 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
+            rho2 += rb2 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
+            if (tb != 0) {
+              // A tilted helical gear meets the slice plane at body height z + r x (X - c):
+              // the contact point X sits a pitch radius off the axis, so this is first order.
+              const double t0 = rho1 - 0.5 * (rho1 + s * rho2 - s * S.T1T2);
+              const Eigen::Vector2d X = T1 + t0 * n_line;
+              dz1 = ax[0].slope.dot(X - ax[0].c.head<2>());
+              dz2 = ax[1].slope.dot(X - ax[1].c.head<2>());
+              rho1 += sigma * L.hand[0] * tb * dz1;
+              rho2 += sigma * L.hand[1] * tb * dz2;
+            }
+          }
+          rigid = rho1 + s * rho2 - s * S.T1T2;
+          const double t = rho1 - 0.5 * rigid;  // contact midway between the two flanks
+          contact = true;
+          kind = kFlankContact;
+          if (t >= S.t_lo && t <= S.t_hi) {
+            roll1 = t;
+            roll2 = S.T1T2 - s * t;
+            n_t = n_line;
+            point = T1 + t * n_line;
+          } else if (rigid > 0 && ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts))) {
+            // Tip (corner) contact outside the path: the tip edge of one gear against the
+            // mate's flank, with the mate's involute normal (paper 2.1; PHYSICS 3). A tip edge
+            // penetrates at most as far as the flanks overlap on the line of action (conjugate
+            // action makes its penetration fall off the line): no overlap, no candidate.
+            const int g = t > S.t_hi ? 0 : 1, h = 1 - g;
+            const double theta_rel1 = sigma * (rho1 / rb1 - L.eta[0] - S.alpha_w);
+            const double theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
+            const double theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1,
+                                       S.gamma + L.zeta[1] + theta_rel2};
+            const Eigen::Vector2d corner =
+                S.c[g] + L.tip_radius[g] * unit(theta_c[g] + sigma * (L.eta[g] - L.inv_tip[g]));
+            double pen, roll_h;
+            Eigen::Vector2d tangency;
+            contact = involute_penetration(L, h, sigma, theta_c[h], S.c[h], corner, pen,
+                                           tangency, roll_h) &&
+                      pen > 0;  // an open tip edge carries nothing: not a candidate
+            if (contact) {
+              rigid = pen;
+              kind = g == 0 ? kTipOfGear1 : kTipOfGear2;
+              roll1 = g == 0 ? L.rho_tip[0] : roll_h;
+              roll2 = g == 0 ? roll_h : L.rho_tip[1];
+              // outward normal of the mate's material; the force on gear 2 follows from it
+              const bool ring_h = h == 1 && s < 0;
+              const Eigen::Vector2d out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
+              n_t = g == 0 ? Eigen::Vector2d(-out_h) : out_h;
+              point = corner;
+            }
+          } else {
+            contact = false;
           }
         }
-        double approach_t = rho1 + s * rho2 - s * S.T1T2;
-        const double t = rho1 - 0.5 * approach_t;  // contact midway between the two flanks
+        if (!contact) {
+          if (uniform) break;
+          continue;
+        }
+        double approach_t = rigid;
         // face coordinates from each gear's mid-face
         const double y1 = z - ax[0].c.z() + dz1 - L.axial_offset[0];
         const double y2 = z - ax[1].c.z() + dz2 - L.axial_offset[1];
-        Eigen::Vector2d n_t, point;
-        double roll1, roll2;
-        int kind = kFlankContact;
-        if (t >= S.t_lo && t <= S.t_hi) {
-          roll1 = t;
-          roll2 = S.T1T2 - s * t;
-          n_t = n_line;
-          point = T1 + t * n_line;
-        } else if ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts)) {
-          // Tip (corner) contact outside the path: the tip edge of one gear against the mate's
-          // flank, with the mate's involute normal (paper 2.1; PHYSICS 3).
-          const int g = t > S.t_hi ? 0 : 1, h = 1 - g;
-          const double theta_rel1 = sigma * (rho1 / rb1 - L.eta[0] - S.alpha_w);
-          const double theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
-          const double theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1,
-                                     S.gamma + L.zeta[1] + theta_rel2};
-          const double alpha_a = g == 0 ? alpha_a1 : alpha_a2;
-          const Eigen::Vector2d corner =
-              S.c[g] + L.tip_radius[g] *
-                           unit(theta_c[g] + sigma * (L.eta[g] - (std::tan(alpha_a) - alpha_a)));
-          double pen, roll_h;
-          Eigen::Vector2d tangency;
-          if (!involute_penetration(L, h, sigma, theta_c[h], S.c[h], corner, pen, tangency,
-                                    roll_h))
-            continue;
-          if (pen <= 0) continue;  // an open tip edge carries nothing: not a candidate
-          approach_t = pen;
-          kind = g == 0 ? kTipOfGear1 : kTipOfGear2;
-          roll1 = g == 0 ? L.rho_tip[0] : roll_h;
-          roll2 = g == 0 ? roll_h : L.rho_tip[1];
-          // outward normal of the mate's material; the force on gear 2 follows from it
-          const bool ring_h = h == 1 && s < 0;
-          const Eigen::Vector2d out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
-          n_t = g == 0 ? Eigen::Vector2d(-out_h) : out_h;
-          point = corner;
-        } else {
-          continue;
+        if (!emitted) {
+          tooth1 = tooth_index(n1, m1, sigma, L.teeth[0]);
+          tooth2 = tooth_index(n2, m2, sigma, L.teeth[1]);
         }
         // micro-geometry gaps are along the flank normal (PHYSICS 2): Delta_n = Delta_t cos(beta_b) - gap
         if (L.micro[0].any) approach_t -= flank_gap(L.micro[0], fl, tooth1, roll1, y1) / L.cos_beta_b;
@@ -335,8 +361,7 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
         const Eigen::Vector3d v1 = vc1 + omega1.cross(c.point - ax[0].c);
         const Eigen::Vector3d v2 = vc2 + omega2.cross(c.point - ax[1].c);
         c.approach_rate = (v1 - v2).dot(c.normal);
-        const Eigen::Vector2d towards_root1 = -unit(S.gamma + L.zeta[0] - sigma * S.alpha_w);
-        c.sliding_velocity = (v1 - v2).head<2>().dot(towards_root1);
+        c.sliding_velocity = (v1 - v2).head<2>().dot(S.to_root1[fl]);
         emitted = true;
       }
       pair += emitted;

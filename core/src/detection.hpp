@@ -34,6 +34,7 @@ struct MeshLayout {
   int hand[2] = {0, 0};            // h_i: +1 right, -1 left, 0 spur
   double base_radius[2] = {0, 0};  // r_bi, m
   double tip_radius[2] = {0, 0};   // r_ai, m (ring: inner)
+  double inv_tip[2] = {0, 0};      // inv(alpha_a) of the tip circle
   double eta[2] = {0, 0};          // half base-circle angle of tooth (ring: space), rad
   double theta0[2] = {0, 0};       // body angle of tooth (ring: space) 0 at phi = 0, rad
   double zeta[2] = {0, 0};         // side of the mesh seen from gear i: 0 or pi, rad

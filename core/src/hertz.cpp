@@ -71,8 +71,8 @@ const char* local_law_error(const LocalLaw& law) {
 // -asinh(xi)/(2 xi^4) + sqrt(1+xi^2)(2 xi^2 - 1)/(6 xi^3), and int 2 (xi sqrt(1+xi^2) - xi^2) xi^-5
 // = -2 (1+xi^2)^(3/2)/(3 xi^3) + 1/xi^2; evaluated from x to inf and multiplied by x^4 these
 // give A/2 + (r-1)^2 (r+2)/(6 q^4) and (r-1)^2 (2r+1)/(3 q^4), i.e. the forms above. The
-// substitution w = t^2 with integration by parts gives the same. The large-x limit
-// a w^2 [ln(2x)/2 + 1/8 - k/4] matches integrating Weber-Banaschek's form term by term.
+// large-x limit a w^2 [ln(2x)/2 + 1/8 - k/4] matches integrating Weber-Banaschek's form term by
+// term; tests compare f' with finite differences and P with adaptive quadrature of f.
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force) {
   LocalLawValue v;
   if (!has_local_law(law)) return v;
