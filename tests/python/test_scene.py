@@ -39,3 +39,26 @@ def test_bad_scenes_are_named(text, words):
         parse_scene(text)
     for w in words:
         assert w in str(err.value)
+
+
+def test_micro_geometry_keys_and_deviation_files(tmp_path):
+    dev = tmp_path / "p1.txt"
+    dev.write_text((SCENES / "deviations_example.txt").read_text())
+    s = parse_scene('[gear1]\nprofile_crowning_um = 5\ntip_relief_length_mm = 2\n'
+                    'tip_relief_parabolic = true\ndeviations_file = "p1.txt"\n',
+                    tmp_path / "scene.toml")
+    assert s.parameters["gear1.profile_crowning"] == pytest.approx(5e-6)
+    assert s.parameters["gear1.tip_relief_length"] == pytest.approx(2e-3)
+    assert s.parameters["gear1.tip_relief_parabolic"] is True
+    name = s.parameters["gear1.deviations"]
+    assert s.resources[name] == dev.resolve()
+    with pytest.raises(SceneError, match="gear2.deviations_file.*no such file"):
+        parse_scene('[gear2]\ndeviations_file = "missing.txt"\n', tmp_path / "scene.toml")
+    with pytest.raises(SceneError, match="gear1.profile_crowning_um.*allowed range"):
+        parse_scene('[gear1]\nprofile_crowning_um = -1\n', tmp_path / "scene.toml")
+
+
+def test_paper_set_b_has_the_papers_crowning():
+    s = load_scene(SCENES / "paper_setB_P1P2.toml")
+    assert s.parameters["gear1.profile_crowning"] == pytest.approx(5e-6)
+    assert s.parameters["gear2.profile_crowning"] == pytest.approx(10e-6)
