@@ -70,8 +70,6 @@ static void check_row(const gm_fmu_variable* v, size_t index) {
   if (v->unit[0] && !unit_defined(v->unit)) fail("unit not in GM_FMU_UNITS", v->name);
   if (v->display_unit[0] && !display_unit_defined(v->unit, v->display_unit))
     fail("display unit not in GM_FMU_DISPLAY_UNITS for its unit", v->name);
-  if ((v->deps & D_SPIN_LINEAR) && v->type != GM_FMU_Real)
-    fail("dependenciesKind \"fixed\" is only for Real unknowns", v->name);
   for (size_t j = 0; j < index; j++)
     if (strcmp(gm_fmu_variables[j].name, v->name) == 0) fail("duplicate name", v->name);
 }
@@ -141,9 +139,7 @@ static void put_unknown(FILE* f, size_t index, int initialization) {
   for (size_t j = 0; j < N_VARIABLES; j++) {
     const gm_fmu_variable* k = &gm_fmu_variables[j];
     if (is_known(k, initialization) && (k->deps & u->deps)) {
-      /* "fixed" is not allowed in InitialUnknowns: there the parameters are knowns too. */
-      int fixed = !initialization && (u->deps & D_SPIN_LINEAR) && (k->deps & D_SPIN);
-      fprintf(f, "%s%s", sep, fixed ? "fixed" : "dependent");
+      fprintf(f, "%sdependent", sep);
       sep = " ";
     }
   }

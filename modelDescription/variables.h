@@ -43,11 +43,11 @@ enum {
   D_SPIN = 4,  /* input: spin angle */
   D_POSE = 8,  /* input: other position (centre translation, tilt) */
   D_RATE = 16, /* input: velocity (friction and damping use them) */
-  /* unknown that is linear in the spin angles with factors fixed by parameters (TE = r_b1 phi_1
-   * + s r_b2 phi_2, PHYSICS 0): dependenciesKind "fixed" at communication points */
-  D_SPIN_LINEAR = 32,
-  D_TE = D_GEO | D_SPIN | D_SPIN_LINEAR,
-  D_CONTACT = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE
+  D_LOAD = 64, /* input: load torque of the quasi-static mode */
+  /* TE: from the spin angles alone in the default mode; with model.quasi_static it is solved
+   * from everything, so the declared dependencies cover both modes */
+  D_TE = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD,
+  D_CONTACT = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD
 };
 
 /* Unit definitions: name and SI base exponents (kg, m, s, rad). */
@@ -229,6 +229,10 @@ typedef enum {
     "tolerance of the force solve on the approach")                                                                \
   X("solver.max_iterations", Integer, parameter, fixed, exact, "", "", "1", "", p.solver_max_iterations, D_SET,    \
     "iteration cap of the force solve")                                                                            \
+  X("model.rated_line_load", Real, parameter, fixed, exact, "N/m", "N/mm", "0", "", p.rated_line_load, D_SET,      \
+    "level 2: F_t K_A/b for ISO 6336-1's load correction of c' (0 = none)")                                       \
+  X("model.quasi_static", Boolean, parameter, fixed, exact, "", "", "", "", p.quasi_static, D_SET,                 \
+    "solve gear 2's spin for mesh.load_torque (gear2.phi is then ignored)")                                       \
   X("geometry.backlash", Real, calculatedParameter, fixed, calculated, "m", "um", "", "", g.j_bt, D_GEO,           \
     "transverse backlash along the line of action j_bt")                                                           \
   X("geometry.circumferential_backlash", Real, calculatedParameter, fixed, calculated, "m", "um", "", "", g.j_wt,  \
@@ -247,6 +251,8 @@ typedef enum {
   GM_FMU_GEAR_GEOMETRY(X, 2, 1)                                                                                    \
   GM_FMU_GEAR_INPUTS(X, 1, 0)                                                                                      \
   GM_FMU_GEAR_INPUTS(X, 2, 1)                                                                                      \
+  X("mesh.load_torque", Real, input, continuous, exact, "N.m", "", "", "", k.load_torque, D_LOAD,                 \
+    "quasi-static mode: torque of gear 2's load against the flank-A drive (+ loads flank A)")                      \
   GM_FMU_GEAR_OUTPUTS(X, 1, 0)                                                                                     \
   GM_FMU_GEAR_OUTPUTS(X, 2, 1)                                                                                     \
   X("mesh.te", Real, output, continuous, calculated, "m", "um", "", "", y.te, D_TE,                                \

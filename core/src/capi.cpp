@@ -92,11 +92,12 @@ std::string design_warnings(const gm_pair_geometry& g) {
 }
 
 constexpr uint32_t kStateMagic = 0x53444d47u;  // "GMDS"
-constexpr uint32_t kStateVersion = 1;
+constexpr uint32_t kStateVersion = 2;
 struct StateHeader {
   uint32_t magic;
   uint32_t version;
-  uint64_t capacity;  // the model's slice capacity: a cheap fingerprint of the model
+  uint64_t capacity;   // the model's slice capacity: a cheap fingerprint of the model
+  double te_estimate;  // quasi-static warm start, m
 };
 
 }  // namespace
@@ -170,6 +171,9 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
     gm_data* d = new gm_data;
     d->slices.resize(m->slice_capacity);
     d->forces.resize(m->slice_capacity);
+    d->laws.resize(m->slice_capacity);
+    d->approach.resize(m->slice_capacity);
+    d->balance.resize(m->slice_capacity);
     d->slice_stiffness.resize(m->slice_capacity);
     d->message.reserve(256);
     *out = d;
@@ -184,6 +188,7 @@ void gm_data_free(gm_data* d) { delete d; }
 void gm_data_reset(const gm_model* m, gm_data* d) {
   if (!m || !d) return;
   d->message.clear();
+  d->te_estimate = 0;
 }
 
 gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, gm_result* res) {
@@ -202,7 +207,8 @@ size_t gm_data_state_size(const gm_model* m, const gm_data* d) {
 
 gm_status gm_data_state_save(const gm_model* m, const gm_data* d, void* buf, size_t size) {
   if (!m || !d || !buf || size != sizeof(StateHeader)) return GM_ERR_ARGUMENT;
-  const StateHeader h{kStateMagic, kStateVersion, static_cast<uint64_t>(m->slice_capacity)};
+  const StateHeader h{kStateMagic, kStateVersion, static_cast<uint64_t>(m->slice_capacity),
+                      d->te_estimate};
   std::memcpy(buf, &h, sizeof h);
   return GM_OK;
 }
@@ -220,6 +226,7 @@ gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, siz
     d->message = "core state blob belongs to another model or format version";
     return GM_ERR_ARGUMENT;
   }
+  d->te_estimate = h.te_estimate;
   d->message.clear();
   return GM_OK;
 }

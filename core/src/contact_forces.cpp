@@ -1,15 +1,131 @@
 #include "contact_forces.hpp"
 
-namespace gm {
+#include <algorithm>
+#include <cmath>
+#include <limits>
 
-void solve_user_constant(double stiffness_per_width, const ContactSlice* slices, int n,
-                         double* forces, double* stiffness) {
-  for (int i = 0; i < n; ++i) {
-    const double k = stiffness_per_width * slices[i].width;
-    const bool loaded = slices[i].approach > 0;
-    forces[i] = loaded ? k * slices[i].approach : 0.0;
-    stiffness[i] = loaded ? k : 0.0;
+namespace gm {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// c F + f(F) = delta for delta > 0: Newton from F0 = delta/c (an upper bound, since f >= 0).
+// g(F) = c F + f(F) - delta is concave and increasing, so its tangents lie above it: after the
+// first step every iterate is below the root and they rise monotonically onto it.
+double solve_slice(const SliceLaw& law, double delta, double tol, int max_iterations,
+                   int& iterations, double& residual, double& stiffness) {
+  if (law.local.width == 0) {
+    stiffness = 1 / law.compliance;
+    residual = 0;
+    return delta / law.compliance;
   }
+  double F = delta / law.compliance;
+  for (int i = 0; i < max_iterations; ++i) {
+    const LocalLawValue v = evaluate_local_law(law.local, F);
+    const double g = law.compliance * F + v.approach - delta;
+    const double slope = law.compliance + v.slope;
+    ++iterations;
+    residual = std::fabs(g);
+    stiffness = 1 / slope;
+    if (residual <= tol) return F;
+    const double next = F - g / slope;
+    F = next > 0 ? next : F * 1e-3;  // stay on the positive side, where f is defined
+  }
+  return F;
+}
+
+}  // namespace
+
+ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, double tol,
+                           int max_iterations, double* force, double* stiffness) {
+  ForceSolve out;
+  for (int i = 0; i < n; ++i) {
+    force[i] = 0;
+    stiffness[i] = 0;
+    if (approach[i] <= 0) continue;
+    double r = 0;
+    force[i] = solve_slice(laws[i], approach[i], tol, max_iterations, out.iterations, r,
+                           stiffness[i]);
+    out.residual = std::max(out.residual, r);
+  }
+  out.converged = out.residual <= tol;
+  if (!out.converged) out.message = "a slice's force did not converge within solver.max_iterations";
+  return out;
+}
+
+ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slices,
+                                 const double* balance, int n, double load, double lambda_start,
+                                 double tol, int max_iterations, double* approach, double* force,
+                                 double* stiffness) {
+  ForceSolve out;
+  // h(lambda) = sum b_i F_i(Delta_i + w_i lambda) - load is nondecreasing while b_i w_i >= 0
+  // (friction never reverses a slice's moment); Newton with a bracket, bisection where Newton
+  // leaves it.
+  const auto h = [&](double lambda, double& slope) {
+    for (int i = 0; i < n; ++i) approach[i] = slices[i].approach + slices[i].te_gain * lambda;
+    const ForceSolve s = solve_separable(laws, approach, n, tol, max_iterations, force, stiffness);
+    out.iterations += s.iterations;
+    out.residual = std::max(out.residual, s.residual);
+    double sum = 0;
+    slope = 0;
+    for (int i = 0; i < n; ++i) {
+      sum += balance[i] * force[i];
+      slope += balance[i] * slices[i].te_gain * stiffness[i];
+    }
+    return sum - load;
+  };
+  // Where the next slice that the load closes starts to touch (h is flat until then).
+  const auto next_touch = [&](double lambda, int direction) {
+    double best = kInf;
+    for (int i = 0; i < n; ++i) {
+      const double w = slices[i].te_gain;
+      if (w * direction <= 0) continue;
+      const double at = -slices[i].approach / w;
+      if ((at - lambda) * direction > 0) best = std::min(best, std::fabs(at - lambda));
+    }
+    return std::isfinite(best) ? lambda + direction * best * (1 + 1e-12) + direction * 1e-15
+                               : kInf;
+  };
+  if (load == 0) {  // first touch of the flanks the load would close: no force, the rigid TE
+    double first = kInf;
+    for (int i = 0; i < n; ++i)
+      if (slices[i].te_gain > 0) first = std::min(first, -slices[i].approach / slices[i].te_gain);
+    out.lambda = std::isfinite(first) ? first : 0;
+    for (int i = 0; i < n; ++i) force[i] = stiffness[i] = 0;
+    return out;
+  }
+  const double load_tol = 1e-12 * std::fabs(load) + 1e-9;
+  double lo = -kInf, hi = kInf, lambda = lambda_start, slope = 0;
+  for (int it = 0; it < 200; ++it) {
+    const double value = h(lambda, slope);
+    if (std::fabs(value) <= load_tol) {
+      out.lambda = lambda;
+      out.converged = out.residual <= tol;
+      return out;
+    }
+    if (value < 0) lo = lambda; else hi = lambda;
+    double next;
+    if (slope > 0) {
+      next = lambda - value / slope;
+    } else {
+      next = next_touch(lambda, value < 0 ? 1 : -1);
+      if (!std::isfinite(next)) {
+        out.converged = false;
+        out.message = "no flank can carry the load torque at this pose";
+        return out;
+      }
+    }
+    if (!(next > lo && next < hi)) {
+      next = std::isfinite(lo) && std::isfinite(hi) ? 0.5 * (lo + hi) : next;
+      if (!(next > lo && next < hi)) next = std::isfinite(lo) ? lo + 2 * std::fabs(lambda - lo) + 1e-9
+                                                              : hi - 2 * std::fabs(hi - lambda) - 1e-9;
+    }
+    lambda = next;
+  }
+  out.lambda = lambda;
+  out.converged = false;
+  out.message = "the load balance did not converge";
+  return out;
 }
 
 }  // namespace gm

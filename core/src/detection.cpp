@@ -245,7 +245,7 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
       bool emitted = false;
       // Aligned spur slices differ only in z: their contact geometry is computed once per pair.
       Eigen::Vector2d n_t, point;
-      double roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0;
+      double roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0, path = 0, gain = 0;
       int kind = kFlankContact;
       bool contact = false;
       for (int k = 0; k < L.slices; ++k) {
@@ -281,6 +281,8 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
             roll2 = S.T1T2 - s * t;
             n_t = n_line;
             point = T1 + t * n_line;
+            path = (t - S.t_lo) / (S.t_hi - S.t_lo);
+            gain = sigma;  // d(Delta_t)/d(TE): rho_2 moves with phi_2 (PHYSICS 3)
           } else if (rigid > 0 && ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts))) {
             // Tip (corner) contact outside the path: the tip edge of one gear against the
             // mate's flank, with the mate's involute normal (paper 2.1; PHYSICS 3). A tip edge
@@ -308,6 +310,12 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
               const Eigen::Vector2d out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
               n_t = g == 0 ? Eigen::Vector2d(-out_h) : out_h;
               point = corner;
+              path = g == 0 ? 1.0 : 0.0;
+              // d(pen)/d(TE): gear 2 turns by dTE/(s r_b2). Against gear 2's flank the involute
+              // moves by r_b2 per radian; gear 2's own edge moves along its tip circle.
+              gain = g == 0 ? sigma
+                            : -out_h.dot(Eigen::Vector2d(-(corner - S.c[1]).y(), (corner - S.c[1]).x())) /
+                                  (s * rb2);
             }
           } else {
             contact = false;
@@ -361,7 +369,13 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
         const Eigen::Vector3d v1 = vc1 + omega1.cross(c.point - ax[0].c);
         const Eigen::Vector3d v2 = vc2 + omega2.cross(c.point - ax[1].c);
         c.approach_rate = (v1 - v2).dot(c.normal);
-        c.sliding_velocity = (v1 - v2).head<2>().dot(S.to_root1[fl]);
+        // profile tangent: perpendicular to the transverse normal, towards gear 1's root
+        Eigen::Vector2d tan2(-n_t.y(), n_t.x());
+        if (tan2.dot(S.to_root1[fl]) < 0) tan2 = -tan2;
+        c.tangent = Eigen::Vector3d(tan2.x(), tan2.y(), 0);
+        c.sliding_velocity = (v1 - v2).dot(c.tangent);
+        c.te_gain = gain * L.cos_beta_b;
+        c.path_position = path;
         emitted = true;
       }
       pair += emitted;

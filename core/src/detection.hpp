@@ -67,7 +67,10 @@ struct ContactSlice {
   double width = 0;                // axial slice width L, m
   double roll[2] = {0, 0};         // roll distances of the contact point on both flanks, m
   double approach_rate = 0;        // d(Delta_n)/dt from the input velocities, m/s
-  double sliding_velocity = 0;     // velocity of gear 1 relative to gear 2 along the profile, m/s
+  double sliding_velocity = 0;     // velocity of gear 1 relative to gear 2 along `tangent`, m/s
+  double te_gain = 0;              // d(Delta_n)/d(TE) at fixed phi_1: +-cos(beta_b) on the flanks
+  double path_position = 0;        // 0 at the start of the path of contact, 1 at its end
+  Eigen::Vector3d tangent{0, 0, 0};// unit profile tangent in the transverse plane, towards gear 1's root
   Eigen::Vector3d point{0, 0, 0};  // contact point in H, m
   Eigen::Vector3d normal{0, 0, 0}; // unit direction of the normal force on gear 2, in H
 };

@@ -14,11 +14,18 @@ struct gm_model {
   gm::MeshLayout layout;       // what detection needs, derived once
   int slice_capacity = 0;      // most candidate slices one evaluation can produce
   std::string warnings;        // design warnings, "; "-separated ("" if none)
+  double iso_c_prime = 0;      // level 2: ISO 6336-1 single stiffness c' (load-corrected), N/m^2
+  double iso_c_gamma = 0;      // levels 2, 3: mesh stiffness c_gamma_alpha, N/m^2
+  double iso_shape = 0;        // level 2: parabola depth of the pair stiffness over the path
 };
 
 struct gm_data {
   std::vector<gm::ContactSlice> slices;  // candidate slices, capacity fixed at creation
+  std::vector<gm::SliceLaw> laws;        // their compliance laws, same capacity
+  std::vector<double> approach;          // approaches handed to the solve, m
+  std::vector<double> balance;           // quasi-static load-balance weights, -
   std::vector<double> forces;            // normal slice forces, N, same capacity
   std::vector<double> slice_stiffness;   // tangent stiffness of each slice, N/m
+  double te_estimate = 0;                // quasi-static: last solved TE (warm start), m
   std::string message;                   // last error ("" if none)
 };

@@ -84,6 +84,8 @@ gm_status validate_params(const gm_model_params& p, std::string& msg) {
   c.real("model.damping", p.damping, 0, 1e9, "N.s/m2");
   c.real("solver.tolerance", p.solver_tolerance, 0, 1e-3, "m", true);
   c.integer("solver.max_iterations", p.solver_max_iterations, 1, 10000);
+  c.real("model.rated_line_load", p.rated_line_load, 0, 1e8, "N/m");
+  c.integer("model.quasi_static", p.quasi_static, 0, 1);
   return c.ok() ? GM_OK : GM_ERR_PARAMETER;
 }
 

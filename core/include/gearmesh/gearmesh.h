@@ -93,6 +93,9 @@ typedef struct gm_model_params {
   double damping;               /* normal damping per unit face width, N*s/m^2 */
   double solver_tolerance;      /* KKT tolerance on the approach, m */
   int solver_max_iterations;    /* hard cap */
+  double rated_line_load;       /* level 2: F_t K_A / b of ISO 6336-1's load correction of c', N/m;
+                                   0 = none (c' at full load) */
+  int quasi_static;             /* 1: gear 2's spin is solved for the load torque (PHYSICS 6) */
 } gm_model_params;
 
 /* Derived geometry of one gear (ISO 21771; diameters are magnitudes, also for the ring). */
@@ -141,6 +144,8 @@ typedef struct gm_kinematics {
   double v[2][3];     /* centre velocity, m/s */
   double w[2][2];     /* tilt rates, rad/s */
   double omega[2];    /* spin rate, rad/s */
+  double load_torque; /* quasi-static mode: torque of gear 2's load against the flank-A drive
+                         (positive loads flank A, negative flank B), N*m; phi[1] is then ignored */
 } gm_kinematics;
 
 /* Outputs of one evaluation. */
