@@ -81,7 +81,7 @@ ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slice
       const double w = slices[i].te_gain;
       if (w * direction <= 0) continue;
       const double at = -slices[i].approach / w;
-      if ((at - lambda) * direction > 0) best = std::min(best, std::fabs(at - lambda));
+      if ((at - lambda) * direction >= 0) best = std::min(best, std::fabs(at - lambda));
     }
     return std::isfinite(best) ? lambda + direction * best * (1 + 1e-12) + direction * 1e-15
                                : kInf;
