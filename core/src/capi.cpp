@@ -137,8 +137,29 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
       copy_message(text, msg, msg_size);
       return st;
     }
+    // Stiffness data of the level (PHYSICS 5).
+    gm::IsoStiffness iso{};
+    gm::ToothSection tooth[2];
+    if (p->stiffness_level == GM_STIFFNESS_ISO6336 || p->stiffness_level == GM_STIFFNESS_TIME_VARYING) {
+      st = gm::iso_stiffness(*p, g, gm::IsoGearBlank{}, iso, text);
+    } else if (p->stiffness_level == GM_STIFFNESS_ANALYTICAL) {
+      for (int i = 0; i < 2 && st == GM_OK; ++i)
+        st = gm::build_tooth_section(*p, g, i, gm::ToothSectionOptions{}, tooth[i], text);
+      if (st != GM_OK) text = "model.stiffness = 4 (analytical): " + text;
+    }
+    if (st != GM_OK) {
+      copy_message(text, msg, msg_size);
+      return st;
+    }
     gm_model* m = new gm_model;
     m->params = *p;
+    m->iso_c_prime = gm::iso_single_stiffness_at(iso, p->rated_line_load);
+    m->iso_c_gamma = gm::iso_mesh_stiffness_at(iso, p->rated_line_load);
+    // level 2: pair stiffness c'(1 - kappa (2u - 1)^2) over the path; its mean over the mesh,
+    // c' (1 - kappa/3) eps_alpha, equals ISO's c_gamma_alpha = c'(0.75 eps_alpha + 0.25)
+    m->iso_shape = 0.75 * (1 - 1 / g.eps_alpha);
+    m->tooth[0] = std::move(tooth[0]);
+    m->tooth[1] = std::move(tooth[1]);
     m->params.gear[0].deviations = m->params.gear[1].deviations = nullptr;  // read, not kept
     m->geometry = g;
     m->layout = gm::make_mesh_layout(*p, g, std::move(micro[0]), std::move(micro[1]));

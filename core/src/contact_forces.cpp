@@ -34,6 +34,17 @@ double solve_slice(const SliceLaw& law, double delta, double tol, int max_iterat
   return F;
 }
 
+bool same_law(const SliceLaw& a, const SliceLaw& b) {
+  return a.compliance == b.compliance && a.local.width == b.local.width &&
+         a.local.reduced_radius == b.local.reduced_radius &&
+         a.local.body[0].depth == b.local.body[0].depth &&
+         a.local.body[1].depth == b.local.body[1].depth &&
+         a.local.body[0].youngs_modulus == b.local.body[0].youngs_modulus &&
+         a.local.body[1].youngs_modulus == b.local.body[1].youngs_modulus &&
+         a.local.body[0].poisson_ratio == b.local.body[0].poisson_ratio &&
+         a.local.body[1].poisson_ratio == b.local.body[1].poisson_ratio;
+}
+
 }  // namespace
 
 ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, double tol,
@@ -43,6 +54,12 @@ ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, 
     force[i] = 0;
     stiffness[i] = 0;
     if (approach[i] <= 0) continue;
+    // slices of an aligned spur pair repeat each other exactly: solve once
+    if (i > 0 && approach[i] == approach[i - 1] && same_law(laws[i], laws[i - 1])) {
+      force[i] = force[i - 1];
+      stiffness[i] = stiffness[i - 1];
+      continue;
+    }
     double r = 0;
     force[i] = solve_slice(laws[i], approach[i], tol, max_iterations, out.iterations, r,
                            stiffness[i]);

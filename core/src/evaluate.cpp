@@ -73,14 +73,39 @@ double pair_stiffness(const gm_model& m, const ContactSlice& s) {
   }
 }
 
-// Per-slice compliance laws along the normal: k' L / cos^2(beta_b) (PHYSICS 5).
-void build_laws(const gm_model& m, gm_data& d, int n) {
-  const double cb2 = m.layout.cos_beta_b * m.layout.cos_beta_b;
+// Per-slice compliance laws along the normal (PHYSICS 5). Linear levels: k' L / cos^2(beta_b).
+// Analytical level: both teeth's Weber/Sainsot compliance (per unit face width on the
+// transverse line of action) plus the exact local Hertz law of PHYSICS 4 over the contact line
+// L / cos(beta_b), its approach referred to each tooth's centre line.
+void build_laws(const gm_model& m, gm_data& d, int n, bool all) {
+  const MeshLayout& L = m.layout;
+  const double cb = L.cos_beta_b, cb2 = cb * cb;
+  const bool analytical = m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL;
+  const double rho_floor = 1e-3 * m.params.pair.normal_module;  // degenerate curvature guard
   for (int i = 0; i < n; ++i) {
     const ContactSlice& s = d.slices[i];
     SliceLaw& law = d.laws[i];
-    law.compliance = cb2 / (pair_stiffness(m, s) * s.width);
     law.local = LocalLaw{};
+    if (!all && s.approach <= 0) continue;  // an open slice carries nothing whatever its law
+    if (!analytical) {
+      law.compliance = cb2 / (pair_stiffness(m, s) * s.width);
+      continue;
+    }
+    if (i > 0 && s.roll[0] == d.slices[i - 1].roll[0] && s.roll[1] == d.slices[i - 1].roll[1] &&
+        s.width == d.slices[i - 1].width && (all || d.slices[i - 1].approach > 0)) {
+      law = d.laws[i - 1];  // the next slice of an aligned spur pair: the same law
+      continue;
+    }
+    const double rho1 = std::max(s.roll[0], rho_floor), rho2 = std::max(s.roll[1], rho_floor);
+    law.compliance = (tooth_compliance(m.tooth[0], rho1) + tooth_compliance(m.tooth[1], rho2)) *
+                     cb2 / s.width;
+    law.local.width = s.width / cb;
+    law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
+    for (int g = 0; g < 2; ++g) {
+      law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
+      law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;
+      law.local.body[g].depth = tooth_contact_depth(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
+    }
   }
 }
 
@@ -89,10 +114,11 @@ void build_laws(const gm_model& m, gm_data& d, int n) {
 gm_status check_capabilities(const gm_model_params& p, std::string& msg) {
   char buf[240];
   const int level = p.stiffness_level;
-  if (level != GM_STIFFNESS_USER_CONSTANT) {
+  if (level == GM_STIFFNESS_USER_VARIABLE || level == GM_STIFFNESS_FE) {
     std::snprintf(buf, sizeof buf,
-                  "model.stiffness = %d: this build has level 0 (user constant); allowed value 0",
-                  level);
+                  "model.stiffness = %d: this build has levels 0 (user constant), 2 (ISO 6336-1 "
+                  "method B), 3 (contact-line-length model) and 4 (analytical: Weber/Sainsot "
+                  "teeth with local Hertz); allowed values 0, 2, 3, 4", level);
     msg = buf;
     return GM_ERR_PARAMETER;
   }
@@ -176,7 +202,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
   if (!m.params.quasi_static) {
     n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
     if (n < 0) return GM_ERR_INPUT;
-    build_laws(m, d, n);
+    build_laws(m, d, n, false);
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
     const ForceSolve fs = solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it,
                                           d.forces.data(), d.slice_stiffness.data());
@@ -197,7 +223,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
       kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2);
       n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
       if (n < 0) return GM_ERR_INPUT;
-      build_laws(m, d, n);
+      build_laws(m, d, n, true);
       balance_weights(m, d, kin, n);
       const ForceSolve fs = solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(),
                                                   n, load, 0.0, tol, max_it, d.approach.data(),

@@ -6,6 +6,8 @@
 
 #include "contact_forces.hpp"
 #include "detection.hpp"
+#include "stiffness_iso.hpp"
+#include "tooth_compliance.hpp"
 #include "gearmesh/gearmesh.h"
 
 struct gm_model {
@@ -17,6 +19,7 @@ struct gm_model {
   double iso_c_prime = 0;      // level 2: ISO 6336-1 single stiffness c' (load-corrected), N/m^2
   double iso_c_gamma = 0;      // levels 2, 3: mesh stiffness c_gamma_alpha, N/m^2
   double iso_shape = 0;        // level 2: parabola depth of the pair stiffness over the path
+  gm::ToothSection tooth[2];   // level 4: Weber/Sainsot compliance of each gear's tooth
 };
 
 struct gm_data {

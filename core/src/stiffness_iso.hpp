@@ -6,14 +6,14 @@
 //   q'_min = C1 + C2/z_n1 + C3/z_n2 + C4 x1 + C5 x1/z_n1 + C6 x2 + C7 x2/z_n2 + C8 x1^2 + C9 x2^2
 //            (mm um/N), C1..C9 as in PHYSICS 5; z_n = z/(cos^2 beta_b cos beta);
 //   c'_th  = 1/q'_min;
-//   c'     = c'_th C_M C_R C_B cos beta (E/E_st),  C_M = 0.8, E = 2 E1 E2/(E1 + E2), E_st = 206 GPa;
+//   c'     = c'_th C_M C_R C_B cos beta (E/E_st), C_M = 0.8, E = 2 E1 E2/(E1 + E2), E_st = 206 GPa;
 //   C_B    = [1 + 0.5 (1.2 - h_fP/m_n)] [1 - 0.02 (20 deg - alpha_n)];
 //   C_R    = 1 (solid discs), else 1 + ln(b_s/b)/(5 exp(s_R/(5 m_n))), b_s/b in [0.2, 1.2],
 //            s_R/m_n >= 1 (values outside are clamped to these limits);
 //   load correction: for F_t K_A/b < 100 N/mm, c' is multiplied by ((F_t K_A/b)/(100 N/mm))^0.25;
 //   c_gamma_alpha = c' (0.75 eps_alpha + 0.25),  c_gamma_beta = 0.85 c_gamma_alpha.
 //
-// Where these were checked (search tools, 2025): the C1..C9 set, z_n, C_M, C_B, cos beta and
+// Where these were checked (with the search tools): the C1..C9 set, z_n, C_M, C_B, cos beta and
 // 0.75 eps_alpha + 0.25 reproduce the published values of ISO/TR 6336-30:2017 example 1 (single
 // helical carburized pair, m_n 8, z 17/103, x 0.145/0, beta 15.8 deg, basic rack h_fP = 1.4 m_n:
 // z_n = 18.905/114.543, c'_th = 17.85584, c' = 12.37047, c_gamma_beta/c_gamma_alpha = 0.85),
@@ -21,9 +21,12 @@
 // tests/core/test_stiffness_iso.cpp checks them. C_B = 0.9 there confirms the C_B form. The load
 // correction with the exponent 0.25 (ISO 6336-1:2019 Eq. 92), the C_R formula with its clamps,
 // E = 2 E1 E2/(E1 + E2) (Eq. 90/91) and the regression's range x1 >= x2, -0.5 <= x1 + x2 <= 2
-// are as quoted in independent public implementations (JRaposo-m/AxisForge Kv_methodB.py,
-// and a gearbox design package's __c__); the standard's own text was not reachable. Note the
-// exponent: the correction is the fourth root of the load ratio, not the ratio itself.
+// are as quoted in independent public implementations (JRaposo-m/AxisForge-Shaft-Bearing-Gear-
+// System-Analysis-Platform, axisforge/.../LoadCapacity_data/Kv_methodB.py, "eq. 92"; and a
+// Python gearbox package's __c__); the standard's own text was not reachable. Note the exponent:
+// the correction is the fourth root of the load ratio, not the ratio itself. That package also
+// applies ISO's remark that c_gamma_alpha may be up to 10 % lower for spur gears with
+// eps_alpha < 1.2; a "may", not applied here.
 //
 // Pinion and wheel: ISO's gear 1 is the pinion (fewer teeth) and gear 2 the wheel; this module
 // orders the pair that way (the ring is always ISO's gear 2). Internal pairs: the ring is taken

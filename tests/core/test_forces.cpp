@@ -209,4 +209,54 @@ TEST(Forces, MeanFrictionLossMatchesOhlendorf) {
   EXPECT_NEAR(loss / input, mu * hv, 0.03 * mu * hv);
 }
 
+// Level 2 (ISO 6336-1 method B) for PHYSICS 5's 57/57 pair (x 0.36139, E 206 GPa): the pair
+// stiffness peaks at c' = 15.55 N/(mm um) mid-path, and the mesh stiffness averages to
+// c_gamma_alpha = 23.58 N/(mm um) over a pitch. Level 3 averages to the same c_gamma_alpha.
+gm_model_params iso_pair(int level) {
+  gm_model_params p = quasi_static_paper();
+  p.stiffness_level = level;
+  p.gear[0].profile_shift = p.gear[1].profile_shift = 0.36139;
+  p.gear[0].youngs_modulus = p.gear[1].youngs_modulus = 206e9;
+  p.pair.center_distance = 0.150 + 1e-6;  // a hair of backlash (the shift sum is the tight one)
+  return p;
+}
+
+TEST(Forces, IsoLevelsReproduceCPrimeAndCGammaAlpha) {
+  for (int level : {GM_STIFFNESS_ISO6336, GM_STIFFNESS_TIME_VARYING}) {
+    Instance in(iso_pair(level));
+    const double b = 0.023, to_si = 1e9;  // N/(mm um) -> N/m^2
+    const int n = 600;
+    double sum = 0, peak = 0;
+    for (int s = 0; s < n; ++s) {
+      const double phi1 = in.geo().p_bt / in.rb(0) * (s + 0.5) / n;
+      const gm_result r = in.loaded(phi1, 20);  // light load: tip edges stay clear
+      sum += r.stiffness;
+      if (r.pairs_in_contact == 1) peak = std::max(peak, r.stiffness);
+    }
+    EXPECT_NEAR(sum / n / b / to_si, 23.58, 0.02 * 23.58) << "level " << level;
+    if (level == GM_STIFFNESS_ISO6336) EXPECT_NEAR(peak / b / to_si, 15.55, 0.01 * 15.55);
+  }
+}
+
+// Level 4 (analytical): the single-pair stiffness at the pitch point is of ISO's order (Weber
+// models run 5-20 % below c'), and the local Hertz law stiffens the mesh with load (paper 2.2).
+TEST(Forces, AnalyticalLevelStiffensWithLoad) {
+  Instance in(iso_pair(GM_STIFFNESS_ANALYTICAL));
+  double phi_single = NAN;
+  for (int s = 0; s < 200 && std::isnan(phi_single); ++s) {
+    const double phi1 = in.geo().p_bt / in.rb(0) * (s + 0.5) / 200;
+    if (in.loaded(phi1, 300).pairs_in_contact == 1) phi_single = phi1 + 0.3 * in.geo().p_bt / in.rb(0) * (1 - (in.geo().eps_alpha - 1));
+  }
+  ASSERT_FALSE(std::isnan(phi_single));
+  const gm_result light = in.loaded(phi_single, 50), heavy = in.loaded(phi_single, 350);
+  ASSERT_EQ(light.pairs_in_contact, 1);
+  ASSERT_EQ(heavy.pairs_in_contact, 1);
+  EXPECT_GT(heavy.stiffness, light.stiffness * 1.02);           // stiffening
+  EXPECT_LT(heavy.te / light.te, 350.0 / 50.0);                 // TE grows less than the load
+  EXPECT_GT(heavy.solver_iterations, 0);
+  const double c = heavy.stiffness / 0.023 / 1e9;                // N/(mm um)
+  EXPECT_GT(c, 0.75 * 15.55);
+  EXPECT_LT(c, 1.05 * 15.55);
+}
+
 }  // namespace
