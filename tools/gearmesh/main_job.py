@@ -9,12 +9,14 @@ import pathlib
 import numpy as np
 
 from gearmesh.fmu_driver import GearMeshFMU
-from gearmesh.prescribed_motion import GEOMETRY, engagement_sweep, revolution_at_approach
+from gearmesh.prescribed_motion import (GEOMETRY, engagement_sweep, loaded_te_sweep,
+                                       mesh_order_amplitudes, revolution_at_approach)
 from gearmesh.scene import Scene
 from gearmesh.scene_fmu import build_scene_fmu
 
 RUN_DEFAULTS = {"approach_um": 10e-6, "points_per_pitch": 40, "sweep_margin_um": 20e-6,
-                "sweep_points": 401}
+                "sweep_points": 401, "torques_Nm": [], "speed_rpm": 10 * 2 * math.pi / 60,
+                "te_pitches": 3}
 
 
 def write_table(path: pathlib.Path, columns: dict) -> None:
@@ -61,6 +63,12 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
     with GearMeshFMU(fmu_path, instance_name=scene.name) as fmu:
         rev = revolution_at_approach(fmu, run["approach_um"], run["points_per_pitch"],
                                      progress=f"{scene.name}: revolution")
+    loaded = None
+    if run["torques_Nm"]:
+        with GearMeshFMU(fmu_path, {"model.quasi_static": True}, instance_name=scene.name) as fmu:
+            loaded = loaded_te_sweep(fmu, run["torques_Nm"], run["speed_rpm"], run["te_pitches"],
+                                     run["points_per_pitch"], progress=f"{scene.name}: loaded TE")
+        write_table(folder / "loaded_te.csv", loaded)
     write_table(folder / "engagement_sweep.csv", sweep)
     write_table(folder / "revolution.csv", rev)
     te_um = sweep["mesh.te"] * 1e6
@@ -104,6 +112,24 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
         f"![revolution]({scene.name}/revolution.png)",
         "",
     ]
+    if loaded is not None:
+        z1 = scene.parameters.get("gear1.teeth", 57)
+        lines += [f"Loaded TE (quasi-static, {run['te_pitches']} pitches at "
+                  f"{run['speed_rpm'] * 60 / (2 * math.pi):g} rpm):", "",
+                  f"| torque (N m) | mean TE (um) | peak-to-peak (um) | order {z1} (um) | "
+                  f"order {2 * z1} (um) |", "|---|---|---|---|---|"]
+        curves = {}
+        for torque in run["torques_Nm"]:
+            rows = loaded["torque"] == torque
+            te = loaded["mesh.te"][rows]
+            orders = mesh_order_amplitudes(te, run["te_pitches"])
+            curves[f"{torque:g} N m"] = te * 1e6
+            lines.append(f"| {torque:g} | {te.mean() * 1e6:.3f} | {np.ptp(te) * 1e6:.3f} | "
+                         f"{orders[1] * 1e6:.4f} | {orders[2] * 1e6:.4f} |")
+        angle = np.degrees(loaded["gear1.phi"][loaded["torque"] == run["torques_Nm"][0]])
+        plot(folder / "loaded_te.png", angle, curves, "gear 1 angle (deg)", "TE (um)",
+             f"{scene.name}: loaded TE")
+        lines += ["", f"![loaded TE]({scene.name}/loaded_te.png)", ""]
     if warnings:
         lines += ["Warnings of the FMU:", ""] + [f"* {w}" for w in warnings] + [""]
     if scene.assumptions:

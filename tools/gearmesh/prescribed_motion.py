@@ -61,3 +61,32 @@ def revolution_at_approach(fmu: GearMeshFMU, approach: float, points_per_pitch: 
     out = run_poses(fmu, [(p, kin.phi2(approach, p)) for p in phi1], progress=progress)
     out["gear1.phi"] = phi1
     return out
+
+
+def loaded_te_sweep(fmu: GearMeshFMU, torques, omega1: float, pitches: int,
+                    points_per_pitch: int, progress: str | None = None) -> dict:
+    """Quasi-static loaded TE (the FMU in model.quasi_static mode): for each load torque on gear 2,
+    gear 1 turns over `pitches` base pitches at omega1 (the friction direction) and one
+    fmi2DoStep per roll angle returns the loaded TE. Tidy columns, one row per (torque, angle)."""
+    kin = pair_kinematics(fmu)
+    z1 = fmu.get(["gear1.teeth"])["gear1.teeth"]
+    angles = np.arange(pitches * points_per_pitch) * (2 * math.pi / (z1 * points_per_pitch))
+    names = ["mesh.te", "mesh.normal_force", "mesh.pairs_in_contact", "mesh.friction_power"]
+    rows = {"torque": [], "gear1.phi": [], **{n: [] for n in names}}
+    omega2 = -kin.sign * omega1 * kin.r_b1 / kin.r_b2
+    for torque in tqdm(torques, desc=progress, disable=progress is None, leave=False):
+        for phi1 in angles:
+            fmu.step({"gear1.phi": phi1, "mesh.load_torque": torque, "gear1.omega": omega1,
+                      "gear2.omega": omega2})
+            rows["torque"].append(torque)
+            rows["gear1.phi"].append(phi1)
+            for name, value in fmu.get(names).items():
+                rows[name].append(value)
+    return {name: np.asarray(values, dtype=float) for name, values in rows.items()}
+
+
+def mesh_order_amplitudes(te, pitches: int, orders=(1, 2)) -> dict[int, float]:
+    """Amplitudes of the mesh orders of a TE sampled uniformly over whole pitches (the n-th mesh
+    order is the n-th harmonic of one pitch: order n z1 of a revolution)."""
+    spectrum = np.fft.rfft(np.asarray(te, dtype=float))
+    return {n: 2 * abs(spectrum[n * pitches]) / len(te) for n in orders}

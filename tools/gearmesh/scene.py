@@ -21,7 +21,7 @@ class Key:
     factor: float = 1.0  # scene unit -> SI
     lo: float = -math.inf
     hi: float = math.inf
-    kind: type = float   # float, int, bool or str
+    kind: type = float   # float, int, bool, str or list (of floats)
     unit: str = ""       # the unit the key's name carries, for messages
 
 
@@ -72,6 +72,11 @@ SCHEMA: dict[str, dict[str, Key]] = {
         "user_stiffness_N_per_mm_um": Key("model.user_stiffness", 1e9, 1e-6, 1e5,
                                           unit="N/(mm um)"),
         "slices": Key("model.slices", 1, 1, 200, kind=int),
+        "friction_coefficient": Key("model.friction_coefficient", 1.0, 0.0, 2.0),
+        "friction_velocity_mm_per_s": Key("model.friction_velocity", 1e-3, 1e-6, 10000,
+                                          unit="mm/s"),
+        "damping_Ns_per_m2": Key("model.damping", 1.0, 0.0, 1e9, unit="N s/m^2"),
+        "rated_line_load_N_per_mm": Key("model.rated_line_load", 1e3, 0.0, 1e5, unit="N/mm"),
     },
 }
 
@@ -82,6 +87,9 @@ RUN_SCHEMA: dict[str, Key] = {
     "points_per_pitch": Key("", 1, 4, 1000, kind=int),
     "sweep_margin_um": Key("", 1e-6, 0.0, 1000, unit="um"),
     "sweep_points": Key("", 1, 10, 100000, kind=int),
+    "torques_Nm": Key("", 1.0, -1e6, 1e6, kind=list, unit="N m"),
+    "speed_rpm": Key("", 2 * 3.141592653589793 / 60, -1e5, 1e5, unit="rpm"),
+    "te_pitches": Key("", 1, 1, 1000, kind=int),
 }
 
 
@@ -97,6 +105,11 @@ class Scene:
 
 
 def _convert(where: str, key: Key, value):
+    if key.kind is list:
+        if not isinstance(value, list) or not value:
+            raise SceneError(f"{where} = {value!r}: expected a non-empty list of numbers")
+        return [_convert(f"{where}[{i}]", Key(key.variable, key.factor, key.lo, key.hi,
+                                              unit=key.unit), v) for i, v in enumerate(value)]
     if key.kind is str:
         if not isinstance(value, str) or not value:
             raise SceneError(f"{where} = {value!r}: expected a non-empty file name")
