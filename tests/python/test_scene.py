@@ -16,7 +16,11 @@ def test_paper_set_a_converts_units_to_si():
     assert s.parameters["pair.normal_module"] == pytest.approx(0.0026)
     assert s.parameters["pair.pressure_angle"] == pytest.approx(0.3490658503988659)
     assert s.parameters["gear1.youngs_modulus"] == pytest.approx(210e9)
-    assert s.parameters["model.user_stiffness"] == pytest.approx(1.5e10)
+    assert s.parameters["model.stiffness"] == 4
+    assert s.parameters["model.friction_coefficient"] == pytest.approx(0.4)
+    assert s.parameters["model.friction_velocity"] == pytest.approx(1e-5)
+    assert s.run["torques_Nm"] == [50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 350.0]
+    assert s.run["speed_rpm"] == pytest.approx(10 * 2 * 3.141592653589793 / 60)
     assert s.parameters["gear2.teeth"] == 57
     assert s.run["approach_um"] == pytest.approx(10e-6)
     assert s.assumptions
@@ -31,6 +35,8 @@ def test_paper_set_a_converts_units_to_si():
     ("[pair]\ninternal = 1\n", ["pair.internal", "true or false"]),
     ("[model]\nslices = 0\n", ["model.slices", "allowed range [1, 200]"]),
     ("[run]\nspeed = 3\n", ["run.speed", "unknown key"]),
+    ("[run]\ntorques_Nm = [50, \"x\"]\n", ["run.torques_Nm[1]", "expected a number"]),
+    ("[model]\nfriction_coefficient = 3\n", ["model.friction_coefficient", "allowed range"]),
     ("[pair]\npressure_angle_deg = nan\n", ["pair.pressure_angle_deg", "allowed range"]),
     ("[pair\n", ["not valid TOML"]),
 ])
