@@ -103,16 +103,23 @@ ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slice
     return std::isfinite(best) ? lambda + direction * best * (1 + 1e-12) + direction * 1e-15
                                : kInf;
   };
-  if (load == 0) {  // first touch of the flanks the load would close: no force, the rigid TE
+  double lambda = lambda_start;
+  if (load == 0) {
+    // No load: inside the backlash any TE balances it; report where the flanks a positive load
+    // would close first touch (the unloaded TE). A wedged mesh has no such free position: the
+    // solve below finds its preloaded balance.
     double first = kInf;
     for (int i = 0; i < n; ++i)
       if (slices[i].te_gain > 0) first = std::min(first, -slices[i].approach / slices[i].te_gain);
-    out.lambda = std::isfinite(first) ? first : 0;
-    for (int i = 0; i < n; ++i) force[i] = stiffness[i] = 0;
-    return out;
+    lambda = std::isfinite(first) ? first : 0;
+    double slope0 = 0;
+    if (h(lambda, slope0) == 0 && slope0 == 0) {
+      out.lambda = lambda;
+      return out;
+    }
   }
   const double load_tol = 1e-12 * std::fabs(load) + 1e-9;
-  double lo = -kInf, hi = kInf, lambda = lambda_start, slope = 0;
+  double lo = -kInf, hi = kInf, slope = 0;
   for (int it = 0; it < 200; ++it) {
     const double value = h(lambda, slope);
     if (std::fabs(value) <= load_tol) {
