@@ -9,51 +9,14 @@
 #include "detection.hpp"
 #include "geometry.hpp"
 #include "params.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using namespace gm_test;
 
-struct Pair {
-  gm_model_params p;
-  gm_pair_geometry g;
-  gm::MeshLayout L;
-};
-
-Pair make_pair(const gm_model_params& p) {
-  Pair out{p, {}, {}};
-  std::string msg;
-  EXPECT_EQ(gm::validate_params(p, msg), GM_OK) << msg;
-  EXPECT_EQ(gm::compute_pair_geometry(p, out.g, msg), GM_OK) << msg;
-  out.L = gm::make_mesh_layout(p, out.g, {}, {});
-  return out;
-}
-
-gm_model_params paper_pair() {
-  gm_model_params p;
-  gm_default_params(&p);
-  return p;
-}
-
-gm_model_params internal_pair() {
-  gm_model_params p;
-  gm_default_params(&p);
-  p.pair.internal = 1;
-  p.pair.normal_module = 0.002;
-  p.gear[0].teeth = 21;
-  p.gear[1].teeth = 62;
-  p.gear[0].profile_shift = 0;
-  p.gear[1].profile_shift = 0;
-  p.gear[0].thickness_allowance = -30e-6;  // the allowances give the backlash
-  p.gear[1].thickness_allowance = -30e-6;
-  p.pair.center_distance = 0.041;  // reference centre distance m (z2 - z1) / 2
-  return p;
-}
-
-// phi_2 that holds the transmission error at te for a given phi_1 (PHYSICS 0).
-double phi2_for(const gm::MeshLayout& L, double te, double phi1) {
-  return (te - L.base_radius[0] * phi1) / (L.sign * L.base_radius[1]);
-}
+gm_model_params paper_pair() { return paper(); }
+gm_model_params internal_pair() { return ring(); }
 
 struct Found {
   std::vector<gm::ContactSlice> slices;

@@ -14,38 +14,11 @@
 #include "geometry.hpp"
 #include "microgeometry.hpp"
 #include "params.hpp"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-struct Pair {
-  gm_model_params p;
-  gm_pair_geometry g;
-  gm::MeshLayout L;
-};
-
-Pair make_pair(const gm_model_params& p) {
-  Pair out{p, {}, {}};
-  std::string msg;
-  EXPECT_EQ(gm::validate_params(p, msg), GM_OK) << msg;
-  EXPECT_EQ(gm::compute_pair_geometry(p, out.g, msg), GM_OK) << msg;
-  gm::GearMicrogeometry micro[2];
-  for (int i = 0; i < 2; ++i) {
-    const gm_gear_geometry& gi = out.g.gear[i];
-    const gm::ActiveFlank active{0.5 * std::sqrt(gi.d_sap * gi.d_sap - gi.d_b * gi.d_b), gi.rho_a,
-                                 p.gear[i].face_width};
-    micro[i] = gm::make_microgeometry(p.gear[i], active, {});
-  }
-  out.L = gm::make_mesh_layout(p, out.g, std::move(micro[0]), std::move(micro[1]));
-  return out;
-}
-
-gm_model_params paper() {
-  gm_model_params p;
-  gm_default_params(&p);
-  return p;
-}
+using namespace gm_test;
 
 // 57/57 helical, beta 15 deg, unshifted, 50 um beyond the reference centre distance.
 gm_model_params helical(double beta_deg = 15, int slices = 8) {
@@ -66,10 +39,6 @@ gm_model_params ring_helical() {
   p.gear[0].thickness_allowance = p.gear[1].thickness_allowance = -30e-6;
   p.pair.center_distance = 0.002 / std::cos(p.pair.helix_angle) * (62 - 21) / 2;
   return p;
-}
-
-double phi2_for(const gm::MeshLayout& L, double te, double phi1) {
-  return (te - L.base_radius[0] * phi1) / (L.sign * L.base_radius[1]);
 }
 
 std::vector<gm::ContactSlice> detect(const gm::MeshLayout& L, const gm_kinematics& k) {

@@ -7,55 +7,11 @@
 #include <string>
 
 #include "gearmesh/gearmesh.h"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-struct Instance {
-  gm_model* m = nullptr;
-  gm_data* d = nullptr;
-  explicit Instance(const gm_model_params& p) {
-    char msg[256];
-    // gtest reports an exception from a test body as a failure; a NULL model must not crash.
-    if (gm_model_create(&p, &m, msg, sizeof msg) != GM_OK) throw std::runtime_error(msg);
-    if (gm_data_create(m, &d) != GM_OK) throw std::runtime_error("gm_data_create failed");
-  }
-  ~Instance() {
-    gm_data_free(d);
-    gm_model_free(m);
-  }
-  const gm_pair_geometry& geo() const { return *gm_model_geometry(m); }
-  double rb(int i) const { return 0.5 * geo().gear[i].d_b; }
-  int sign() const { return gm_model_parameters(m)->pair.internal ? -1 : 1; }
-  // Evaluate at TE te with gear 1 at phi1.
-  gm_result at(double te, double phi1 = 0.0) {
-    gm_kinematics k{};
-    k.phi[0] = phi1;
-    k.phi[1] = (te - rb(0) * phi1) / (sign() * rb(1));
-    gm_result r{};
-    EXPECT_EQ(gm_evaluate(m, d, &k, &r), GM_OK) << gm_data_message(d);
-    return r;
-  }
-};
-
-gm_model_params paper() {
-  gm_model_params p;
-  gm_default_params(&p);
-  return p;
-}
-
-gm_model_params ring() {
-  gm_model_params p = paper();
-  p.pair.internal = 1;
-  p.pair.normal_module = 0.002;
-  p.gear[0].teeth = 21;
-  p.gear[1].teeth = 62;
-  p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
-  p.gear[0].thickness_allowance = p.gear[1].thickness_allowance = -30e-6;
-  p.pair.center_distance = 0.041;
-  return p;
-}
+using namespace gm_test;
 
 // The middle of the first run of poses (over one base pitch of gear 1) with `pairs` loaded
 // pairs at the approach te; mid-run poses are away from the path ends, so no tip contact.

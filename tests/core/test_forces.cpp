@@ -10,47 +10,16 @@
 #include <vector>
 
 #include "gearmesh/gearmesh.h"
+#include "test_support.hpp"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-struct Instance {
-  gm_model* m = nullptr;
-  gm_data* d = nullptr;
-  explicit Instance(const gm_model_params& p) {
-    char msg[512];
-    if (gm_model_create(&p, &m, msg, sizeof msg) != GM_OK) throw std::runtime_error(msg);
-    if (gm_data_create(m, &d) != GM_OK) throw std::runtime_error("gm_data_create failed");
-  }
-  ~Instance() {
-    gm_data_free(d);
-    gm_model_free(m);
-  }
-  const gm_pair_geometry& geo() const { return *gm_model_geometry(m); }
-  double rb(int i) const { return 0.5 * geo().gear[i].d_b; }
-  gm_result eval(gm_kinematics k) {
-    gm_result r{};
-    const gm_status st = gm_evaluate(m, d, &k, &r);
-    if (st != GM_OK) throw std::runtime_error(gm_data_message(d));
-    return r;
-  }
-  // Quasi-static: gear 1 at phi1 turning at omega1, gear 2 loaded by torque.
-  gm_result loaded(double phi1, double torque, double omega1 = 0) {
-    gm_kinematics k{};
-    k.phi[0] = phi1;
-    k.omega[0] = omega1;
-    k.omega[1] = -omega1 * rb(0) / rb(1);
-    k.load_torque = torque;
-    return eval(k);
-  }
-};
+using namespace gm_test;
 
 // A short, deep tip relief keeps the tip edges off the mate, as the closed forms assume (the
 // flanks lose 0.05 mm of roll at each end of the path).
 gm_model_params quasi_static_paper() {
-  gm_model_params p;
-  gm_default_params(&p);
+  gm_model_params p = paper();
   p.quasi_static = 1;
   for (auto& g : p.gear)
     for (auto& f : g.flank) {

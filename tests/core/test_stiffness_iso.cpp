@@ -9,6 +9,7 @@
 
 #include "geometry.hpp"
 #include "stiffness_iso.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -17,25 +18,7 @@ constexpr double kDeg = kPi / 180.0;
 constexpr double kMm = 1e-3;
 constexpr double kNmmUm = 1e9;  // 1 N/(mm um) in N/m^2
 
-gm_model_params spur_pair(int z1, int z2, double m_n, double a, double x1, double x2, double b) {
-  gm_model_params p{};
-  p.pair.center_distance = a;
-  p.pair.normal_module = m_n;
-  p.pair.pressure_angle = 20.0 * kDeg;
-  p.pair.rack_addendum = 1.0;
-  p.pair.rack_dedendum = 1.25;
-  p.pair.rack_tip_radius = 0.38;
-  const int z[2] = {z1, z2};
-  const double x[2] = {x1, x2};
-  for (int i = 0; i < 2; ++i) {
-    p.gear[i].teeth = z[i];
-    p.gear[i].profile_shift = x[i];
-    p.gear[i].face_width = b;
-    p.gear[i].youngs_modulus = 206e9;
-    p.gear[i].poisson_ratio = 0.3;
-  }
-  return p;
-}
+using gm_test::spur_pair;
 
 // PHYSICS 1 / 5: 57/57, m_n 2.6 mm, a 150 mm, x1 = x2 = x.
 gm_model_params set_a(double x) { return spur_pair(57, 57, 2.6 * kMm, 150 * kMm, x, x, 23 * kMm); }

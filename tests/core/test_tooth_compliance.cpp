@@ -13,6 +13,7 @@
 #include "hertz.hpp"
 #include "stiffness_iso.hpp"
 #include "tooth_compliance.hpp"
+#include "test_support.hpp"
 
 namespace {
 
@@ -21,25 +22,7 @@ constexpr double kDeg = kPi / 180.0;
 constexpr double kMm = 1e-3;
 constexpr double kNmmUm = 1e9;
 
-gm_model_params spur_pair(int z1, int z2, double m_n, double a, double x1, double x2, double b) {
-  gm_model_params p{};
-  p.pair.center_distance = a;
-  p.pair.normal_module = m_n;
-  p.pair.pressure_angle = 20.0 * kDeg;
-  p.pair.rack_addendum = 1.0;
-  p.pair.rack_dedendum = 1.25;
-  p.pair.rack_tip_radius = 0.38;
-  const int z[2] = {z1, z2};
-  const double x[2] = {x1, x2};
-  for (int i = 0; i < 2; ++i) {
-    p.gear[i].teeth = z[i];
-    p.gear[i].profile_shift = x[i];
-    p.gear[i].face_width = b;
-    p.gear[i].youngs_modulus = 206e9;
-    p.gear[i].poisson_ratio = 0.3;
-  }
-  return p;
-}
+using gm_test::spur_pair;
 
 gm_model_params set_a() {  // PHYSICS 1/5: 57/57 with x = 0.36139
   return spur_pair(57, 57, 2.6 * kMm, 150 * kMm, 0.36139, 0.36139, 23 * kMm);

@@ -1,0 +1,130 @@
+// Shared by the core tests: a model and its data through the C API, the gear pairs the tests
+// use, and the detection layout of a pair.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "detection.hpp"
+#include "gearmesh/gearmesh.h"
+#include "geometry.hpp"
+#include "microgeometry.hpp"
+#include "params.hpp"
+
+namespace gm_test {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A model and its data. Creation errors throw: gtest reports an exception from a test body as
+// a failure, and a NULL model never reaches the C API.
+struct Instance {
+  gm_model* m = nullptr;
+  gm_data* d = nullptr;
+  explicit Instance(const gm_model_params& p) {
+    char msg[512];
+    if (gm_model_create(&p, &m, msg, sizeof msg) != GM_OK) throw std::runtime_error(msg);
+    if (gm_data_create(m, &d) != GM_OK) throw std::runtime_error("gm_data_create failed");
+  }
+  ~Instance() {
+    gm_data_free(d);
+    gm_model_free(m);
+  }
+  Instance(const Instance&) = delete;
+  Instance& operator=(const Instance&) = delete;
+  const gm_pair_geometry& geo() const { return *gm_model_geometry(m); }
+  double rb(int i) const { return 0.5 * geo().gear[i].d_b; }
+  int sign() const { return gm_model_parameters(m)->pair.internal ? -1 : 1; }
+  // Evaluate; an error throws with the core's message.
+  gm_result eval(gm_kinematics k) {
+    gm_result r{};
+    if (gm_evaluate(m, d, &k, &r) != GM_OK) throw std::runtime_error(gm_data_message(d));
+    return r;
+  }
+  // Prescribed spin angles: TE te with gear 1 at phi1 (PHYSICS 0).
+  gm_result at(double te, double phi1 = 0.0) {
+    gm_kinematics k{};
+    k.phi[0] = phi1;
+    k.phi[1] = (te - rb(0) * phi1) / (sign() * rb(1));
+    return eval(k);
+  }
+  // Quasi-static mode: gear 1 at phi1 turning at omega1, gear 2 loaded by torque.
+  gm_result loaded(double phi1, double torque, double omega1 = 0) {
+    gm_kinematics k{};
+    k.phi[0] = phi1;
+    k.omega[0] = omega1;
+    k.omega[1] = -sign() * omega1 * rb(0) / rb(1);
+    k.load_torque = torque;
+    return eval(k);
+  }
+};
+
+// The paper's gear set A (the core's defaults).
+inline gm_model_params paper() {
+  gm_model_params p;
+  gm_default_params(&p);
+  return p;
+}
+
+// An internal pair: pinion 21 in ring 62, m 2 mm, backlash from the thickness allowances.
+inline gm_model_params ring() {
+  gm_model_params p = paper();
+  p.pair.internal = 1;
+  p.pair.normal_module = 0.002;
+  p.gear[0].teeth = 21;
+  p.gear[1].teeth = 62;
+  p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
+  p.gear[0].thickness_allowance = p.gear[1].thickness_allowance = -30e-6;
+  p.pair.center_distance = 0.041;
+  return p;
+}
+
+// A spur pair on ISO 53 profile A, steel (E 206 GPa), centred faces.
+inline gm_model_params spur_pair(int z1, int z2, double m_n, double a, double x1, double x2,
+                                 double b) {
+  gm_model_params p = paper();
+  p.pair.center_distance = a;
+  p.pair.normal_module = m_n;
+  const int z[2] = {z1, z2};
+  const double x[2] = {x1, x2};
+  for (int i = 0; i < 2; ++i) {
+    p.gear[i].teeth = z[i];
+    p.gear[i].profile_shift = x[i];
+    p.gear[i].face_width = b;
+    p.gear[i].youngs_modulus = 206e9;
+  }
+  return p;
+}
+
+// Validated parameters, their geometry and the detection layout (with micro-geometry).
+struct Pair {
+  gm_model_params p;
+  gm_pair_geometry g;
+  gm::MeshLayout L;
+};
+
+inline Pair make_pair(const gm_model_params& p) {
+  Pair out{p, {}, {}};
+  std::string msg;
+  EXPECT_EQ(gm::validate_params(p, msg), GM_OK) << msg;
+  EXPECT_EQ(gm::compute_pair_geometry(p, out.g, msg), GM_OK) << msg;
+  gm::GearMicrogeometry micro[2];
+  for (int i = 0; i < 2; ++i) {
+    const gm_gear_geometry& gi = out.g.gear[i];
+    const gm::ActiveFlank active{0.5 * std::sqrt(gi.d_sap * gi.d_sap - gi.d_b * gi.d_b), gi.rho_a,
+                                 p.gear[i].face_width};
+    micro[i] = gm::make_microgeometry(p.gear[i], active, {});
+  }
+  out.L = gm::make_mesh_layout(p, out.g, std::move(micro[0]), std::move(micro[1]));
+  return out;
+}
+
+// phi_2 that holds the transmission error at te for a given phi_1 (PHYSICS 0).
+inline double phi2_for(const gm::MeshLayout& L, double te, double phi1) {
+  return (te - L.base_radius[0] * phi1) / (L.sign * L.base_radius[1]);
+}
+
+}  // namespace gm_test
