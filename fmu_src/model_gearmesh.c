@@ -1,6 +1,7 @@
 /* GearMesh behind model.h: the variable table bound to gm_fmu_values, the core model built
  * lazily from the parameters, one gm_evaluate per call. */
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -134,9 +135,11 @@ static int has_parent_component(const char* path) {
   }
 }
 
-/* The absolute path of gear<i>.deviations = name inside resources/ in *path (NULL for ""), or
- * nonzero with msg if the name would leave resources/ or there is no resources directory. */
-static int resolve_deviations(const fmu_model* m, int gear, const char* name, char** path, char* msg, size_t n) {
+/* The absolute path of a String parameter that names a file inside resources/ (its value
+ * `name`) in *path (NULL for ""), or nonzero with msg naming the parameter if the name would
+ * leave resources/ or there is no resources directory. */
+static int resolve_resource(const fmu_model* m, const char* parameter, const char* name, char** path, char* msg,
+                            size_t n) {
   *path = NULL;
   if (!name || !name[0]) return 0;
   const char* why = NULL;
@@ -145,16 +148,16 @@ static int resolve_deviations(const fmu_model* m, int gear, const char* name, ch
   else if (has_parent_component(name)) why = "has a \"..\" component";
   if (why) {
     snprintf(msg, n,
-             "gear%d.deviations = \"%s\" %s; allowed: the name of a file inside the FMU's resources/ folder "
+             "%s = \"%s\" %s; allowed: the name of a file inside the FMU's resources/ folder "
              "(relative, '/' separators, no \"..\")",
-             gear, name, why);
+             parameter, name, why);
     return 1;
   }
   if (!m->resources) {
     snprintf(msg, n,
-             "gear%d.deviations = \"%s\" names a file in resources/, but the FMU was instantiated without a local "
+             "%s = \"%s\" names a file in resources/, but the FMU was instantiated without a local "
              "resource location (fmuResourceLocation NULL or not a file URI); set it to \"\" or give the location",
-             gear, name);
+             parameter, name);
     return 1;
   }
   size_t dir = strlen(m->resources), size = strlen(name) + 1;
@@ -164,17 +167,31 @@ static int resolve_deviations(const fmu_model* m, int gear, const char* name, ch
   return 0;
 }
 
+/* The String parameters that name a file inside resources/: FMU name and the field of the
+ * core's parameters that gets the file's path. */
+static const struct {
+  const char* name;
+  size_t offset;
+} resource_parameters[] = {
+    {"gear1.deviations", offsetof(gm_model_params, gear[0].deviations)},
+    {"gear2.deviations", offsetof(gm_model_params, gear[1].deviations)},
+    {"model.stiffness_table", offsetof(gm_model_params, stiffness_table)},
+    {"model.te_table", offsetof(gm_model_params, te_table)},
+};
+enum { RESOURCE_FILES = sizeof resource_parameters / sizeof resource_parameters[0] };
+
 /* The core's parameters for the FMU's p: the FMU has one micro-geometry per gear (bound to
- * flank A), which flank B gets too; gear<i>.deviations, a file name inside resources/, becomes
- * an absolute path in paths[i - 1] (the caller frees both). */
-static int core_params(const fmu_model* m, const gm_model_params* p, gm_model_params* q, char* paths[2], char* msg,
-                       size_t n) {
+ * flank A), which flank B gets too; each String parameter naming a file inside resources/
+ * becomes an absolute path in paths[k] (the caller frees them). */
+static int core_params(const fmu_model* m, const gm_model_params* p, gm_model_params* q,
+                       char* paths[RESOURCE_FILES], char* msg, size_t n) {
   *q = *p;
-  paths[0] = paths[1] = NULL;
-  for (int i = 0; i < 2; i++) {
-    q->gear[i].flank[1] = q->gear[i].flank[0];
-    if (resolve_deviations(m, i + 1, p->gear[i].deviations, &paths[i], msg, n)) return 1;
-    q->gear[i].deviations = paths[i];
+  for (int k = 0; k < RESOURCE_FILES; k++) paths[k] = NULL;
+  for (int i = 0; i < 2; i++) q->gear[i].flank[1] = q->gear[i].flank[0];
+  for (int k = 0; k < RESOURCE_FILES; k++) {
+    const char** field = (const char**)((char*)q + resource_parameters[k].offset);
+    if (resolve_resource(m, resource_parameters[k].name, *field, &paths[k], msg, n)) return 1;
+    *field = paths[k];
   }
   return 0;
 }
@@ -183,10 +200,9 @@ static int core_params(const fmu_model* m, const gm_model_params* p, gm_model_pa
 static int create_core(const fmu_model* m, const gm_model_params* p, gm_model** core, gm_data** data, char* msg,
                        size_t n) {
   gm_model_params q;
-  char* paths[2];
+  char* paths[RESOURCE_FILES];
   gm_status s = core_params(m, p, &q, paths, msg, n) ? GM_ERR_PARAMETER : gm_model_create(&q, core, msg, n);
-  free(paths[0]);
-  free(paths[1]);
+  for (int k = 0; k < RESOURCE_FILES; k++) free(paths[k]);
   if (s != GM_OK) return 1;
   if (gm_data_create(*core, data) != GM_OK) {
     snprintf(msg, n, "out of memory for the contact data");

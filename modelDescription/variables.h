@@ -212,9 +212,16 @@ typedef enum {
   GM_FMU_GEAR_PARAMETERS(X, 1, 0)                                                                                  \
   GM_FMU_GEAR_PARAMETERS(X, 2, 1)                                                                                  \
   X("model.stiffness", Integer, parameter, fixed, exact, "", "", "0", "5", p.stiffness_level, D_SET,               \
-    "stiffness level: 0 user constant, 1 user variable, 2 ISO 6336, 3 time-varying, 4 analytical, 5 FE")           \
+    "stiffness level: 0 user constant, 1 user tables, 2 ISO 6336, 3 time-varying, 4 analytical, 5 FE")             \
   X("model.user_stiffness", Real, parameter, fixed, exact, "N/m2", "N/(mm.um)", "", "", p.user_stiffness, D_SET,   \
     "mesh stiffness per unit face width (level 0)")                                                                \
+  X("model.stiffness_table", String, parameter, fixed, exact, "", "", "", "", p.stiffness_table, D_SET,            \
+    "level 1 (required there, \"\" at other levels): file name of a stiffness table (pair stiffness per unit "     \
+    "face width over gear 1's roll angle) inside the FMU's resources/ folder; relative, without \"..\" or "        \
+    "backslashes")                                                                                                 \
+  X("model.te_table", String, parameter, fixed, exact, "", "", "", "", p.te_table, D_SET,                          \
+    "any level: file name of a TE excitation table (over gear 1's angle within one pitch; opens both flanks by "   \
+    "it) inside the FMU's resources/ folder, \"\" = none; relative, without \"..\" or backslashes")              \
   X("model.slices", Integer, parameter, fixed, exact, "", "", "1", "", p.slices, D_SET,                            \
     "slices across the axial overlap")                                                                             \
   X("model.coupled_teeth", Integer, parameter, fixed, exact, "", "", "0", "", p.coupled_teeth, D_SET,              \

@@ -63,6 +63,53 @@ gm_status build_microgeometry(const gm_model_params& p, const gm_pair_geometry& 
   return GM_OK;
 }
 
+// The user tables (user_tables.hpp): level 1's stiffness table and the TE excitation table,
+// each message prefixed with its parameter's name.
+gm_status build_user_tables(const gm_model_params& p, const gm_pair_geometry& g,
+                            gm::StiffnessTable& stiffness, gm::TeTable& te, std::string& text) {
+  const auto named = [&](const char* name, const char* format, gm_status st) {
+    const std::string prefix = std::string(name) + ": ";
+    if (text.rfind(prefix, 0) != 0) text = prefix + text;
+    if (text.find("allowed") == std::string::npos)
+      text += std::string("; allowed: a readable GearMesh ") + format + " (format 1)";
+    return st;
+  };
+  const char* path = p.stiffness_table;
+  if (path && *path) {
+    if (p.stiffness_level != GM_STIFFNESS_USER_VARIABLE) {
+      text = "model.stiffness_table = \"" + std::string(path) + "\": a stiffness table is used at "
+             "model.stiffness = 1 (user tables) only, this model has model.stiffness = " +
+             std::to_string(p.stiffness_level) + "; allowed: \"\" (none) at this level";
+      return GM_ERR_PARAMETER;
+    }
+    gm_status st = gm::load_stiffness_table(path, stiffness, text);
+    if (st != GM_OK) return named("model.stiffness_table", "stiffness table", st);
+    // A table in another convention (radians, the roll angle of gear 2, a diameter) would be
+    // held at one end value everywhere: its roll angles must reach gear 1's active profile.
+    const gm_gear_geometry& g1 = g.gear[0];
+    const double lo = std::sqrt(std::max(0.0, g1.d_sap * g1.d_sap - g1.d_b * g1.d_b)) / g1.d_b;
+    const double hi = 2 * g1.rho_a / g1.d_b;
+    if (stiffness.roll_angle.back() < std::min(lo, hi) || stiffness.roll_angle.front() > std::max(lo, hi)) {
+      char buf[400];
+      constexpr double deg = 180 / 3.14159265358979323846;
+      std::snprintf(buf, sizeof buf,
+                    "model.stiffness_table: %s: its roll angles %.6g .. %.6g deg miss gear 1's "
+                    "active profile, %.6g .. %.6g deg; allowed: a table over gear 1's roll angle "
+                    "(roll distance on gear 1's flank / r_b1, deg) that overlaps its active profile",
+                    path, stiffness.roll_angle.front() * deg, stiffness.roll_angle.back() * deg,
+                    std::min(lo, hi) * deg, std::max(lo, hi) * deg);
+      text = buf;
+      return GM_ERR_PARAMETER;
+    }
+  }
+  path = p.te_table;
+  if (path && *path) {
+    gm_status st = gm::load_te_table(path, p.gear[0].teeth, te, text);
+    if (st != GM_OK) return named("model.te_table", "TE table", st);
+  }
+  return GM_OK;
+}
+
 // Design facts that do not stop the model but that a user must hear of (PHYSICS 1).
 std::string design_warnings(const gm_pair_geometry& g) {
   std::string w;
@@ -137,6 +184,13 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
       copy_message(text, msg, msg_size);
       return st;
     }
+    gm::StiffnessTable stiffness_table;
+    gm::TeTable te_table;
+    st = build_user_tables(*p, g, stiffness_table, te_table, text);
+    if (st != GM_OK) {
+      copy_message(text, msg, msg_size);
+      return st;
+    }
     // Stiffness data of the level (PHYSICS 5).
     gm::IsoStiffness iso{};
     gm::ToothSection tooth[2];
@@ -160,7 +214,10 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     m->iso_shape = 0.75 * (1 - 1 / g.eps_alpha);
     m->tooth[0] = std::move(tooth[0]);
     m->tooth[1] = std::move(tooth[1]);
+    m->stiffness_table = std::move(stiffness_table);
+    m->te_table = std::move(te_table);
     m->params.gear[0].deviations = m->params.gear[1].deviations = nullptr;  // read, not kept
+    m->params.stiffness_table = m->params.te_table = nullptr;
     m->geometry = g;
     m->layout = gm::make_mesh_layout(*p, g, std::move(micro[0]), std::move(micro[1]));
     m->slice_capacity = gm::slice_capacity(m->layout);

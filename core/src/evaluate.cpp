@@ -65,6 +65,9 @@ double pair_stiffness(const gm_model& m, const ContactSlice& s) {
       const double u = std::clamp(s.path_position, 0.0, 1.0) * 2 - 1;
       return m.iso_c_prime * (1 - m.iso_shape * u * u);
     }
+    case GM_STIFFNESS_USER_VARIABLE:
+      // the user's table over gear 1's roll angle at the contact point (user_tables.hpp)
+      return stiffness_at(m.stiffness_table, s.roll[0] / m.layout.base_radius[0]);
     case GM_STIFFNESS_TIME_VARYING:
       // contact-line-length model: constant per unit contact line, c_gamma_alpha / eps_alpha
       return m.iso_c_gamma / m.geometry.eps_alpha;
@@ -112,20 +115,39 @@ void build_laws(const gm_model& m, gm_data& d, int n, bool all) {
 }  // namespace
 
 gm_status check_capabilities(const gm_model_params& p, std::string& msg) {
-  char buf[240];
+  char buf[300];
   const int level = p.stiffness_level;
-  if (level == GM_STIFFNESS_USER_VARIABLE || level == GM_STIFFNESS_FE) {
+  if (level == GM_STIFFNESS_FE) {
     std::snprintf(buf, sizeof buf,
-                  "model.stiffness = %d: this build has levels 0 (user constant), 2 (ISO 6336-1 "
-                  "method B), 3 (contact-line-length model) and 4 (analytical: Weber/Sainsot "
-                  "teeth with local Hertz); allowed values 0, 2, 3, 4", level);
+                  "model.stiffness = %d: this build has levels 0 (user constant), 1 (user tables), "
+                  "2 (ISO 6336-1 method B), 3 (contact-line-length model) and 4 (analytical: "
+                  "Weber/Sainsot teeth with local Hertz); allowed values 0, 1, 2, 3, 4", level);
     msg = buf;
+    return GM_ERR_PARAMETER;
+  }
+  if (level == GM_STIFFNESS_USER_VARIABLE && !(p.stiffness_table && *p.stiffness_table)) {
+    msg = "model.stiffness_table = \"\": model.stiffness = 1 (user tables) takes the pair "
+          "stiffness from a stiffness table; allowed: the path of a stiffness table file "
+          "('gearmesh-stiffness-table 1'; in the FMU the name of a file inside resources/)";
     return GM_ERR_PARAMETER;
   }
   return GM_OK;
 }
 
 namespace {
+
+// The TE excitation (user_tables.hpp): a gap of TE_exc cos(beta_b) along the normal of every
+// slice, flank A and B alike, and its rate in the approach rate.
+void apply_te_excitation(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n) {
+  if (m.te_table.empty()) return;
+  const TeExcitation e = te_excitation_at(m.te_table, kin.phi[0]);
+  const double cb = m.layout.cos_beta_b;
+  const double gap = e.te * cb, gap_rate = e.slope * kin.omega[0] * cb;
+  for (int i = 0; i < n; ++i) {
+    d.slices[i].approach -= gap;
+    d.slices[i].approach_rate -= gap_rate;
+  }
+}
 
 // Forces, moments and the other outputs from solved slice forces.
 void resultants(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, gm_result& r) {
@@ -202,6 +224,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
   if (!m.params.quasi_static) {
     n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
     if (n < 0) return GM_ERR_INPUT;
+    apply_te_excitation(m, d, kin, n);
     build_laws(m, d, n, false);
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
     const ForceSolve fs = solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it,
@@ -223,6 +246,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
       kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2);
       n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
       if (n < 0) return GM_ERR_INPUT;
+      apply_te_excitation(m, d, kin, n);  // detection is redone every pass
       build_laws(m, d, n, true);
       balance_weights(m, d, kin, n);
       const ForceSolve fs = solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(),

@@ -2,6 +2,8 @@
 // (PHYSICS.md section 2). Formulas and the deviation file format: microgeometry.hpp.
 #include "microgeometry.hpp"
 
+#include "text_file.hpp"
+
 #include <algorithm>
 #include <cassert>
 #include <cerrno>
@@ -19,58 +21,15 @@ constexpr double kMm = 1e-3;                    // file roll and face positions,
 constexpr double kMaxDeviationUm = 1e4;         // |deviation| in the file, um
 constexpr double kMaxPositionMm = 1e5;          // |roll|, |face| in the file, mm
 constexpr double kFaceToleranceMm = 1e-3;       // face points may exceed b/2 by this, mm
-constexpr std::size_t kMaxFileBytes = 64u << 20;  // 64 MiB
 constexpr double kMaxAmount = 1e-3;             // design modification amounts, m
 
 // ---------------------------------------------------------------------------------------------
 // Deviation file parser.
 
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r'; }
-
-// A token as it may appear in a message: quoted, non-printable bytes escaped, at most 32 bytes.
-std::string quote(std::string_view t) {
-  std::string s = "'";
-  const std::size_t n = std::min<std::size_t>(t.size(), 32);
-  for (std::size_t i = 0; i < n; ++i) {
-    const unsigned char c = static_cast<unsigned char>(t[i]);
-    if (c >= 0x20 && c < 0x7f) {
-      s += static_cast<char>(c);
-    } else {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02X", c);
-      s += buf;
-    }
-  }
-  if (t.size() > n) s += "...";
-  return s + "'";
-}
-
-std::string format_number(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
-
-// Locale-independent number: std::from_chars with an optional leading '+'. Returns false
-// (and a reason) unless the whole token is one finite number.
-bool to_double(std::string_view t, double& v, std::string& why) {
-  if (t.size() > 1 && t[0] == '+' && t[1] != '-' && t[1] != '+') t.remove_prefix(1);
-  const char* end = t.data() + t.size();
-  const auto r = std::from_chars(t.data(), end, v, std::chars_format::general);
-  if (r.ec == std::errc::result_out_of_range) {
-    why = "is out of the range of a double";
-    return false;
-  }
-  if (r.ec != std::errc() || r.ptr != end) {
-    why = "is not a number";
-    return false;
-  }
-  if (!std::isfinite(v)) {
-    why = "is not finite";
-    return false;
-  }
-  return true;
-}
+using text::format_number;
+using text::is_space;
+using text::quote;
+using text::to_double;
 
 bool to_int(std::string_view t, int& v) {
   const char* end = t.data() + t.size();
@@ -488,36 +447,9 @@ gm_status load_deviations(const char* path, int teeth, double face_width, Deviat
     msg = "load_deviations: no path given";
     return GM_ERR_ARGUMENT;
   }
-  std::FILE* f = std::fopen(path, "rb");
-  if (!f) {
-    msg = std::string(path) + ": cannot open the deviation file: " + std::strerror(errno) +
-          "; allowed: the path of a readable deviation file ('gearmesh-deviations 1')";
-    return GM_ERR_PARAMETER;
-  }
   std::string text;
-  char buf[65536];
-  bool too_big = false;
-  for (;;) {
-    const std::size_t n = std::fread(buf, 1, sizeof buf, f);
-    text.append(buf, n);
-    if (text.size() > kMaxFileBytes) {
-      too_big = true;
-      break;
-    }
-    if (n < sizeof buf) break;
-  }
-  const bool read_error = std::ferror(f) != 0;
-  const int err = errno;
-  std::fclose(f);
-  if (too_big) {
-    msg = std::string(path) + ": the deviation file is larger than 64 MiB; allowed: up to 64 MiB";
+  if (!text::read_file(path, "deviation file", "gearmesh-deviations", text, msg))
     return GM_ERR_PARAMETER;
-  }
-  if (read_error) {
-    msg = std::string(path) + ": cannot read the deviation file: " + std::strerror(err) +
-          "; allowed: a readable deviation file ('gearmesh-deviations 1')";
-    return GM_ERR_PARAMETER;
-  }
   return parse_deviations(text, path, teeth, face_width, out, msg);
 }
 

@@ -8,6 +8,7 @@
 #include "detection.hpp"
 #include "stiffness_iso.hpp"
 #include "tooth_compliance.hpp"
+#include "user_tables.hpp"
 #include "gearmesh/gearmesh.h"
 
 struct gm_model {
@@ -20,6 +21,8 @@ struct gm_model {
   double iso_c_gamma = 0;      // levels 2, 3: mesh stiffness c_gamma_alpha, N/m^2
   double iso_shape = 0;        // level 2: parabola depth of the pair stiffness over the path
   gm::ToothSection tooth[2];   // level 4: Weber/Sainsot compliance of each gear's tooth
+  gm::StiffnessTable stiffness_table;  // level 1: pair stiffness over gear 1's roll angle
+  gm::TeTable te_table;        // any level: TE excitation over gear 1's angle (empty = none)
 };
 
 struct gm_data {

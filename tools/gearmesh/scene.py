@@ -77,6 +77,9 @@ SCHEMA: dict[str, dict[str, Key]] = {
                                           unit="mm/s"),
         "damping_Ns_per_m2": Key("model.damping", 1.0, 0.0, 1e9, unit="N s/m^2"),
         "rated_line_load_N_per_mm": Key("model.rated_line_load", 1e3, 0.0, 1e5, unit="N/mm"),
+        # user tables (core/src/user_tables.hpp): files next to the scene, shipped in resources/
+        "stiffness_table_file": Key("model.stiffness_table", kind=str),  # level 1
+        "te_table_file": Key("model.te_table", kind=str),                # any level
     },
 }
 
@@ -166,6 +169,14 @@ def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
                 scene.resources[name] = source
                 value = name
             scene.parameters[spec.variable] = value
+    level = scene.parameters.get("model.stiffness", 0)
+    has_table = "model.stiffness_table" in scene.parameters
+    if level == 1 and not has_table:
+        raise SceneError("model.stiffness_level = 1 (user tables) takes the pair stiffness from "
+                         "model.stiffness_table_file; allowed: give that file, or another level")
+    if has_table and level != 1:
+        raise SceneError(f"model.stiffness_table_file: used at model.stiffness_level = 1 only, "
+                         f"this scene has {level}; allowed: level 1, or no stiffness table")
     for key, value in raw.get("run", {}).items():
         spec = RUN_SCHEMA.get(key)
         if spec is None:

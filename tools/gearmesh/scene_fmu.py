@@ -22,7 +22,7 @@ from xml.sax.saxutils import escape
 START_VALUES = "gearmesh-start-values.txt"  # under resources/, read by the binary
 _MAGIC = "gearmesh-start-values 1"
 # String parameters whose value is the name of a file inside resources/.
-_RESOURCE_PARAMETERS = (".deviations",)
+_RESOURCE_PARAMETERS = (".deviations", "model.stiffness_table", "model.te_table")
 
 Value = float | int | bool | str
 
@@ -34,8 +34,9 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
     replaced. Raises ValueError naming the bad parameter or resource; `out` is then untouched.
 
     Parameters and inputs can be given (they are the variables with start values); a String
-    parameter that names a resource (gear<i>.deviations) must name one of the scene FMU's
-    resources. Building from a scene FMU adds to its resources and start values."""
+    parameter that names a resource (gear<i>.deviations, model.stiffness_table, model.te_table)
+    must name one of the scene FMU's resources. Building from a scene FMU adds to its resources
+    and start values."""
     generic_fmu, out = pathlib.Path(generic_fmu), pathlib.Path(out)
     with zipfile.ZipFile(generic_fmu) as z:
         entries = {info.filename: (info, z.read(info)) for info in z.infolist()}
@@ -97,7 +98,7 @@ def _variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
 
 
 def _check_resource_name(name: str, what: str) -> None:
-    """The rules of the binary (model_gearmesh.c, resolve_deviations): inside resources/."""
+    """The rules of the binary (model_gearmesh.c, resolve_resource): inside resources/."""
     if not name or name.startswith("/") or "\\" in name or ".." in name.split("/") or name.endswith("/"):
         raise ValueError(f"{what}: must name a file inside resources/ (relative, '/' separators, no '..', "
                          "no backslashes)")

@@ -96,6 +96,12 @@ typedef struct gm_model_params {
   double rated_line_load;       /* level 2: F_t K_A / b of ISO 6336-1's load correction of c', N/m;
                                    0 = none (c' at full load) */
   int quasi_static;             /* 1: gear 2's spin is solved for the load torque (PHYSICS 6) */
+  const char* stiffness_table;  /* level 1 (required there, refused at other levels): path of a
+                                   stiffness table file, pair stiffness per unit face width over
+                                   gear 1's roll angle, or NULL; read at gm_model_create, not kept */
+  const char* te_table;         /* any level: path of a TE excitation table file over gear 1's
+                                   angle within one pitch, or NULL; read at gm_model_create, not
+                                   kept. Formats and meaning: core/src/user_tables.hpp */
 } gm_model_params;
 
 /* Derived geometry of one gear (ISO 21771; diameters are magnitudes, also for the ring). */
