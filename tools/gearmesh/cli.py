@@ -21,6 +21,11 @@ def main(argv: list[str] | None = None) -> int:
     p_main.add_argument("--out", type=pathlib.Path, default=REPO / "output")
     p_check = sub.add_parser("check", help="validate scene files")
     p_check.add_argument("scenes", nargs="+", type=pathlib.Path)
+    p_ref = sub.add_parser("reference", help="compare the scenes' loaded TE with their reference "
+                           "curves, or (--write) regenerate them on purpose")
+    p_ref.add_argument("scenes", nargs="*", type=pathlib.Path)
+    p_ref.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
+    p_ref.add_argument("--write", action="store_true", help="overwrite the reference curves")
     args = parser.parse_args(argv)
 
     try:
@@ -32,6 +37,21 @@ def main(argv: list[str] | None = None) -> int:
         for s in scenes:
             print(f"{s.path}: ok ({len(s.parameters)} parameters)")
         return 0
+    if args.command == "reference":
+        from gearmesh import reference_curves as rc
+
+        status = 0
+        for s in scenes:
+            curves = rc.compute(s, args.fmu)
+            if args.write:
+                print(f"{rc.write(s, curves)}: written")
+                continue
+            worst = rc.compare(s, curves)
+            ok = worst <= rc.TOLERANCE
+            status |= not ok
+            print(f"{s.name}: largest TE difference {worst:.3g} m "
+                  f"({'ok' if ok else 'BEYOND'} tolerance {rc.TOLERANCE:g} m)")
+        return status
     from gearmesh.main_job import run_main
 
     report = run_main(scenes, args.fmu, args.out)
