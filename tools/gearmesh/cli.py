@@ -21,6 +21,14 @@ def main(argv: list[str] | None = None) -> int:
     p_main.add_argument("--out", type=pathlib.Path, default=REPO / "output")
     p_check = sub.add_parser("check", help="validate scene files")
     p_check.add_argument("scenes", nargs="+", type=pathlib.Path)
+    p_batch = sub.add_parser("batch", help="scenes x torques x parameter variations in parallel")
+    p_batch.add_argument("scenes", nargs="*", type=pathlib.Path)
+    p_batch.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
+    p_batch.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "batch")
+    p_batch.add_argument("--torques", type=float, nargs="+", help="N m (default: each scene's)")
+    p_batch.add_argument("--vary", action="append", default=[],
+                         help="FMU parameter and SI values, e.g. model.friction_coefficient=0.3,0.4")
+    p_batch.add_argument("--jobs", type=int, default=2)
     p_ref = sub.add_parser("reference", help="compare the scenes' loaded TE with their reference "
                            "curves, or (--write) regenerate them on purpose")
     p_ref.add_argument("scenes", nargs="*", type=pathlib.Path)
@@ -36,6 +44,18 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "check":
         for s in scenes:
             print(f"{s.path}: ok ({len(s.parameters)} parameters)")
+        return 0
+    if args.command == "batch":
+        from gearmesh import batch
+
+        try:
+            variations = dict(batch.parse_variation(v) for v in args.vary)
+        except ValueError as exc:
+            print(f"gearmesh: {exc}", file=sys.stderr)
+            return 2
+        cases = batch.expand(scenes, args.torques, variations)
+        tidy, summary = batch.run_batch(cases, args.fmu, args.out, args.jobs)
+        print(f"gearmesh: {len(cases)} cases: {tidy}, {summary}")
         return 0
     if args.command == "reference":
         from gearmesh import reference_curves as rc
