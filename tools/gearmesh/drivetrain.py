@@ -1,0 +1,226 @@
+"""The reference drivetrain, driven through fmpy with legal FMI 2.0 calls only.
+
+    speed-controlled motor (PI, inertia J_m) -- input shaft (k1, c1) -- gear 1 (J1)
+        == GearMesh ==  gear 2 (J2) -- output shaft (k2, c2) -- load (J_L) + brake torque T_b
+
+Torsional: the mesh connects gear<i>.phi and gear<i>.omega and returns gear<i>.mz (moments on
+the gears about +z). The brake torque T_b on the load resists the flank-A drive (gear 2 turns
+in -phi for an external pair, so the brake acts in +z on the load).
+
+Scheme (stiff-stable, implicit trapezoidal rule over the whole state): each step solves
+    x1 = x0 + h/2 (f(x0) + f(x1))
+by Newton. The mesh moments at x1 come from the FMU: fmi2GetFMUstate before the step, set the
+end-of-step inputs, fmi2DoStep(t, h) (outputs published for t + h from the inputs held over the
+step), read the moments; for the next Newton iteration fmi2SetFMUstate and repeat the step with
+the corrected inputs. The Newton matrix needs d(mz)/d(phi, omega): from fmi2GetDirectionalDerivative
+when the FMU provides it, else from finite differences by repeating the step with perturbed
+inputs (also only legal calls). Explicit coupling (the FMU evaluated once per step at the start
+inputs, forward Euler) is there for comparison: it is limited to h < 2/omega_mesh, where
+omega_mesh = sqrt(k_mesh (r_b1^2/J1 + r_b2^2/J2)), while the trapezoidal rule is A-stable and
+limited only by accuracy (h well below the mesh period 2 pi/(z1 omega_1) to resolve the mesh
+orders).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gearmesh.fmu_driver import GearMeshFMU
+
+PHI = ["gear1.phi", "gear2.phi"]
+OMEGA = ["gear1.omega", "gear2.omega"]
+MOMENTS = ["gear1.mz", "gear2.mz"]
+
+
+@dataclass
+class Drivetrain:
+    """Parameters, SI. Defaults: the paper's test rig at 10 rpm, roughly."""
+    speed_rpm: float = 10.0           # motor speed set point
+    brake_torque: float = 200.0       # N m on the load, resisting the flank-A drive
+    J_motor: float = 0.05             # kg m^2
+    J1: float = 0.02                  # gear 1 (with its hub), kg m^2
+    J2: float = 0.02
+    J_load: float = 0.5
+    k1: float = 2.0e4                 # input shaft, N m/rad
+    c1: float = 100.0                 # N m s/rad
+    k2: float = 2.0e4                 # output shaft
+    c2: float = 100.0
+    kp: float = 50.0                  # speed controller, N m s/rad
+    ki: float = 500.0                 # N m/rad
+    spin_up: float = 0.2              # s, ramp of the set point
+
+
+@dataclass
+class Result:
+    t: np.ndarray
+    x: np.ndarray                     # states per time (see STATE)
+    mesh: dict                        # output name -> array
+    energy: dict = field(default_factory=dict)
+    fmu_calls: int = 0
+
+
+STATE = ["phi_m", "omega_m", "integral", "phi1", "omega1", "phi2", "omega2", "phi_L", "omega_L"]
+
+
+class Coupled:
+    """The mechanical model around one FMU instance."""
+
+    def __init__(self, fmu: GearMeshFMU, p: Drivetrain):
+        self.fmu, self.p = fmu, p
+        g = fmu.get(["gear1.base_diameter", "gear2.base_diameter", "pair.internal"])
+        self.ratio = -(g["gear1.base_diameter"] / g["gear2.base_diameter"]) * (
+            -1 if g["pair.internal"] else 1)  # omega2 / omega1 of conjugate motion
+        self.directional = bool(fmu.model_description.coSimulation.providesDirectionalDerivative)
+        self.calls = 0
+
+    def omega_ref(self, t: float) -> float:
+        w = self.p.speed_rpm * 2 * math.pi / 60
+        return w * min(1.0, t / self.p.spin_up) if self.p.spin_up > 0 else w
+
+    def rhs(self, t: float, x: np.ndarray, m: np.ndarray) -> np.ndarray:
+        """dx/dt for mesh moments m = (mz1, mz2)."""
+        p = self.p
+        phi_m, w_m, integ, phi1, w1, phi2, w2, phi_L, w_L = x
+        e = self.omega_ref(t) - w_m
+        T_m = p.kp * e + p.ki * integ
+        shaft1 = p.k1 * (phi_m - phi1) + p.c1 * (w_m - w1)
+        shaft2 = p.k2 * (phi_L - phi2) + p.c2 * (w_L - w2)
+        return np.array([
+            w_m, (T_m - shaft1) / p.J_motor, e,
+            w1, (shaft1 + m[0]) / p.J1,
+            w2, (shaft2 + m[1]) / p.J2,
+            w_L, (-shaft2 + p.brake_torque * self._brake_sign()) / p.J_load,
+        ])
+
+    def _brake_sign(self) -> float:
+        return 1.0 if self.ratio < 0 else -1.0  # against gear 2's rotation under flank-A drive
+
+    def mesh_step(self, t: float, h: float, x: np.ndarray) -> dict:
+        """Mesh outputs at t + h for the gear states of x, as one FMI step."""
+        inputs = {PHI[0]: x[3], PHI[1]: x[5], OMEGA[0]: x[4], OMEGA[1]: x[6]}
+        self.fmu.set(inputs)
+        self.fmu._call(self.fmu.fmu.doStep, currentCommunicationPoint=t, communicationStepSize=h)
+        self.calls += 1
+        return self.fmu.get(MOMENTS + ["mesh.te", "mesh.normal_force", "mesh.friction_power",
+                                       "mesh.stiffness"])
+
+    def mesh_jacobian(self, t: float, h: float, x: np.ndarray, base: dict, state) -> np.ndarray:
+        """d(mz1, mz2)/d(phi1, omega1, phi2, omega2) at the end-of-step inputs of x."""
+        knowns = [PHI[0], OMEGA[0], PHI[1], OMEGA[1]]
+        J = np.zeros((2, 4))
+        if self.directional:
+            refs = {n: self.fmu.variables[n].valueReference for n in knowns + MOMENTS}
+            for j, name in enumerate(knowns):
+                d = self.fmu.fmu.getDirectionalDerivative(
+                    [refs[m] for m in MOMENTS], [refs[name]], [1.0])
+                J[:, j] = d
+            return J
+        steps = [1e-8, 1e-6, 1e-8, 1e-6]  # rad, rad/s
+        index = [3, 4, 5, 6]
+        for j, (i, dx) in enumerate(zip(index, steps)):
+            xp = x.copy()
+            xp[i] += dx
+            self.fmu.fmu.setFMUstate(state)
+            out = self.mesh_step(t, h, xp)
+            J[:, j] = [(out[m] - base[m]) / dx for m in MOMENTS]
+        return J
+
+
+def simulate(fmu: GearMeshFMU, p: Drivetrain, t_end: float, h: float, implicit: bool = True,
+             newton_tol: float = 1e-9, max_newton: int = 8) -> Result:
+    """Integrate from rest (gears in contact: gear 2 set to the conjugate angle)."""
+    c = Coupled(fmu, p)
+    x = np.zeros(len(STATE))
+    n = int(round(t_end / h))
+    times, states = [0.0], [x.copy()]
+    mesh_rows: dict[str, list] = {}
+    t = fmu.time
+    out0 = c.mesh_step(t, h, x)  # outputs of the start inputs (explicit scheme's first step)
+    t += h
+    m0 = np.array([out0[m] for m in MOMENTS])
+    energy = {"motor": 0.0, "brake": 0.0, "damping": 0.0, "mesh_in": 0.0, "friction": 0.0}
+    for _ in range(n):
+        f0 = c.rhs(t - h, x, m0)
+        if not implicit:
+            x1 = x + h * f0
+            out = c.mesh_step(t, h, x1)
+        else:
+            state = fmu.fmu.getFMUstate()
+            x1 = x + h * f0  # predictor
+            for it in range(max_newton):
+                fmu.fmu.setFMUstate(state)
+                out = c.mesh_step(t, h, x1)
+                m1 = np.array([out[m] for m in MOMENTS])
+                residual = x1 - x - 0.5 * h * (f0 + c.rhs(t, x1, m1))
+                if np.max(np.abs(residual[[3, 5]])) < newton_tol * 1e-3 and it > 0:
+                    break
+                Jm = c.mesh_jacobian(t, h, x1, out, state)
+                A = np.eye(len(STATE)) - 0.5 * h * _rhs_jacobian(c, t, x1, Jm)
+                x1 = x1 - np.linalg.solve(A, residual)
+            fmu.fmu.setFMUstate(state)
+            out = c.mesh_step(t, h, x1)
+            fmu.fmu.freeFMUstate(state)
+        m1 = np.array([out[m] for m in MOMENTS])
+        # energy bookkeeping, trapezoidal like the scheme
+        def powers(tt, xx, mm):
+            e = c.omega_ref(tt) - xx[1]
+            T_m = p.kp * e + p.ki * xx[2]
+            damp = p.c1 * (xx[1] - xx[4]) ** 2 + p.c2 * (xx[8] - xx[6]) ** 2
+            return np.array([T_m * xx[1], p.brake_torque * c._brake_sign() * xx[8], damp,
+                             -(mm[0] * xx[4] + mm[1] * xx[6])])
+        pw = 0.5 * h * (powers(t - h, x, m0) + powers(t, x1, m1))
+        for key, v in zip(("motor", "brake", "damping", "mesh_in"), pw):
+            energy[key] += v
+        energy["friction"] += h * out["mesh.friction_power"]
+        x, m0 = x1, m1
+        times.append(t)
+        states.append(x.copy())
+        for k, v in out.items():
+            mesh_rows.setdefault(k, []).append(v)
+        t += h
+    fmu.time = t - h
+    X = np.array(states)
+    kinetic = 0.5 * (p.J_motor * X[:, 1] ** 2 + p.J1 * X[:, 4] ** 2 + p.J2 * X[:, 6] ** 2
+                     + p.J_load * X[:, 8] ** 2)
+    springs = 0.5 * (p.k1 * (X[:, 0] - X[:, 3]) ** 2 + p.k2 * (X[:, 7] - X[:, 5]) ** 2)
+    stored = kinetic[-1] - kinetic[0] + springs[-1] - springs[0]
+    # motor work + brake work = stored + dissipated in the dampers + absorbed by the mesh
+    energy["stored"] = stored
+    energy["residual"] = energy["motor"] + energy["brake"] - stored - energy["damping"] \
+        - energy["mesh_in"]
+    return Result(np.array(times), X, {k: np.asarray(v) for k, v in mesh_rows.items()},
+                  energy, c.calls)
+
+
+def _rhs_jacobian(c: Coupled, t: float, x: np.ndarray, Jm: np.ndarray) -> np.ndarray:
+    """d(rhs)/dx with the mesh Jacobian Jm = d(mz1, mz2)/d(phi1, omega1, phi2, omega2)."""
+    p = c.p
+    A = np.zeros((9, 9))
+    A[0, 1] = 1
+    A[1, 1] = (-p.kp - p.c1) / p.J_motor
+    A[1, 2] = p.ki / p.J_motor
+    A[1, 0] = -p.k1 / p.J_motor
+    A[1, 3] = p.k1 / p.J_motor
+    A[1, 4] = p.c1 / p.J_motor
+    A[2, 1] = -1
+    A[3, 4] = 1
+    A[4, 0] = p.k1 / p.J1
+    A[4, 1] = p.c1 / p.J1
+    A[4, 3] = -p.k1 / p.J1
+    A[4, 4] = -p.c1 / p.J1
+    A[5, 6] = 1
+    A[6, 7] = p.k2 / p.J2
+    A[6, 8] = p.c2 / p.J2
+    A[6, 5] = -p.k2 / p.J2
+    A[6, 6] = -p.c2 / p.J2
+    A[7, 8] = 1
+    A[8, 7] = -p.k2 / p.J_load
+    A[8, 8] = -p.c2 / p.J_load
+    A[8, 5] = p.k2 / p.J_load
+    A[8, 6] = p.c2 / p.J_load
+    for row, gear in ((4, 0), (6, 1)):
+        J = p.J1 if gear == 0 else p.J2
+        A[row, [3, 4, 5, 6]] += Jm[gear] / J
+    return A
