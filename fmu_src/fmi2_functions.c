@@ -556,15 +556,62 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component component, const fmi2Byte seria
   return fmi2OK;
 }
 
-/* ---- capabilities this FMU does not provide --------------------------------------------- */
+/* ---- directional derivatives ------------------------------------------------------------ */
 
+/* d(outputs)/d(inputs) . dvKnown (gm_directional_derivative: exact on the current contact set).
+ * Knowns: Real inputs only (FMI 2.0 also allows parameters as knowns for initial unknowns in
+ * Initialization Mode; this FMU does not: a parameter known is an error naming it). Unknowns:
+ * Real outputs. In stepComplete and terminated the derivative is taken at the inputs held over
+ * the last fmi2DoStep, so it belongs to the published outputs even after new inputs were set;
+ * in Initialization Mode (and before any evaluation) at the current inputs. solver.residual's
+ * derivative is reported as 0. The FMU's state is not changed. */
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component component, const fmi2ValueReference vUnknown_ref[],
                                         size_t nUnknown, const fmi2ValueReference vKnown_ref[], size_t nKnown,
                                         const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
-  (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown, (void)dvUnknown;
   CHECK_MODE(MASK_GET_VALUES);
-  return error(c, "fmi2GetDirectionalDerivative: not provided (providesDirectionalDerivative=\"false\")");
+  if (nUnknown == 0) return fmi2OK;
+  CHECK_POINTER(vUnknown_ref);
+  CHECK_POINTER(dvUnknown);
+  if (nKnown) {
+    CHECK_POINTER(vKnown_ref);
+    CHECK_POINTER(dvKnown);
+  }
+  gm_fmu_values seed;
+  memset(&seed, 0, sizeof seed);
+  for (size_t i = 0; i < nKnown; ++i) {
+    const gm_fmu_variable* v = model_variable(vKnown_ref[i]);
+    if (!v) return error(c, "%s: vKnown_ref[%zu] = %u is not a value reference of this FMU", __func__, i,
+                         (unsigned)vKnown_ref[i]);
+    if (v->type != GM_FMU_Real || v->causality != GM_FMU_input)
+      return error(c, "%s: known %s (value reference %u) is a %s %s; the knowns must be Real inputs (parameters "
+                   "as knowns, for initial unknowns in Initialization Mode, are not supported)",
+                   __func__, v->name, (unsigned)vKnown_ref[i], v->causality_name, v->type_name);
+    if (!isfinite(dvKnown[i]))
+      return error(c, "%s: dvKnown[%zu] = %g for %s must be finite", __func__, i, dvKnown[i], v->name);
+    double x;
+    memcpy(&x, (char*)&seed + v->offset, sizeof x);
+    x += dvKnown[i]; /* a known listed twice adds up, as the linear map does */
+    memcpy((char*)&seed + v->offset, &x, sizeof x);
+  }
+  for (size_t i = 0; i < nUnknown; ++i) {
+    const gm_fmu_variable* v = model_variable(vUnknown_ref[i]);
+    if (!v) return error(c, "%s: vUnknown_ref[%zu] = %u is not a value reference of this FMU", __func__, i,
+                         (unsigned)vUnknown_ref[i]);
+    if (v->type != GM_FMU_Real || v->causality != GM_FMU_output)
+      return error(c, "%s: unknown %s (value reference %u) is a %s %s; the unknowns must be Real outputs",
+                   __func__, v->name, (unsigned)vUnknown_ref[i], v->causality_name, v->type_name);
+  }
+  gm_fmu_values out;
+  memset(&out, 0, sizeof out);
+  const int at_last = c->mode != InitializationMode;
+  if (model_directional_derivative(c->model, at_last, &seed.k, &out.y, c->msg, sizeof c->msg))
+    return error(c, "%s: %s", __func__, c->msg);
+  for (size_t i = 0; i < nUnknown; ++i)
+    memcpy(&dvUnknown[i], (const char*)&out + model_variable(vUnknown_ref[i])->offset, sizeof(double));
+  return fmi2OK;
 }
+
+/* ---- capabilities this FMU does not provide --------------------------------------------- */
 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {

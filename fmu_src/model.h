@@ -43,6 +43,12 @@ int model_build(fmu_model* m, char* msg, size_t msg_size);
 /* Evaluate the contact at the held inputs and publish the outputs (time only labels log
  * messages). restart forgets warm start and friction memory first. */
 int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t msg_size);
+/* Directional derivative of the outputs along the input direction seed (gm_directional_derivative),
+ * at the inputs of the last evaluation if at_last_evaluation and there was one (stepComplete:
+ * the inputs held over the last fmi2DoStep, to which the published outputs belong), else at the
+ * current inputs. Nonzero on error, with msg. */
+int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_kinematics* seed,
+                                 gm_result* out, char* msg, size_t msg_size);
 /* Design warnings of the built core model ("" if none or not built). */
 const char* model_warnings(const fmu_model* m);
 /* 1 if the published outputs belong to the current parameters and inputs. */

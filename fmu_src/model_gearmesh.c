@@ -18,6 +18,8 @@ struct fmu_model {
   gm_data* data;       /* evaluation memory of core */
   int params_changed;  /* v.p differs from the parameters core was built from */
   int outputs_current; /* v.y was evaluated at the current v.p and v.k */
+  int evaluated;       /* k_eval holds the inputs of the last evaluation */
+  gm_kinematics k_eval; /* the inputs v.y was evaluated at (held over the last step) */
   fmu_log_fn log;
   void* log_context;
 };
@@ -31,6 +33,7 @@ static int set_start_values(fmu_model* m) {
   int failed = values_copy(&m->v, &m->start);
   m->params_changed = 1;
   m->outputs_current = 0;
+  m->evaluated = 0;
   return failed;
 }
 
@@ -250,6 +253,19 @@ int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t n) 
          r.solver_residual);
   m->v.y = r;
   m->outputs_current = 1;
+  m->k_eval = m->v.k;
+  m->evaluated = 1;
+  return 0;
+}
+
+int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_kinematics* seed,
+                                 gm_result* out, char* msg, size_t n) {
+  if (model_build(m, msg, n)) return 1;
+  const gm_kinematics* at = at_last_evaluation && m->evaluated ? &m->k_eval : &m->v.k;
+  if (gm_directional_derivative(m->core, m->data, at, seed, out) != GM_OK) {
+    snprintf(msg, n, "%s", gm_data_message(m->data));
+    return 1;
+  }
   return 0;
 }
 
@@ -264,7 +280,8 @@ int model_outputs_current(const fmu_model* m) {
 /* State payload, native byte order (the binary is per platform):
  *   values (values_state_save: every parameter, input, output in table order) |
  *   u8 flags (1 outputs current, 2 core built) | u64 core blob size | core blob */
-enum { OUTPUTS_CURRENT = 1, CORE_BUILT = 2 };
+enum { OUTPUTS_CURRENT = 1, CORE_BUILT = 2, EVAL_INPUTS = 4 };
+/* EVAL_INPUTS: the inputs of the last evaluation (gm_kinematics) follow the core blob. */
 
 /* The core's evaluation memory belongs to the state only if the core matches the parameters. */
 static int core_built(const fmu_model* m) {
@@ -273,16 +290,20 @@ static int core_built(const fmu_model* m) {
 
 size_t model_state_size(const fmu_model* m) {
   size_t n = values_state_size(&m->v) + sizeof(uint8_t) + sizeof(uint64_t);
-  return n + (core_built(m) ? gm_data_state_size(m->core, m->data) : 0);
+  return n + (core_built(m) ? gm_data_state_size(m->core, m->data) : 0) +
+         (m->evaluated ? sizeof(gm_kinematics) : 0);
 }
 
 void model_state_save(const fmu_model* m, unsigned char* buf) {
   buf = values_state_save(&m->v, buf);
-  *buf++ = (uint8_t)((m->outputs_current ? OUTPUTS_CURRENT : 0) | (core_built(m) ? CORE_BUILT : 0));
+  *buf++ = (uint8_t)((m->outputs_current ? OUTPUTS_CURRENT : 0) | (core_built(m) ? CORE_BUILT : 0) |
+                     (m->evaluated ? EVAL_INPUTS : 0));
   uint64_t blob = core_built(m) ? gm_data_state_size(m->core, m->data) : 0;
   memcpy(buf, &blob, sizeof blob);
   buf += sizeof blob;
   if (blob) gm_data_state_save(m->core, m->data, buf, (size_t)blob);
+  buf += blob;
+  if (m->evaluated) memcpy(buf, &m->k_eval, sizeof m->k_eval);
 }
 
 /* Load into v (an owning copy of the values); m changes only on success. */
@@ -297,11 +318,14 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   uint64_t blob;
   memcpy(&blob, buf, sizeof blob);
   buf += sizeof blob;
-  if (blob != (uint64_t)(end - buf) || (blob && !(flags & CORE_BUILT))) {
+  const size_t tail = (flags & EVAL_INPUTS) ? sizeof(gm_kinematics) : 0;
+  if ((size_t)(end - buf) < tail || blob != (uint64_t)(end - buf - tail) || (blob && !(flags & CORE_BUILT))) {
     snprintf(msg, n, "FMU state: contact memory of %llu bytes, %zu present", (unsigned long long)blob,
-             (size_t)(end - buf));
+             (size_t)(end - buf - tail));
     return 1;
   }
+  gm_kinematics k_eval;
+  if (tail) memcpy(&k_eval, end - tail, sizeof k_eval);
 
   if (flags & CORE_BUILT) { /* restore the core's evaluation memory exactly */
     gm_model* core = m->core;
@@ -325,6 +349,8 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   values_free_strings(&m->v);
   m->v = *v; /* m takes over v's strings */
   m->outputs_current = (flags & OUTPUTS_CURRENT) && (flags & CORE_BUILT);
+  m->evaluated = tail != 0;
+  if (tail) m->k_eval = k_eval;
   return 0;
 }
 

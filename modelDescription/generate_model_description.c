@@ -172,7 +172,7 @@ int main(int argc, char** argv) {
         "    canHandleVariableCommunicationStepSize=\"true\" canInterpolateInputs=\"false\"\n"
         "    maxOutputDerivativeOrder=\"0\" canRunAsynchronuously=\"false\"\n"
         "    canBeInstantiatedOnlyOncePerProcess=\"false\" canNotUseMemoryManagementFunctions=\"true\"\n"
-        "    canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"true\" providesDirectionalDerivative=\"false\"/>\n",
+        "    canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"true\" providesDirectionalDerivative=\"true\"/>\n",
         f);
 
   fputs("  <UnitDefinitions>\n", f);

@@ -253,6 +253,11 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
     d->approach.resize(m->slice_capacity);
     d->balance.resize(m->slice_capacity);
     d->slice_stiffness.resize(m->slice_capacity);
+    d->dual_slices.resize(m->slice_capacity);
+    d->dual_laws.resize(m->slice_capacity);
+    d->dual_forces.resize(m->slice_capacity);
+    d->dual_stiffness.resize(m->slice_capacity);
+    d->dual_balance.resize(m->slice_capacity);
     d->message.reserve(256);
     *out = d;
     return GM_OK;
@@ -273,6 +278,17 @@ gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, g
   if (!m || !d || !kin || !res) return GM_ERR_ARGUMENT;
   try {
     return gm::evaluate(*m, *d, *kin, *res);
+  } catch (const std::exception& e) {
+    d->message = e.what();
+    return GM_ERR_ARGUMENT;
+  }
+}
+
+gm_status gm_directional_derivative(const gm_model* m, gm_data* d, const gm_kinematics* at,
+                                    const gm_kinematics* seed, gm_result* derivative) {
+  if (!m || !d || !at || !seed || !derivative) return GM_ERR_ARGUMENT;
+  try {
+    return gm::directional_derivative(*m, *d, *at, *seed, *derivative);
   } catch (const std::exception& e) {
     d->message = e.what();
     return GM_ERR_ARGUMENT;

@@ -14,10 +14,12 @@
 namespace gm {
 
 // The compliance of one slice along its normal.
-struct SliceLaw {
-  double compliance = 0;  // linear (global) part c_i, m/N
-  LocalLaw local;         // local Hertz part f_i (width 0 = none)
+template <class T>
+struct SliceLawT {
+  T compliance = 0;       // linear (global) part c_i, m/N
+  LocalLawT<T> local;     // local Hertz part f_i (width 0 = none)
 };
+using SliceLaw = SliceLawT<double>;
 
 struct ForceSolve {
   int iterations = 0;          // Newton iterations, summed over the slices (and lambda updates)

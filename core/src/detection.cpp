@@ -17,8 +17,9 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxSlices = 200;  // = the parameter range of model.slices
 
 // Integer part n and fraction f of x / period with x = n period + f, 0 <= f < period.
-void split_periods(double x, double period, double& n, double& f) {
-  n = std::floor(x / period);
+template <class T>
+void split_periods(const T& x, double period, double& n, T& f) {
+  n = std::floor(val(x) / period);
   f = x - n * period;
   if (f < 0) f = 0;
   if (f >= period) f = std::nextafter(period, 0.0);
@@ -31,67 +32,107 @@ int tooth_index(double n, double m, int sigma, int z) {
   return static_cast<int>(k) % z;
 }
 
-double wrap_angle(double x) { return x - 2 * kPi * std::nearbyint(x / (2 * kPi)); }
+template <class T>
+T wrap_angle(const T& x) { return x - 2 * kPi * std::nearbyint(val(x) / (2 * kPi)); }
 
-Eigen::Vector2d unit(double angle) { return {std::cos(angle), std::sin(angle)}; }
+template <class T>
+using Vec2 = Eigen::Matrix<T, 2, 1>;
+template <class T>
+using Vec3 = Eigen::Matrix<T, 3, 1>;
+
+template <class T>
+Vec2<T> unit(const T& angle) {
+  GM_AD_USING;
+  return {cos(angle), sin(angle)};
+}
+
+// geometry.hpp's functions over the scalar type (the double ones are used as they are).
+inline double op_pressure_angle(double rb1, double rb2, bool internal, double a) {
+  return operating_pressure_angle(rb1, rb2, internal, a);
+}
+inline Dual op_pressure_angle(double rb1, double rb2, bool internal, const Dual& a) {
+  const double c = (internal ? rb2 - rb1 : rb1 + rb2) / a.v;
+  const double alpha = operating_pressure_angle(rb1, rb2, internal, a.v);
+  // d alpha/da = c / (a sin alpha)
+  return {alpha, c / (a.v * std::sin(alpha)) * a.d};
+}
+inline double involute_t(double alpha) { return involute(alpha); }
+inline Dual involute_t(const Dual& alpha) {
+  const double t = std::tan(alpha.v);
+  return {involute(alpha.v), t * t * alpha.d};
+}
+inline double micro_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, double y) {
+  return flank_gap(m, flank, tooth, rho, y);
+}
+inline Dual micro_gap(const GearMicrogeometry& m, int flank, int tooth, const Dual& rho,
+                      const Dual& y) {
+  double d_rho = 0, d_y = 0;
+  const double g = flank_gap_slope(m, flank, tooth, rho.v, y.v, d_rho, d_y);
+  return {g, d_rho * rho.d + d_y * y.d};
+}
 
 // A gear's axis in H: its centre in the plane z is c + (z - c_z) slope (first order in tilt).
+template <class T>
 struct Axis {
-  Eigen::Vector3d c;
-  Eigen::Vector2d slope;
+  Vec3<T> c;
+  Vec2<T> slope;
 };
 
 // The transverse frame of one slice plane (trivially constructible: an array of them is
 // scratch on the stack, filled only for the slices of a tilted pair).
+template <class T>
 struct Section {
-  double z;                 // plane, m
-  Eigen::Vector2d c[2];     // gear centres in the plane, m
-  double gamma;             // direction of the centre line, rad
-  double alpha_w;           // operating pressure angle of this plane, rad
-  double T1T2;              // m
-  double t_lo, t_hi;        // active contact positions from T1, m
+  T z;                      // plane, m
+  Vec2<T> c[2];             // gear centres in the plane, m
+  T gamma;                  // direction of the centre line, rad
+  T alpha_w;                // operating pressure angle of this plane, rad
+  T T1T2;                   // m
+  T t_lo, t_hi;             // active contact positions from T1, m
   bool tip1_ends;           // t_hi is gear 1's tip (beyond it: gear 1's tip edge)
   bool tip2_starts;         // t_lo is gear 2's tip (before it: gear 2's tip edge)
   // per flank [0] A, [1] B: line of action direction (force on gear 2), tangency point T1,
   // and the unit vector from T1 towards gear 1's centre (towards gear 1's root along the profile)
-  Eigen::Vector2d n_line[2], T1[2], to_root1[2];
+  Vec2<T> n_line[2], T1[2], to_root1[2];
 };
 
-bool make_section(const MeshLayout& L, const Axis ax[2], double z, Section& S, std::string& msg) {
+template <class T>
+bool make_section(const MeshLayout& L, const Axis<T> ax[2], const T& z, Section<T>& S,
+                  std::string& msg) {
+  GM_AD_USING;
   S.z = z;
-  for (int i = 0; i < 2; ++i) S.c[i] = ax[i].c.head<2>() + (z - ax[i].c.z()) * ax[i].slope;
-  const Eigen::Vector2d d = S.c[1] - S.c[0];
-  const double a = d.norm();
-  S.gamma = std::atan2(d.y(), d.x());
-  S.alpha_w = operating_pressure_angle(L.base_radius[0], L.base_radius[1], L.sign < 0, a);
-  if (!std::isfinite(S.alpha_w)) {
+  for (int i = 0; i < 2; ++i) S.c[i] = ax[i].c.template head<2>() + (z - ax[i].c.z()) * ax[i].slope;
+  const Vec2<T> d = S.c[1] - S.c[0];
+  const T a = d.norm();
+  S.gamma = atan2(d.y(), d.x());
+  S.alpha_w = op_pressure_angle(L.base_radius[0], L.base_radius[1], L.sign < 0, a);
+  if (!std::isfinite(val(S.alpha_w))) {
     char buf[220];
     std::snprintf(buf, sizeof buf,
                   "centre distance %.6g m at z = %.6g m (from the gear positions and tilts) is "
                   "below the base-circle limit %.6g m: the gears cannot mesh there",
-                  a, z,
+                  val(a), val(z),
                   L.sign > 0 ? L.base_radius[0] + L.base_radius[1]
                              : L.base_radius[1] - L.base_radius[0]);
     msg = buf;
     return false;
   }
-  S.T1T2 = a * std::sin(S.alpha_w);
+  S.T1T2 = a * sin(S.alpha_w);
   // Gear 1 between its form and tip circles, gear 2 likewise, with rho_2 = T1T2 - s t.
-  const double hi1 = L.rho_tip[0];
-  const double hi2 = L.sign > 0 ? S.T1T2 - L.rho_form[1] : L.rho_form[1] - S.T1T2;
-  const double lo1 = L.rho_form[0];
-  const double lo2 = L.sign > 0 ? S.T1T2 - L.rho_tip[1] : L.rho_tip[1] - S.T1T2;
+  const T hi1 = L.rho_tip[0];
+  const T hi2 = L.sign > 0 ? T(S.T1T2 - L.rho_form[1]) : T(L.rho_form[1] - S.T1T2);
+  const T lo1 = L.rho_form[0];
+  const T lo2 = L.sign > 0 ? T(S.T1T2 - L.rho_tip[1]) : T(L.rho_tip[1] - S.T1T2);
   S.t_hi = std::min(hi1, hi2);
   S.t_lo = std::max(lo1, lo2);
   S.tip1_ends = hi1 <= hi2;
   S.tip2_starts = lo2 >= lo1;
-  const double cg = std::cos(S.gamma), sg = std::sin(S.gamma);
-  const double sa = std::sin(S.alpha_w), ca = std::cos(S.alpha_w);
+  const T cg = cos(S.gamma), sg = sin(S.gamma);
+  const T sa = sin(S.alpha_w), ca = cos(S.alpha_w);
   for (int f = 0; f < 2; ++f) {
     const int sigma = f == 0 ? 1 : -1;
-    const double nx = L.sign * sa, ny = L.sign * sigma * ca;
-    S.n_line[f] = Eigen::Vector2d(cg * nx - sg * ny, sg * nx + cg * ny);
-    const Eigen::Vector2d e = unit(S.gamma + L.zeta[0] - sigma * S.alpha_w);
+    const T nx = L.sign * sa, ny = (L.sign * sigma) * ca;
+    S.n_line[f] = Vec2<T>(cg * nx - sg * ny, sg * nx + cg * ny);
+    const Vec2<T> e = unit<T>(S.gamma + L.zeta[0] - sigma * S.alpha_w);
     S.T1[f] = S.c[0] + L.base_radius[0] * e;
     S.to_root1[f] = -e;
   }
@@ -102,21 +143,23 @@ bool make_section(const MeshLayout& L, const Axis ax[2], double z, Section& S, s
 // centreline lies at angle theta_c, measured along that flank's involute normal: involutes of
 // one base circle are parallel curves, so the distance is r_b times their angle difference.
 // Also returns the normal line's tangency point and the roll distance of p on it.
-bool involute_penetration(const MeshLayout& L, int h, int sigma, double theta_c,
-                          const Eigen::Vector2d& centre, const Eigen::Vector2d& p, double& pen,
-                          Eigen::Vector2d& tangency, double& roll) {
+template <class T>
+bool involute_penetration(const MeshLayout& L, int h, int sigma, const T& theta_c,
+                          const Vec2<T>& centre, const Vec2<T>& p, T& pen, Vec2<T>& tangency,
+                          T& roll) {
+  GM_AD_USING;
   const double rb = L.base_radius[h];
-  const Eigen::Vector2d d = p - centre;
-  const double r = d.norm();
+  const Vec2<T> d = p - centre;
+  const T r = d.norm();
   if (r <= rb) return false;
-  const double alpha_r = std::acos(rb / r);
-  const double theta_p = std::atan2(d.y(), d.x());
-  const double into_tooth = rb * (sigma * wrap_angle(theta_c - theta_p) + L.eta[h] -
-                                  involute(alpha_r));
+  const T alpha_r = acos(rb / r);
+  const T theta_p = atan2(d.y(), d.x());
+  const T into_tooth = rb * (sigma * wrap_angle<T>(theta_c - theta_p) + L.eta[h] -
+                             involute_t(alpha_r));
   const bool ring = h == 1 && L.sign < 0;  // for the ring the "tooth" is the space
   pen = ring ? -into_tooth : into_tooth;
-  tangency = centre + rb * unit(theta_p - sigma * alpha_r);
-  roll = rb * std::tan(alpha_r);
+  tangency = centre + rb * unit<T>(theta_p - sigma * alpha_r);
+  roll = rb * tan(alpha_r);
   return true;
 }
 
@@ -171,42 +214,48 @@ int slice_capacity(const MeshLayout& L) {
   return 2 * pairs * L.slices;
 }
 
-int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
-                    std::string& msg) {
+namespace {
+
+template <class T, class K>
+int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int capacity,
+                std::string& msg) {
+  GM_AD_USING;
   const int s = L.sign;
-  Axis ax[2];
+  Axis<T> ax[2];
   for (int i = 0; i < 2; ++i) {
-    ax[i].c = Eigen::Vector3d(kin.u[i][0] + (i == 1 ? L.center_distance : 0.0), kin.u[i][1],
-                              kin.u[i][2]);
+    ax[i].c = Vec3<T>(kin.u[i][0] + (i == 1 ? L.center_distance : 0.0), kin.u[i][1],
+                      kin.u[i][2]);
     // axis direction exp([r_x, r_y, 0]^) e_z = (r_y, -r_x, 1) to first order
-    ax[i].slope = Eigen::Vector2d(kin.r[i][1], -kin.r[i][0]);
+    ax[i].slope = Vec2<T>(kin.r[i][1], -kin.r[i][0]);
   }
-  const bool aligned = kin.r[0][0] == 0 && kin.r[0][1] == 0 && kin.r[1][0] == 0 &&
-                       kin.r[1][1] == 0;
+  // (dual numbers: aligned only if the direction does not tilt either)
+  const bool aligned = identical(T(kin.r[0][0]), T(0.0)) && identical(T(kin.r[0][1]), T(0.0)) &&
+                       identical(T(kin.r[1][0]), T(0.0)) && identical(T(kin.r[1][1]), T(0.0));
 
   // Axial overlap of the two face widths, split into equal slices.
-  const double z1lo = ax[0].c.z() + L.axial_offset[0] - 0.5 * L.face_width[0];
-  const double z2lo = ax[1].c.z() + L.axial_offset[1] - 0.5 * L.face_width[1];
-  const double zlo = std::max(z1lo, z2lo);
-  const double zhi = std::min(z1lo + L.face_width[0], z2lo + L.face_width[1]);
+  const T z1lo = ax[0].c.z() + L.axial_offset[0] - 0.5 * L.face_width[0];
+  const T z2lo = ax[1].c.z() + L.axial_offset[1] - 0.5 * L.face_width[1];
+  const T zlo = std::max(z1lo, z2lo);
+  const T zhi = std::min(T(z1lo + L.face_width[0]), T(z2lo + L.face_width[1]));
   if (zhi <= zlo) return 0;
-  const double width = (zhi - zlo) / L.slices;
-  const double z_mid = 0.5 * (zlo + zhi);
+  const T width = (zhi - zlo) / L.slices;
+  const T z_mid = 0.5 * (zlo + zhi);
 
   // Coarse step: the section in the middle of the overlap finds the candidate pairs.
-  Section mid;
-  if (!make_section(L, ax, z_mid, mid, msg)) return -1;
+  Section<T> mid;
+  if (!make_section<T>(L, ax, z_mid, mid, msg)) return -1;
   // Fine step: each slice's own section (only when tilted; aligned slices share `mid`).
-  Section sections[kMaxSlices];
-  double tilt_margin = 0;
+  Section<T> sections[kMaxSlices];
+  double tilt_margin = 0;  // a decision bound: values only
   if (!aligned) {
     for (int k = 0; k < L.slices; ++k) {
-      Section& S = sections[k];
-      if (!make_section(L, ax, zlo + (k + 0.5) * width, S, msg)) return -1;
+      Section<T>& S = sections[k];
+      if (!make_section<T>(L, ax, T(zlo + (k + 0.5) * width), S, msg)) return -1;
       tilt_margin = std::max(
           tilt_margin, (L.base_radius[0] + L.base_radius[1]) *
-                               (std::fabs(S.gamma - mid.gamma) + std::fabs(S.alpha_w - mid.alpha_w)) +
-                           std::fabs(S.T1T2 - mid.T1T2));
+                               (std::fabs(val(S.gamma) - val(mid.gamma)) +
+                                std::fabs(val(S.alpha_w) - val(mid.alpha_w))) +
+                           std::fabs(val(S.T1T2) - val(mid.T1T2)));
     }
   }
 
@@ -214,66 +263,67 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
   const double rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   const double tau1 = 2 * kPi / L.teeth[0], tau2 = 2 * kPi / L.teeth[1];
   const double tb = L.tan_beta_b;
-  const double margin = pb + 0.5 * tb * (zhi - zlo) + tilt_margin;
+  const double margin = pb + 0.5 * tb * val(zhi - zlo) + tilt_margin;
   const bool uniform = aligned && tb == 0;  // every slice has the same section and roll distances
-  const Eigen::Vector3d omega1(kin.w[0][0], kin.w[0][1], kin.omega[0]);
-  const Eigen::Vector3d omega2(kin.w[1][0], kin.w[1][1], kin.omega[1]);
-  const Eigen::Vector3d vc1(kin.v[0][0], kin.v[0][1], kin.v[0][2]);
-  const Eigen::Vector3d vc2(kin.v[1][0], kin.v[1][1], kin.v[1][2]);
+  const Vec3<T> omega1(kin.w[0][0], kin.w[0][1], kin.omega[0]);
+  const Vec3<T> omega2(kin.w[1][0], kin.w[1][1], kin.omega[1]);
+  const Vec3<T> vc1(kin.v[0][0], kin.v[0][1], kin.v[0][2]);
+  const Vec3<T> vc2(kin.v[1][0], kin.v[1][1], kin.v[1][2]);
 
   int count = 0, pair = 0;
   for (int sigma = 1; sigma >= -1; sigma -= 2) {
     const int fl = sigma > 0 ? 0 : 1;  // flank index for the micro-geometry
     // Reduce the unbounded angles to a period so that roll distances keep full precision. The
     // helical sections turn by h_i y_i tan(beta_b)/r_bi, y_i along gear i's axis from its centre.
-    double n1, f1, n2, f2;
+    double n1, n2;
+    T f1, f2;
     split_periods(sigma * (L.theta0[0] + kin.phi[0] +
                            L.hand[0] * (z_mid - ax[0].c.z()) * tb / rb1 - mid.gamma - L.zeta[0]),
                   tau1, n1, f1);
     split_periods(sigma * (L.theta0[1] + kin.phi[1] +
                            L.hand[1] * (z_mid - ax[1].c.z()) * tb / rb2 - mid.gamma - L.zeta[1]),
                   tau2, n2, f2);
-    const double base1 = rb1 * (f1 + L.eta[0] + mid.alpha_w);  // rho_1 = base1 + m1 p_bt
-    const double base2 = rb2 * (f2 + L.eta[1] + mid.alpha_w);  // rho_2 = base2 + m2 p_bt
-    const double m_first = std::ceil((mid.t_lo - margin - base1) / pb);
-    const double m_last = std::floor((mid.t_hi + margin - base1) / pb);
+    const T base1 = rb1 * (f1 + L.eta[0] + mid.alpha_w);  // rho_1 = base1 + m1 p_bt
+    const T base2 = rb2 * (f2 + L.eta[1] + mid.alpha_w);  // rho_2 = base2 + m2 p_bt
+    const double m_first = std::ceil((val(mid.t_lo) - margin - val(base1)) / pb);
+    const double m_last = std::floor((val(mid.t_hi) + margin - val(base1)) / pb);
     for (double m1 = m_first; m1 <= m_last; m1 += 1) {
-      const double rho1_mid = base1 + m1 * pb;
-      const double m2 = std::nearbyint((mid.T1T2 - s * rho1_mid - base2) / pb);
-      const double rho2_mid = base2 + m2 * pb;
+      const T rho1_mid = base1 + m1 * pb;
+      const double m2 = std::nearbyint(val(mid.T1T2 - s * rho1_mid - base2) / pb);
+      const T rho2_mid = base2 + m2 * pb;
       int tooth1 = -1, tooth2 = -1;  // found when the pair has a slice
       bool emitted = false;
       // Aligned spur slices differ only in z: their contact geometry is computed once per pair.
-      Eigen::Vector2d n_t, point;
-      double roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0, path = 0, gain = 0;
+      Vec2<T> n_t, point;
+      T roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0, path = 0, gain = 0;
       int kind = kFlankContact;
       bool contact = false;
       for (int k = 0; k < L.slices; ++k) {
-        const Section& S = aligned ? mid : sections[k];
-        const double z = zlo + (k + 0.5) * width;
+        const Section<T>& S = aligned ? mid : sections[k];
+        const T z = zlo + (k + 0.5) * width;
         if (!uniform || k == 0) {
-          const double dz = z - z_mid;
+          const T dz = z - z_mid;
           // Roll distances in this slice's section: helical turn and the section's own frame.
-          double rho1 = rho1_mid + sigma * L.hand[0] * tb * dz;
-          double rho2 = rho2_mid + sigma * L.hand[1] * tb * dz;
-          const Eigen::Vector2d& n_line = S.n_line[fl];
-          const Eigen::Vector2d& T1 = S.T1[fl];
+          T rho1 = rho1_mid + (sigma * L.hand[0] * tb) * dz;
+          T rho2 = rho2_mid + (sigma * L.hand[1] * tb) * dz;
+          const Vec2<T>& n_line = S.n_line[fl];
+          const Vec2<T>& T1 = S.T1[fl];
           if (!aligned) {
             rho1 += rb1 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
             rho2 += rb2 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
             if (tb != 0) {
               // A tilted helical gear meets the slice plane at body height z + r x (X - c):
               // the contact point X sits a pitch radius off the axis, so this is first order.
-              const double t0 = rho1 - 0.5 * (rho1 + s * rho2 - s * S.T1T2);
-              const Eigen::Vector2d X = T1 + t0 * n_line;
-              dz1 = ax[0].slope.dot(X - ax[0].c.head<2>());
-              dz2 = ax[1].slope.dot(X - ax[1].c.head<2>());
-              rho1 += sigma * L.hand[0] * tb * dz1;
-              rho2 += sigma * L.hand[1] * tb * dz2;
+              const T t0 = rho1 - 0.5 * (rho1 + s * rho2 - s * S.T1T2);
+              const Vec2<T> X = T1 + t0 * n_line;
+              dz1 = ax[0].slope.dot(X - ax[0].c.template head<2>());
+              dz2 = ax[1].slope.dot(X - ax[1].c.template head<2>());
+              rho1 += (sigma * L.hand[0] * tb) * dz1;
+              rho2 += (sigma * L.hand[1] * tb) * dz2;
             }
           }
           rigid = rho1 + s * rho2 - s * S.T1T2;
-          const double t = rho1 - 0.5 * rigid;  // contact midway between the two flanks
+          const T t = rho1 - 0.5 * rigid;  // contact midway between the two flanks
           contact = true;
           kind = kFlankContact;
           if (t >= S.t_lo && t <= S.t_hi) {
@@ -282,40 +332,40 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
             n_t = n_line;
             point = T1 + t * n_line;
             path = (t - S.t_lo) / (S.t_hi - S.t_lo);
-            gain = sigma;  // d(Delta_t)/d(TE): rho_2 moves with phi_2 (PHYSICS 3)
+            gain = T(sigma);  // d(Delta_t)/d(TE): rho_2 moves with phi_2 (PHYSICS 3)
           } else if (rigid > 0 && ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts))) {
             // Tip (corner) contact outside the path: the tip edge of one gear against the
             // mate's flank, with the mate's involute normal (paper 2.1; PHYSICS 3). A tip edge
             // penetrates at most as far as the flanks overlap on the line of action (conjugate
             // action makes its penetration fall off the line): no overlap, no candidate.
             const int g = t > S.t_hi ? 0 : 1, h = 1 - g;
-            const double theta_rel1 = sigma * (rho1 / rb1 - L.eta[0] - S.alpha_w);
-            const double theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
-            const double theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1,
-                                       S.gamma + L.zeta[1] + theta_rel2};
-            const Eigen::Vector2d corner =
-                S.c[g] + L.tip_radius[g] * unit(theta_c[g] + sigma * (L.eta[g] - L.inv_tip[g]));
-            double pen, roll_h;
-            Eigen::Vector2d tangency;
-            contact = involute_penetration(L, h, sigma, theta_c[h], S.c[h], corner, pen,
-                                           tangency, roll_h) &&
+            const T theta_rel1 = sigma * (rho1 / rb1 - L.eta[0] - S.alpha_w);
+            const T theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
+            const T theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1,
+                                  S.gamma + L.zeta[1] + theta_rel2};
+            const Vec2<T> corner =
+                S.c[g] + L.tip_radius[g] * unit<T>(theta_c[g] + sigma * (L.eta[g] - L.inv_tip[g]));
+            T pen, roll_h;
+            Vec2<T> tangency;
+            contact = involute_penetration<T>(L, h, sigma, theta_c[h], S.c[h], corner, pen,
+                                              tangency, roll_h) &&
                       pen > 0;  // an open tip edge carries nothing: not a candidate
             if (contact) {
               rigid = pen;
               kind = g == 0 ? kTipOfGear1 : kTipOfGear2;
-              roll1 = g == 0 ? L.rho_tip[0] : roll_h;
-              roll2 = g == 0 ? roll_h : L.rho_tip[1];
+              roll1 = g == 0 ? T(L.rho_tip[0]) : roll_h;
+              roll2 = g == 0 ? roll_h : T(L.rho_tip[1]);
               // outward normal of the mate's material; the force on gear 2 follows from it
               const bool ring_h = h == 1 && s < 0;
-              const Eigen::Vector2d out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
-              n_t = g == 0 ? Eigen::Vector2d(-out_h) : out_h;
+              const Vec2<T> out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
+              n_t = g == 0 ? Vec2<T>(-out_h) : out_h;
               point = corner;
               path = g == 0 ? 1.0 : 0.0;
               // d(pen)/d(TE): gear 2 turns by dTE/(s r_b2). Against gear 2's flank the involute
               // moves by r_b2 per radian; gear 2's own edge moves along its tip circle.
-              gain = g == 0 ? sigma
-                            : -out_h.dot(Eigen::Vector2d(-(corner - S.c[1]).y(), (corner - S.c[1]).x())) /
-                                  (s * rb2);
+              gain = g == 0 ? T(sigma)
+                            : T(-out_h.dot(Vec2<T>(-(corner - S.c[1]).y(), (corner - S.c[1]).x())) /
+                                (s * rb2));
             }
           } else {
             contact = false;
@@ -325,23 +375,23 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
           if (uniform) break;
           continue;
         }
-        double approach_t = rigid;
+        T approach_t = rigid;
         // face coordinates from each gear's mid-face
-        const double y1 = z - ax[0].c.z() + dz1 - L.axial_offset[0];
-        const double y2 = z - ax[1].c.z() + dz2 - L.axial_offset[1];
+        const T y1 = z - ax[0].c.z() + dz1 - L.axial_offset[0];
+        const T y2 = z - ax[1].c.z() + dz2 - L.axial_offset[1];
         if (!emitted) {
           tooth1 = tooth_index(n1, m1, sigma, L.teeth[0]);
           tooth2 = tooth_index(n2, m2, sigma, L.teeth[1]);
         }
         // micro-geometry gaps are along the flank normal (PHYSICS 2): Delta_n = Delta_t cos(beta_b) - gap
-        if (L.micro[0].any) approach_t -= flank_gap(L.micro[0], fl, tooth1, roll1, y1) / L.cos_beta_b;
-        if (L.micro[1].any) approach_t -= flank_gap(L.micro[1], fl, tooth2, roll2, y2) / L.cos_beta_b;
+        if (L.micro[0].any) approach_t -= micro_gap(L.micro[0], fl, tooth1, roll1, y1) / L.cos_beta_b;
+        if (L.micro[1].any) approach_t -= micro_gap(L.micro[1], fl, tooth2, roll2, y2) / L.cos_beta_b;
         if (approach_t > 0.25 * pb) {
           char buf[240];
           std::snprintf(buf, sizeof buf,
                         "flank %c approach %.6g m exceeds the detection range (a quarter base "
                         "pitch, %.6g m): the gear poses (phi, u, r inputs) are not physical",
-                        sigma > 0 ? 'A' : 'B', approach_t, 0.25 * pb);
+                        sigma > 0 ? 'A' : 'B', val(approach_t), 0.25 * pb);
           msg = buf;
           return -1;
         }
@@ -350,7 +400,7 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
                 "the small-tilt range of the detection";
           return -1;
         }
-        ContactSlice& c = out[count++];
+        ContactSliceT<T>& c = out[count++];
         c.flank = sigma;
         c.kind = kind;
         c.tooth[0] = tooth1;
@@ -360,19 +410,19 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
         c.width = width;
         c.roll[0] = roll1;
         c.roll[1] = roll2;
-        c.point = Eigen::Vector3d(point.x(), point.y(), z);
+        c.point = Vec3<T>(point.x(), point.y(), z);
         // The flank normal lies in the plane of action, inclined by beta_b to the transverse
         // plane; its axial part follows the helix hand of gear 1.
-        c.normal = Eigen::Vector3d(L.cos_beta_b * n_t.x(), L.cos_beta_b * n_t.y(),
-                                   -sigma * L.hand[0] * L.sin_beta_b);
+        c.normal = Vec3<T>(L.cos_beta_b * n_t.x(), L.cos_beta_b * n_t.y(),
+                           T(-sigma * L.hand[0] * L.sin_beta_b));
         // Contact velocities from the input velocities (rigid bodies, small tilts).
-        const Eigen::Vector3d v1 = vc1 + omega1.cross(c.point - ax[0].c);
-        const Eigen::Vector3d v2 = vc2 + omega2.cross(c.point - ax[1].c);
+        const Vec3<T> v1 = vc1 + omega1.cross(c.point - ax[0].c);
+        const Vec3<T> v2 = vc2 + omega2.cross(c.point - ax[1].c);
         c.approach_rate = (v1 - v2).dot(c.normal);
         // profile tangent: perpendicular to the transverse normal, towards gear 1's root
-        Eigen::Vector2d tan2(-n_t.y(), n_t.x());
+        Vec2<T> tan2(-n_t.y(), n_t.x());
         if (tan2.dot(S.to_root1[fl]) < 0) tan2 = -tan2;
-        c.tangent = Eigen::Vector3d(tan2.x(), tan2.y(), 0);
+        c.tangent = Vec3<T>(tan2.x(), tan2.y(), T(0));
         c.sliding_velocity = (v1 - v2).dot(c.tangent);
         c.te_gain = gain * L.cos_beta_b;
         c.path_position = path;
@@ -382,6 +432,18 @@ int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice*
     }
   }
   return count;
+}
+
+}  // namespace
+
+int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
+                    std::string& msg) {
+  return detect_impl<double>(L, kin, out, capacity, msg);
+}
+
+int detect_contacts(const MeshLayout& L, const KinematicsT<Dual>& kin, ContactSliceT<Dual>* out,
+                    int capacity, std::string& msg) {
+  return detect_impl<Dual>(L, kin, out, capacity, msg);
 }
 
 }  // namespace gm

@@ -23,6 +23,7 @@
 #include <Eigen/Core>
 
 #include "gearmesh/gearmesh.h"
+#include "dual.hpp"
 #include "microgeometry.hpp"
 
 namespace gm {
@@ -58,21 +59,36 @@ enum ContactKind {
 };
 
 // One candidate slice of one tooth pair on one flank.
-struct ContactSlice {
+template <class T>
+struct ContactSliceT {
   int flank = 1;                   // +1 flank A, -1 flank B
   int kind = kFlankContact;        // ContactKind
   int tooth[2] = {0, 0};           // tooth index on gear 1, tooth (ring: space) index on gear 2
   int pair = 0;                    // index of the tooth pair within this evaluation
-  double approach = 0;             // normal approach Delta_n, m: > 0 overlap, < 0 gap
-  double width = 0;                // axial slice width L, m
-  double roll[2] = {0, 0};         // roll distances of the contact point on both flanks, m
-  double approach_rate = 0;        // d(Delta_n)/dt from the input velocities, m/s
-  double sliding_velocity = 0;     // velocity of gear 1 relative to gear 2 along `tangent`, m/s
-  double te_gain = 0;              // d(Delta_n)/d(TE) at fixed phi_1: +-cos(beta_b) on the flanks
-  double path_position = 0;        // 0 at the start of the path of contact, 1 at its end
-  Eigen::Vector3d tangent{0, 0, 0};// unit profile tangent in the transverse plane, towards gear 1's root
-  Eigen::Vector3d point{0, 0, 0};  // contact point in H, m
-  Eigen::Vector3d normal{0, 0, 0}; // unit direction of the normal force on gear 2, in H
+  T approach = 0;             // normal approach Delta_n, m: > 0 overlap, < 0 gap
+  T width = 0;                // axial slice width L, m
+  T roll[2] = {T(0), T(0)};         // roll distances of the contact point on both flanks, m
+  T approach_rate = 0;        // d(Delta_n)/dt from the input velocities, m/s
+  T sliding_velocity = 0;     // velocity of gear 1 relative to gear 2 along `tangent`, m/s
+  T te_gain = 0;              // d(Delta_n)/d(TE) at fixed phi_1: +-cos(beta_b) on the flanks
+  T path_position = 0;        // 0 at the start of the path of contact, 1 at its end
+  Eigen::Matrix<T, 3, 1> tangent{T(0), T(0), T(0)};// unit profile tangent in the transverse plane, towards gear 1's root
+  Eigen::Matrix<T, 3, 1> point{T(0), T(0), T(0)};// contact point in H, m
+  Eigen::Matrix<T, 3, 1> normal{T(0), T(0), T(0)}; // unit direction of the normal force on gear 2, in H
+};
+
+using ContactSlice = ContactSliceT<double>;
+
+// gm_kinematics over a scalar type (the Jacobian evaluates with dual numbers).
+template <class T>
+struct KinematicsT {
+  T u[2][3];
+  T r[2][2];
+  T phi[2];
+  T v[2][3];
+  T w[2][2];
+  T omega[2];
+  T load_torque;
 };
 
 // Derive the detection layout from validated parameters, their geometry and the gears'
@@ -87,5 +103,10 @@ int slice_capacity(const MeshLayout& L);
 // their number, or -1 with msg set when the pose is outside the detection range.
 int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
                     std::string& msg);
+
+// The same with derivatives along one input direction (gm_directional_derivative): the same
+// candidates, in the same order, as the double evaluation at the values of kin.
+int detect_contacts(const MeshLayout& L, const KinematicsT<Dual>& kin, ContactSliceT<Dual>* out,
+                    int capacity, std::string& msg);
 
 }  // namespace gm

@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include <Eigen/Geometry>
+
+#include "dual.hpp"
 
 namespace gm {
 namespace {
@@ -55,24 +58,42 @@ bool tilts_in_range(const gm_kinematics& k, std::string& msg) {
   return true;
 }
 
+// Table lookups over the scalar type: the double ones as they are; for dual numbers the value
+// and the table's slope.
+inline double table_stiffness(const StiffnessTable& t, double angle) { return stiffness_at(t, angle); }
+inline Dual table_stiffness(const StiffnessTable& t, const Dual& angle) {
+  return {stiffness_at(t, angle.v), stiffness_slope_at(t, angle.v) * angle.d};
+}
+inline double tooth_compliance_t(const ToothSection& s, double rho) { return tooth_compliance(s, rho); }
+inline Dual tooth_compliance_t(const ToothSection& s, const Dual& rho) {
+  return {tooth_compliance(s, rho.v), tooth_compliance_slope(s, rho.v) * rho.d};
+}
+inline double tooth_contact_depth_s(const ToothSection& s, double rho) {
+  return tooth_contact_depth(s, rho);
+}
+inline Dual tooth_contact_depth_s(const ToothSection& s, const Dual& rho) {
+  return tooth_contact_depth_t<Dual>(s, rho);
+}
+
 // Transverse stiffness per unit face width of one slice's tooth pair, N/m^2 (the levels that
 // have one; PHYSICS 5).
-double pair_stiffness(const gm_model& m, const ContactSlice& s) {
+template <class T>
+T pair_stiffness(const gm_model& m, const ContactSliceT<T>& s) {
   switch (m.params.stiffness_level) {
     case GM_STIFFNESS_ISO6336: {
       // c' at the middle of the path, falling parabolically towards its ends so that the mean
       // mesh stiffness is ISO's c_gamma_alpha = c'(0.75 eps_alpha + 0.25).
-      const double u = std::clamp(s.path_position, 0.0, 1.0) * 2 - 1;
+      const T u = std::clamp(s.path_position, T(0.0), T(1.0)) * 2 - 1;
       return m.iso_c_prime * (1 - m.iso_shape * u * u);
     }
     case GM_STIFFNESS_USER_VARIABLE:
       // the user's table over gear 1's roll angle at the contact point (user_tables.hpp)
-      return stiffness_at(m.stiffness_table, s.roll[0] / m.layout.base_radius[0]);
+      return table_stiffness(m.stiffness_table, T(s.roll[0] / m.layout.base_radius[0]));
     case GM_STIFFNESS_TIME_VARYING:
       // contact-line-length model: constant per unit contact line, c_gamma_alpha / eps_alpha
-      return m.iso_c_gamma / m.geometry.eps_alpha;
+      return T(m.iso_c_gamma / m.geometry.eps_alpha);
     default:
-      return m.params.user_stiffness;
+      return T(m.params.user_stiffness);
   }
 }
 
@@ -80,34 +101,37 @@ double pair_stiffness(const gm_model& m, const ContactSlice& s) {
 // Analytical level: both teeth's Weber/Sainsot compliance (per unit face width on the
 // transverse line of action) plus the exact local Hertz law of PHYSICS 4 over the contact line
 // L / cos(beta_b), its approach referred to each tooth's centre line.
-void build_laws(const gm_model& m, gm_data& d, int n, bool all) {
+template <class T>
+void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>* laws, int n,
+                bool all) {
   const MeshLayout& L = m.layout;
   const double cb = L.cos_beta_b, cb2 = cb * cb;
   const bool analytical = m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL;
   const double rho_floor = 1e-3 * m.params.pair.normal_module;  // degenerate curvature guard
   for (int i = 0; i < n; ++i) {
-    const ContactSlice& s = d.slices[i];
-    SliceLaw& law = d.laws[i];
-    law.local = LocalLaw{};
+    const ContactSliceT<T>& s = slices[i];
+    SliceLawT<T>& law = laws[i];
+    law.local = LocalLawT<T>{};
     if (!all && s.approach <= 0) continue;  // an open slice carries nothing whatever its law
     if (!analytical) {
       law.compliance = cb2 / (pair_stiffness(m, s) * s.width);
       continue;
     }
-    if (i > 0 && s.roll[0] == d.slices[i - 1].roll[0] && s.roll[1] == d.slices[i - 1].roll[1] &&
-        s.width == d.slices[i - 1].width && (all || d.slices[i - 1].approach > 0)) {
-      law = d.laws[i - 1];  // the next slice of an aligned spur pair: the same law
+    if (i > 0 && identical(s.roll[0], slices[i - 1].roll[0]) &&
+        identical(s.roll[1], slices[i - 1].roll[1]) && identical(s.width, slices[i - 1].width) &&
+        (all || slices[i - 1].approach > 0)) {
+      law = laws[i - 1];  // the next slice of an aligned spur pair: the same law
       continue;
     }
-    const double rho1 = std::max(s.roll[0], rho_floor), rho2 = std::max(s.roll[1], rho_floor);
-    law.compliance = (tooth_compliance(m.tooth[0], rho1) + tooth_compliance(m.tooth[1], rho2)) *
+    const T rho1 = std::max(s.roll[0], T(rho_floor)), rho2 = std::max(s.roll[1], T(rho_floor));
+    law.compliance = (tooth_compliance_t(m.tooth[0], rho1) + tooth_compliance_t(m.tooth[1], rho2)) *
                      cb2 / s.width;
     law.local.width = s.width / cb;
     law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
     for (int g = 0; g < 2; ++g) {
       law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
       law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;
-      law.local.body[g].depth = tooth_contact_depth(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
+      law.local.body[g].depth = tooth_contact_depth_s(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
     }
   }
 }
@@ -138,40 +162,57 @@ namespace {
 
 // The TE excitation (user_tables.hpp): a gap of TE_exc cos(beta_b) along the normal of every
 // slice, flank A and B alike, and its rate in the approach rate.
-void apply_te_excitation(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n) {
+template <class T, class K>
+void apply_te_excitation(const gm_model& m, ContactSliceT<T>* slices, const K& kin, int n) {
   if (m.te_table.empty()) return;
-  const TeExcitation e = te_excitation_at(m.te_table, kin.phi[0]);
+  const TeExcitation e = te_excitation_at(m.te_table, val(kin.phi[0]));
   const double cb = m.layout.cos_beta_b;
-  const double gap = e.te * cb, gap_rate = e.slope * kin.omega[0] * cb;
+  // the table is linear between rows: d TE_exc = slope d phi_1, its slope is piecewise constant
+  const T gap = T(e.te * cb) + (e.slope * cb) * (kin.phi[0] - val(kin.phi[0]));
+  const T gap_rate = (e.slope * cb) * kin.omega[0];
   for (int i = 0; i < n; ++i) {
-    d.slices[i].approach -= gap;
-    d.slices[i].approach_rate -= gap_rate;
+    slices[i].approach -= gap;
+    slices[i].approach_rate -= gap_rate;
   }
 }
 
+// The Real outputs of gm_result over a scalar type, and the integer ones.
+template <class T>
+struct ResultT {
+  T force[2][3] = {};
+  T moment[2][3] = {};
+  T normal_force = 0, stiffness = 0, friction_power = 0, max_line_load = 0;
+  int pairs_in_contact = 0, flank = 0;
+};
+
 // Forces, moments and the other outputs from solved slice forces.
-void resultants(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, gm_result& r) {
+template <class T, class K>
+void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
+                const T* slice_stiffness, const K& kin, int n, ResultT<T>& r) {
+  GM_AD_USING;
+  using std::fmax;
+  using V3 = Eigen::Matrix<T, 3, 1>;
   const MeshLayout& L = m.layout;
   const double cb2 = L.cos_beta_b * L.cos_beta_b;
-  const Eigen::Vector3d c[2] = {
-      Eigen::Vector3d(kin.u[0][0], kin.u[0][1], kin.u[0][2]),
-      Eigen::Vector3d(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2])};
-  Eigen::Vector3d f[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-  Eigen::Vector3d mom[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  const V3 c[2] = {V3(kin.u[0][0], kin.u[0][1], kin.u[0][2]),
+                   V3(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2])};
+  V3 f[2] = {V3::Zero(), V3::Zero()};
+  V3 mom[2] = {V3::Zero(), V3::Zero()};
   const double mu = m.params.friction_coefficient, v0 = m.params.friction_velocity;
   int last_loaded_pair = -1;
   for (int i = 0; i < n; ++i) {
-    const ContactSlice& s = d.slices[i];
-    double F = d.forces[i];
+    const ContactSliceT<T>& s = slices[i];
+    T F = forces[i];
     if (F <= 0) continue;
     // contact damping on the normal approach rate, loaded slices only, never adhesive (PHYSICS 7)
-    if (m.params.damping != 0) F = std::max(0.0, F + m.params.damping * s.width * s.approach_rate);
-    d.forces[i] = F;
-    Eigen::Vector3d on2 = F * s.normal;  // gear 1 pushes gear 2 along the normal
+    if (m.params.damping != 0)
+      F = std::max(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
+    forces[i] = F;
+    V3 on2 = F * s.normal;  // gear 1 pushes gear 2 along the normal
     if (mu != 0) {
       // regularized Coulomb friction along the profile tangent, opposing the sliding of the
       // flanks (PHYSICS 7); evaluated from the converged normal forces
-      const double friction = mu * F * std::tanh(s.sliding_velocity / v0);
+      const T friction = mu * F * tanh(s.sliding_velocity / v0);
       on2 += friction * s.tangent;
       r.friction_power += friction * s.sliding_velocity;
     }
@@ -180,9 +221,9 @@ void resultants(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, 
     mom[1] += (s.point - c[1]).cross(on2);
     mom[0] -= (s.point - c[0]).cross(on2);
     r.normal_force += F;
-    r.stiffness += d.slice_stiffness[i] * cb2;  // along the transverse line of action
+    r.stiffness += slice_stiffness[i] * cb2;  // along the transverse line of action
     r.flank |= s.flank > 0 ? 1 : 2;
-    r.max_line_load = std::fmax(r.max_line_load, F / s.width);
+    r.max_line_load = fmax(r.max_line_load, T(F / s.width));
     if (s.pair != last_loaded_pair) {
       ++r.pairs_in_contact;
       last_loaded_pair = s.pair;
@@ -198,15 +239,19 @@ void resultants(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, 
 
 // Load-balance weights of the quasi-static solve: the moment of a slice's unit normal force
 // (with its friction) about gear 2's axis, as a force along the TE coordinate (PHYSICS 6).
-void balance_weights(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n) {
+template <class T, class K>
+void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K& kin, int n,
+                     T* balance) {
+  GM_AD_USING;
+  using V3 = Eigen::Matrix<T, 3, 1>;
   const MeshLayout& L = m.layout;
-  const Eigen::Vector3d c2(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2]);
+  const V3 c2(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2]);
   const double mu = m.params.friction_coefficient, v0 = m.params.friction_velocity;
   for (int i = 0; i < n; ++i) {
-    const ContactSlice& s = d.slices[i];
-    Eigen::Vector3d dir = s.normal;
-    if (mu != 0) dir += mu * std::tanh(s.sliding_velocity / v0) * s.tangent;
-    d.balance[i] = -(s.point - c2).cross(dir).z() / (L.sign * L.base_radius[1]);
+    const ContactSliceT<T>& s = slices[i];
+    V3 dir = s.normal;
+    if (mu != 0) dir += T(mu * tanh(s.sliding_velocity / v0)) * s.tangent;
+    balance[i] = -(s.point - c2).cross(dir).z() / (L.sign * L.base_radius[1]);
   }
 }
 
@@ -224,8 +269,8 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
   if (!m.params.quasi_static) {
     n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
     if (n < 0) return GM_ERR_INPUT;
-    apply_te_excitation(m, d, kin, n);
-    build_laws(m, d, n, false);
+    apply_te_excitation(m, d.slices.data(), kin, n);
+    build_laws(m, d.slices.data(), d.laws.data(), n, false);
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
     const ForceSolve fs = solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it,
                                           d.forces.data(), d.slice_stiffness.data());
@@ -246,9 +291,9 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
       kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2);
       n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
       if (n < 0) return GM_ERR_INPUT;
-      apply_te_excitation(m, d, kin, n);  // detection is redone every pass
-      build_laws(m, d, n, true);
-      balance_weights(m, d, kin, n);
+      apply_te_excitation(m, d.slices.data(), kin, n);  // detection is redone every pass
+      build_laws(m, d.slices.data(), d.laws.data(), n, true);
+      balance_weights(m, d.slices.data(), kin, n, d.balance.data());
       const ForceSolve fs = solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(),
                                                   n, load, 0.0, tol, max_it, d.approach.data(),
                                                   d.forces.data(), d.slice_stiffness.data());
@@ -266,11 +311,205 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     // The last pass ends at the solved pose; its slice forces belong to approach + gain lambda.
     for (int i = 0; i < n; ++i) d.slices[i].approach = d.approach[i];
   }
-  resultants(m, d, kin, n, r);
+  ResultT<double> rt;
+  resultants(m, d.slices.data(), d.forces.data(), d.slice_stiffness.data(), kin, n, rt);
+  for (int i = 0; i < 2; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      r.force[i][a] = rt.force[i][a];
+      r.moment[i][a] = rt.moment[i][a];
+    }
+  }
+  r.normal_force = rt.normal_force;
+  r.stiffness = rt.stiffness;
+  r.friction_power = rt.friction_power;
+  r.max_line_load = rt.max_line_load;
+  r.pairs_in_contact = rt.pairs_in_contact;
+  r.flank = rt.flank;
   // TE from the spin angles, as encoders measure it (PHYSICS 0); solved in quasi-static mode.
   r.te = L.base_radius[0] * kin.phi[0] + L.sign * L.base_radius[1] * kin.phi[1];
   r.te_angle = r.te / L.base_radius[1];
   res = r;
+  d.message.clear();
+  return GM_OK;
+}
+
+namespace {
+
+// The inputs as dual numbers: values from `at`, derivatives from `seed`.
+KinematicsT<Dual> dual_kinematics(const gm_kinematics& at, const gm_kinematics& seed) {
+  KinematicsT<Dual> k;
+  for (int i = 0; i < 2; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      k.u[i][a] = Dual(at.u[i][a], seed.u[i][a]);
+      k.v[i][a] = Dual(at.v[i][a], seed.v[i][a]);
+    }
+    for (int a = 0; a < 2; ++a) {
+      k.r[i][a] = Dual(at.r[i][a], seed.r[i][a]);
+      k.w[i][a] = Dual(at.w[i][a], seed.w[i][a]);
+    }
+    k.phi[i] = Dual(at.phi[i], seed.phi[i]);
+    k.omega[i] = Dual(at.omega[i], seed.omega[i]);
+  }
+  k.load_torque = Dual(at.load_torque, seed.load_torque);
+  return k;
+}
+
+// One pass of the evaluation over dual numbers at the pose kin (gear 2's spin included):
+// detection, laws, the force solve in double with the implicit derivative of each loaded
+// slice, c F + f(F) = Delta => dF = (dDelta - F dc - df/dp dp)/(c + f'(F)) (never
+// differentiating Newton iterations), and the resultants. `all`: laws of every slice (the
+// quasi-static solve's setting). Quasi-static extras: the load balance sum_i b_i F_i, and for a
+// free mesh (no slice loaded) the approach of the flank-A slice that touches first.
+struct DualPass {
+  ResultT<Dual> r;
+  Dual balance;   // sum_i b_i F_i, N (normal forces before damping)
+  Dual touch;     // approach of the first-touching slice (free mesh), m
+  bool loaded = false;
+  bool has_touch = false;
+};
+
+gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
+                    DualPass& out) {
+  const int n = detect_contacts(m.layout, kin, d.dual_slices.data(), m.slice_capacity, d.message);
+  if (n < 0) return GM_ERR_INPUT;
+  ContactSliceT<Dual>* slices = d.dual_slices.data();
+  apply_te_excitation(m, slices, kin, n);
+  build_laws(m, slices, d.dual_laws.data(), n, all);
+  // the value problem, solved as gm_evaluate solves it
+  for (int i = 0; i < n; ++i) {
+    const SliceLawT<Dual>& dl = d.dual_laws[i];
+    SliceLaw& law = d.laws[i];
+    law.compliance = dl.compliance.v;
+    law.local.width = dl.local.width.v;
+    law.local.reduced_radius = dl.local.reduced_radius.v;
+    for (int g = 0; g < 2; ++g) {
+      law.local.body[g].youngs_modulus = dl.local.body[g].youngs_modulus;
+      law.local.body[g].poisson_ratio = dl.local.body[g].poisson_ratio;
+      law.local.body[g].depth = dl.local.body[g].depth.v;
+    }
+    d.approach[i] = slices[i].approach.v;
+  }
+  const ForceSolve fs = solve_separable(d.laws.data(), d.approach.data(), n,
+                                        m.params.solver_tolerance,
+                                        m.params.solver_max_iterations, d.forces.data(),
+                                        d.slice_stiffness.data());
+  if (!fs.converged) {
+    d.message = fs.message;
+    return GM_ERR_SOLVER;
+  }
+  // implicit derivative of each loaded slice; open slices stay at F = 0
+  for (int i = 0; i < n; ++i) {
+    const double F = d.forces[i];
+    if (!(F > 0)) {
+      d.dual_forces[i] = Dual(0);
+      d.dual_stiffness[i] = Dual(0);
+      continue;
+    }
+    const SliceLawT<Dual>& law = d.dual_laws[i];
+    if (!has_local_law(d.laws[i].local)) {
+      d.dual_forces[i] = Dual(F, (slices[i].approach.d - F * law.compliance.d) / law.compliance.v);
+      d.dual_stiffness[i] = 1.0 / law.compliance;
+      continue;
+    }
+    Dual f, fp;
+    local_law_approach_slope(law.local, Dual(F, 0), f, fp);  // f.d = (df/dp) dp at fixed F
+    const double dF = (slices[i].approach.d - F * law.compliance.d - f.d) / (law.compliance.v + fp.v);
+    d.dual_forces[i] = Dual(F, dF);
+    local_law_approach_slope(law.local, d.dual_forces[i], f, fp);  // f' along F and p
+    d.dual_stiffness[i] = 1.0 / (law.compliance + fp);
+  }
+  out = DualPass{};
+  if (all) {
+    balance_weights(m, slices, kin, n, d.dual_balance.data());
+    double closest = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < n; ++i) {
+      out.balance += d.dual_balance[i] * d.dual_forces[i];
+      out.loaded = out.loaded || d.forces[i] > 0;
+      // gm::evaluate at zero load on a free mesh: the TE where the first slice with a positive
+      // TE gain touches (approach 0)
+      if (slices[i].te_gain.v > 0 && std::fabs(slices[i].approach.v) < closest) {
+        closest = std::fabs(slices[i].approach.v);
+        out.touch = slices[i].approach;
+        out.has_touch = true;
+      }
+    }
+  }
+  resultants(m, slices, d.dual_forces.data(), d.dual_stiffness.data(), kin, n, out.r);
+  return GM_OK;
+}
+
+}  // namespace
+
+gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinematics& at,
+                                 const gm_kinematics& seed, gm_result& res) {
+  if (!inputs_finite(at, d.message) || !tilts_in_range(at, d.message)) return GM_ERR_INPUT;
+  if (!inputs_finite(seed, d.message)) {
+    d.message = "seed: " + d.message;
+    return GM_ERR_INPUT;
+  }
+  const MeshLayout& L = m.layout;
+  const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
+  KinematicsT<Dual> kin = dual_kinematics(at, seed);
+  gm_result out{};
+  Dual te, te_angle;
+  DualPass p;
+  if (!m.params.quasi_static) {
+    const gm_status st = dual_pass(m, d, kin, false, p);
+    if (st != GM_OK) return st;
+    te = rb1 * kin.phi[0] + s * rb2 * kin.phi[1];
+  } else {
+    // The solved TE at `at` (the warm start is restored afterwards), then two passes at that
+    // pose: A along the seed with the TE held, B along the TE alone. Every output is linear in
+    // the direction, so output' = A + dTE B with dTE from the load balance:
+    // d(sum b_i F_i) = d(load_torque)/r_b2 (or, on a free mesh at zero load, from the touching
+    // slice's approach staying 0).
+    const double warm = d.te_estimate;
+    gm_result r0;
+    const gm_status st0 = evaluate(m, d, at, r0);
+    d.te_estimate = warm;
+    if (st0 != GM_OK) return st0;
+    kin.phi[1] = Dual((r0.te - rb1 * at.phi[0]) / (s * rb2), -rb1 * seed.phi[0] / (s * rb2));
+    DualPass a, b;
+    gm_status st = dual_pass(m, d, kin, true, a);
+    if (st != GM_OK) return st;
+    KinematicsT<Dual> kb = dual_kinematics(at, gm_kinematics{});
+    kb.phi[1] = Dual(kin.phi[1].v, 1 / (s * rb2));
+    st = dual_pass(m, d, kb, true, b);
+    if (st != GM_OK) return st;
+    double dte = 0;
+    if (a.loaded && b.balance.d != 0) {
+      dte = (seed.load_torque / rb2 - a.balance.d) / b.balance.d;
+    } else if (a.has_touch && b.touch.d != 0) {
+      dte = -a.touch.d / b.touch.d;
+    }
+    const auto combine = [dte](Dual& x, const Dual& y) { x.d += dte * y.d; };
+    for (int i = 0; i < 2; ++i) {
+      for (int c = 0; c < 3; ++c) {
+        combine(a.r.force[i][c], b.r.force[i][c]);
+        combine(a.r.moment[i][c], b.r.moment[i][c]);
+      }
+    }
+    combine(a.r.normal_force, b.r.normal_force);
+    combine(a.r.stiffness, b.r.stiffness);
+    combine(a.r.friction_power, b.r.friction_power);
+    combine(a.r.max_line_load, b.r.max_line_load);
+    p = a;
+    te = Dual(r0.te, dte);
+  }
+  te_angle = te / rb2;
+  for (int i = 0; i < 2; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      out.force[i][c] = p.r.force[i][c].d;
+      out.moment[i][c] = p.r.moment[i][c].d;
+    }
+  }
+  out.te = te.d;
+  out.te_angle = te_angle.d;
+  out.normal_force = p.r.normal_force.d;
+  out.stiffness = p.r.stiffness.d;
+  out.friction_power = p.r.friction_power.d;
+  out.max_line_load = p.r.max_line_load.d;
+  res = out;
   d.message.clear();
   return GM_OK;
 }

@@ -11,4 +11,8 @@ gm_status check_capabilities(const gm_model_params& p, std::string& msg);
 
 gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin, gm_result& res);
 
+// gm_directional_derivative (gearmesh.h).
+gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinematics& at,
+                                 const gm_kinematics& seed, gm_result& derivative);
+
 }  // namespace gm

@@ -11,22 +11,28 @@
 // integral P is what the solver minimises, so P is exact too (closed form in hertz.cpp).
 #pragma once
 
+#include <cmath>
+
 namespace gm {
 
-// One body at a slice.
-struct HertzBody {
+// One body at a slice. T: double, or a dual number for the Jacobian (geometry-dependent depth).
+template <class T>
+struct HertzBodyT {
   double youngs_modulus = 0;  // E_i, Pa
   double poisson_ratio = 0;   // nu_i, 0 <= nu_i < 0.5
-  double depth = 0;           // h_i, m: depth of the point the global compliance refers to
+  T depth = 0;                // h_i, m: depth of the point the global compliance refers to
 };
+using HertzBody = HertzBodyT<double>;
 
 // The local law of one slice. A default LocalLaw (width 0) means "no local law": f = 0, the
 // linear stiffness levels.
-struct LocalLaw {
-  double width = 0;           // L, m
-  double reduced_radius = 0;  // R', m, 1/R' = 1/rho_1 + 1/rho_2; must be > 0
-  HertzBody body[2];
+template <class T>
+struct LocalLawT {
+  T width = 0;           // L, m
+  T reduced_radius = 0;  // R', m, 1/R' = 1/rho_1 + 1/rho_2; must be > 0
+  HertzBodyT<T> body[2];
 };
+using LocalLaw = LocalLawT<double>;
 
 // The value, slope and integral of f at one force.
 struct LocalLawValue {
@@ -61,6 +67,34 @@ inline bool has_local_law(const LocalLaw& law) { return law.width > 0; }
 // f, f' and P at force F >= 0 (N). Zero for "no local law". At F = 0 (or F so small that b_H
 // underflows): approach = energy = 0, slope = +inf. Cost: 3 sqrt and 2 asinh.
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force);
+
+// f and f' of evaluate_local_law over a scalar type T (the Jacobian: dual numbers carry the
+// derivatives along the law's geometry and the force). F > 0 and a local law required.
+template <class T>
+void local_law_approach_slope(const LocalLawT<T>& law, const T& force, T& approach, T& slope) {
+  using std::sqrt;
+  using std::asinh;
+  constexpr double kPi = 3.14159265358979323846;
+  const T w = force / law.width;
+  double inv_E_star = 0;
+  for (const auto& body : law.body)
+    inv_E_star += (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
+  const T b = sqrt(4.0 * w * law.reduced_radius * inv_E_star / kPi);
+  approach = 0;
+  T slope_w = 0;
+  for (const auto& body : law.body) {
+    const double a = 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
+    const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
+    const T q = b / body.depth;
+    const T r = sqrt(1.0 + q * q);
+    const T r1 = r + 1.0;
+    const T A = asinh(1.0 / q);
+    const T bracket = A - k / r1;
+    approach += a * w * bracket;
+    slope_w += a * (bracket - (1.0 - k * q * q / (r1 * r1)) / (2.0 * r));
+  }
+  slope = slope_w / law.width;
+}
 
 // f'(max(F, w_min L)) for a Newton matrix: finite, and never used in the merit function.
 double local_law_newton_slope(const LocalLaw& law, double force, double min_line_load);

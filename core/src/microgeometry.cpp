@@ -2,6 +2,7 @@
 // (PHYSICS.md section 2). Formulas and the deviation file format: microgeometry.hpp.
 #include "microgeometry.hpp"
 
+#include "dual.hpp"
 #include "text_file.hpp"
 
 #include <algorithm>
@@ -384,6 +385,26 @@ double DeviationTable::measured(int tooth, int flank, double rho, double y) cons
   return a + s * (b - a);
 }
 
+double DeviationTable::measured_slope(int tooth, int flank, double rho, double y, double& d_rho,
+                                      double& d_y) const {
+  d_rho = d_y = 0;
+  if (!has_grid(tooth, flank)) return 0;
+  const double* v = values_.data() + grid_offset_[2 * static_cast<std::size_t>(tooth) + flank];
+  std::size_t i, i1, j, j1;
+  double s, t;
+  locate(roll_, rho, i, i1, s);
+  locate(face_, y, j, j1, t);
+  const std::size_t m = face_.size();
+  const double a = v[i * m + j] + t * (v[i * m + j1] - v[i * m + j]);
+  const double b = v[i1 * m + j] + t * (v[i1 * m + j1] - v[i1 * m + j]);
+  // held at the edges (i == i1, j == j1): no slope there
+  if (i1 != i) d_rho = (b - a) / (roll_[i1] - roll_[i]);
+  if (j1 != j)
+    d_y = ((1 - s) * (v[i * m + j1] - v[i * m + j]) + s * (v[i1 * m + j1] - v[i1 * m + j])) /
+          (face_[j1] - face_[j]);
+  return a + s * (b - a);
+}
+
 double DeviationTable::cumulative_pitch(int tooth, int flank) const {
   if (pitch_.empty() || tooth < 0 || tooth >= teeth_ || flank < 0 || flank > 1) return 0;
   return pitch_[2 * static_cast<std::size_t>(tooth) + flank];
@@ -525,6 +546,69 @@ double flank_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, d
     gap += m.deviations.gap(tooth, flank, rho, y);
   }
   return gap;
+}
+
+namespace {
+
+// flank_gap over dual numbers: the same terms, with derivatives along (rho, y).
+Dual flank_gap_dual(const GearMicrogeometry& m, int flank, int tooth, Dual rho, Dual y) {
+  assert(flank == 0 || flank == 1);
+  if (!m.any) return 0;
+  const gm_flank_modification& d = m.flank[flank];
+  Dual gap = 0;
+  if (m.profile_any[flank]) {
+    const Dual L = m.profile_length;
+    const Dual s = (rho - m.active.rho_start) * m.profile_dir;  // from the SAP towards the tip
+    const Dual u = s * m.inv_profile_length;                    // 0 at the SAP, 1 at the tip
+    if (d.profile_crowning != 0) {
+      const Dual q = 2 * u - 1;
+      gap += d.profile_crowning * q * q;
+    }
+    if (d.tip_relief != 0 && d.tip_relief_length > 0) {
+      const Dual depth = s - (L - d.tip_relief_length);
+      if (depth > 0) {
+        const Dual r = depth / d.tip_relief_length;
+        gap += d.tip_relief * (d.tip_relief_parabolic ? r * r : r);
+      }
+    }
+    if (d.root_relief != 0 && d.root_relief_length > 0) {
+      const Dual depth = d.root_relief_length - s;
+      if (depth > 0) {
+        const Dual r = depth / d.root_relief_length;
+        gap += d.root_relief * (d.root_relief_parabolic ? r * r : r);
+      }
+    }
+    if (d.profile_slope != 0) gap += d.profile_slope * (u - 0.5);
+  }
+  if (m.lead_any[flank]) {
+    const Dual b = m.active.face_width;
+    const Dual v = y / b;  // -1/2 .. 1/2
+    if (d.lead_crowning != 0) gap += d.lead_crowning * 4 * v * v;
+    if (d.helix_slope != 0) gap += d.helix_slope * v;
+    if (d.end_relief != 0 && d.end_relief_length > 0) {
+      const Dual depth = (y < 0 ? -y : y) - (0.5 * b - d.end_relief_length);
+      if (depth > 0) gap += d.end_relief * depth / d.end_relief_length;
+    }
+  }
+  if (!m.deviations.empty()) {
+    const int z = m.deviations.teeth();
+    if (tooth < 0 || tooth >= z) tooth = ((tooth % z) + z) % z;
+    double d_rho = 0, d_y = 0;
+    const double measured = m.deviations.measured_slope(tooth, flank, rho.v, y.v, d_rho, d_y);
+    gap += Dual(-(measured + m.deviations.cumulative_pitch(tooth, flank)),
+                -(d_rho * rho.d + d_y * y.d));
+  }
+  return gap;
+}
+
+}  // namespace
+
+double flank_gap_slope(const GearMicrogeometry& m, int flank, int tooth, double rho, double y,
+                       double& d_rho, double& d_y) {
+  const Dual by_rho = flank_gap_dual(m, flank, tooth, Dual(rho, 1), Dual(y, 0));
+  d_rho = by_rho.d;
+  d_y = flank_gap_dual(m, flank, tooth, Dual(rho, 0), Dual(y, 1)).d;
+  return by_rho.v;
 }
 
 gm_status validate_modification(const char* prefix, const gm_flank_modification& mod,

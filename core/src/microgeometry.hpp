@@ -89,6 +89,9 @@ class DeviationTable {
   double cumulative_pitch(int tooth, int flank) const;
   // Gap from the deviations at (rho, y), m: -(measured + cumulative pitch). tooth in [0, z).
   double gap(int tooth, int flank, double rho, double y) const;
+  // measured() with its partial derivatives along rho and y (0 where the value is held).
+  double measured_slope(int tooth, int flank, double rho, double y, double& d_rho,
+                        double& d_y) const;
 
  private:
   friend gm_status parse_deviations(std::string_view, const char*, int, double, DeviationTable&,
@@ -134,6 +137,10 @@ GearMicrogeometry make_microgeometry(const gm_gear_params& g, const ActiveFlank&
 // flank 0 = A, 1 = B; tooth in [0, z) (others are reduced modulo z); rho, y in m (see top).
 // Allocates nothing.
 double flank_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, double y);
+
+// flank_gap and its partial derivatives along rho and y (for the Jacobian).
+double flank_gap_slope(const GearMicrogeometry& m, int flank, int tooth, double rho, double y,
+                       double& d_rho, double& d_y);
 
 // Check one flank's modification against its allowed ranges. prefix is the FMU name of the gear
 // ("gear1"). On failure returns GM_ERR_PARAMETER and msg = "<prefix>.<parameter> = <value> m:

@@ -33,5 +33,9 @@ struct gm_data {
   std::vector<double> forces;            // normal slice forces, N, same capacity
   std::vector<double> slice_stiffness;   // tangent stiffness of each slice, N/m
   double te_estimate = 0;                // quasi-static: last solved TE (warm start), m
+  // gm_directional_derivative's scratch: the same per slice, over dual numbers
+  std::vector<gm::ContactSliceT<gm::Dual>> dual_slices;
+  std::vector<gm::SliceLawT<gm::Dual>> dual_laws;
+  std::vector<gm::Dual> dual_forces, dual_stiffness, dual_balance;
   std::string message;                   // last error ("" if none)
 };

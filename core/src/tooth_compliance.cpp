@@ -272,6 +272,18 @@ double tooth_compliance(const ToothSection& s, double rho) {
          (u3 - u2) * step * s.table_slope[k + 1];
 }
 
+double tooth_compliance_slope(const ToothSection& s, double rho) {
+  if (!(rho > s.rho_min && rho < s.rho_max)) return 0;  // clamped: constant
+  const int n = static_cast<int>(s.table_compliance.size());
+  const double step = (s.rho_max - s.rho_min) / (n - 1);
+  const double t = (rho - s.rho_min) / step;
+  const int k = std::min(n - 2, std::max(0, static_cast<int>(t)));
+  const double u = t - k, u2 = u * u;
+  return ((6 * u2 - 6 * u) * s.table_compliance[k] + (3 * u2 - 4 * u + 1) * step * s.table_slope[k] +
+          (-6 * u2 + 6 * u) * s.table_compliance[k + 1] + (3 * u2 - 2 * u) * step * s.table_slope[k + 1]) /
+         step;
+}
+
 double tooth_contact_depth(const ToothSection& s, double rho) {
   const double rb = s.base_radius;
   const double alpha = std::atan2(rho, rb);

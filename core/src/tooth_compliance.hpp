@@ -49,6 +49,7 @@
 // model); tests/core/test_tooth_compliance.cpp measures its error against the exact evaluation.
 #pragma once
 
+#include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
@@ -171,6 +172,22 @@ double tooth_compliance(const ToothSection& s, double rho);
 // line; Weber-Banaschek's reference depth). Exact (a few trig calls). For a helical slice the
 // depth along the normal n is this times cos beta_b.
 double tooth_contact_depth(const ToothSection& s, double rho);
+
+// d tooth_compliance/d rho (0 where rho is clamped to the table), m/N.
+double tooth_compliance_slope(const ToothSection& s, double rho);
+
+// tooth_contact_depth over a scalar type (the Jacobian's dual numbers); the same formula.
+template <class T>
+T tooth_contact_depth_t(const ToothSection& s, const T& rho) {
+  using std::atan2;
+  using std::hypot;
+  using std::sin;
+  using std::cos;
+  const double rb = s.base_radius;
+  const T alpha = atan2(rho, T(rb));
+  const T eta = s.eta_b - (rho / rb - alpha);
+  return hypot(T(rb), rho) * sin(eta) / cos(alpha - eta);
+}
 
 // The exact (untabulated) model at rho, by parts, m^2/N. rho must lie in [rho_min, rho_max].
 struct ToothComplianceParts {

@@ -226,6 +226,14 @@ double stiffness_at(const StiffnessTable& t, double roll_angle) {
   return t.stiffness[j - 1] + u * (t.stiffness[j] - t.stiffness[j - 1]);
 }
 
+double stiffness_slope_at(const StiffnessTable& t, double roll_angle) {
+  const std::vector<double>& a = t.roll_angle;
+  const std::size_t n = a.size();
+  if (!(roll_angle > a[0]) || !(roll_angle < a[n - 1])) return 0;
+  const std::size_t j = static_cast<std::size_t>(std::upper_bound(a.begin(), a.end(), roll_angle) - a.begin());
+  return (t.stiffness[j] - t.stiffness[j - 1]) / (a[j] - a[j - 1]);
+}
+
 TeExcitation te_excitation_at(const TeTable& t, double phi1) {
   const std::vector<double>& a = t.angle;
   const std::size_t n = a.size();

@@ -87,6 +87,8 @@ gm_status load_te_table(const char* path, int teeth1, TeTable& out, std::string&
 // Pair stiffness per unit face width at gear 1's roll angle (rad), N/m^2: linear between rows,
 // end values held outside. t must not be empty. Allocates nothing.
 double stiffness_at(const StiffnessTable& t, double roll_angle);
+// d stiffness_at/d roll_angle (0 outside the table, where the end values are held), N/m^2/rad.
+double stiffness_slope_at(const StiffnessTable& t, double roll_angle);
 
 // TE excitation at gear 1's spin angle phi1 (rad, any value; reduced modulo the pitch), periodic
 // linear interpolation. t must not be empty. Allocates nothing.

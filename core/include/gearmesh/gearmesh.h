@@ -202,6 +202,19 @@ void gm_data_reset(const gm_model* m, gm_data* d);
  * gm_data_message(d) names the offending input. */
 gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, gm_result* res);
 
+/* Directional derivative of gm_evaluate's outputs at the inputs `at` along the input direction
+ * `seed` (every gm_kinematics field, load_torque included, is an input): derivative receives
+ * d(output)/d(inputs) . seed for every double output of gm_result, exact on the active set at
+ * `at` (the implicit-function theorem on the slice force laws c F + f(F) = Delta, and in
+ * quasi-static mode on the load balance as well); integer outputs and solver_residual get 0.
+ * Slices that are open stay open: at an active-set change (a slice just touching, a tip edge
+ * entering, a clamp switching) this is the one-sided derivative of the side `at` lies on.
+ * Uses d's scratch; the evaluation memory (warm start) is left as it was. On error derivative
+ * is left unchanged and gm_data_message(d) says why (the same input errors as gm_evaluate, or a
+ * non-finite seed). Costs about three evaluations (five in quasi-static mode). */
+gm_status gm_directional_derivative(const gm_model* m, gm_data* d, const gm_kinematics* at,
+                                    const gm_kinematics* seed, gm_result* derivative);
+
 /* The evaluation memory of d (warm start, friction memory) as a byte blob, for FMU state.
  * gm_data_state_size gives the blob size; save writes exactly that many bytes; load checks the
  * size and the model fingerprint stored in the blob and returns GM_ERR_ARGUMENT on mismatch. */

@@ -1,0 +1,188 @@
+"""fmi2GetDirectionalDerivative through fmpy (FMU2Slave.getDirectionalDerivative) against
+finite differences of a repeated communication step (fmi2GetFMUstate / fmi2SetFMUstate, the
+inputs moved along the direction, fmi2DoStep again): every Real output, along random input
+directions, plain and quasi-static; the derivative belongs to the inputs of the last step even
+after new inputs were set; parameters as knowns are refused with a message naming them."""
+from __future__ import annotations
+
+import random
+
+import pytest
+from fmpy import read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+
+H = 1e-5  # communication step, s
+W = 100.0  # rad/s
+
+# A direction scale per input: the finite-difference step is 1e-5 of it (~1e-8 relative; lightly
+# loaded Hertz slices curve strongly), 1e-3 in quasi-static mode (see below).
+SCALE = {"u": 1e-5, "r": 1e-3, "phi": 1e-3, "v": 0.1, "w": 1.0, "omega": 10.0, "load_torque": 100.0}
+STEP = 1e-5
+
+
+def kind(name: str) -> str:
+    tail = name.split(".")[1]
+    for k in ("load_torque", "omega", "phi"):
+        if tail == k:
+            return k
+    return tail[0]
+
+
+@pytest.fixture(scope="module")
+def md(fmu_dir):
+    return read_model_description(str(fmu_dir))
+
+
+class Fmu:
+    def __init__(self, fmu_dir, md, params: dict):
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+        # solver.residual's derivative is reported as 0 (solver noise, not a function of the inputs)
+        self.outputs = [v.name for v in md.modelVariables
+                        if v.causality == "output" and v.type == "Real" and v.name != "solver.residual"]
+        self.s = FMU2Slave(guid=md.guid, unzipDirectory=str(fmu_dir), modelIdentifier="GearMesh",
+                           instanceName="jac")
+        self.s.instantiate()
+        self.s.setupExperiment(startTime=0.0)
+        self.set(params)
+        self.s.enterInitializationMode()
+        self.s.exitInitializationMode()
+
+    def vr(self, names):
+        return [self.vars[n].valueReference for n in names]
+
+    def set(self, values: dict):
+        for name, x in values.items():
+            v = self.vars[name]
+            setter = {"Integer": self.s.setInteger, "Boolean": self.s.setBoolean}.get(v.type, self.s.setReal)
+            setter([v.valueReference], [x])
+
+    def out(self):
+        return self.s.getReal(self.vr(self.outputs))
+
+    def free(self):
+        self.s.terminate()
+        self.s.freeInstance()
+
+
+def pose(rng: random.Random, quasi: bool) -> dict:
+    x = {}
+    for g in (1, 2):
+        for a in "xyz":
+            x[f"gear{g}.u{a}"] = 4e-6 * rng.uniform(-1, 1)
+            x[f"gear{g}.v{a}"] = 0.05 * rng.uniform(-1, 1)
+        for a in "xy":
+            x[f"gear{g}.r{a}"] = 2e-4 * rng.uniform(-1, 1)
+            x[f"gear{g}.w{a}"] = 0.5 * rng.uniform(-1, 1)
+    x["gear1.phi"] = 1e-4 + 0.11 * rng.random()
+    x["gear2.phi"] = -x["gear1.phi"] + (0.0 if quasi else 3e-5 * rng.random())  # equal radii (57/57)
+    x["gear1.omega"] = W
+    x["gear2.omega"] = -W * (1 + 0.01 * rng.uniform(-1, 1))
+    x["mesh.load_torque"] = 300 + 500 * rng.random() if quasi else 0.0
+    return x
+
+
+# The reference needs converged solves (solver.tolerance); the derivative itself does not use it.
+CASES = [
+    ("level 0 plain", {"solver.tolerance": 1e-15}),
+    ("level 4 friction damping plain", {"model.stiffness": 4, "model.slices": 5,
+                                        "model.friction_coefficient": 0.05, "model.friction_velocity": 0.05,
+                                        "model.damping": 2e3, "solver.tolerance": 1e-15}),
+    ("level 2 quasi-static", {"model.stiffness": 2, "model.slices": 3, "model.quasi_static": 1,
+                              "solver.tolerance": 1e-15}),
+]
+
+
+@pytest.mark.parametrize("name,params", CASES, ids=[c[0] for c in CASES])
+def test_directional_derivative_matches_repeated_steps(fmu_dir, md, name, params):
+    quasi = bool(params.get("model.quasi_static"))
+    f = Fmu(fmu_dir, md, params)
+    rng = random.Random(7)
+    # quasi-static: a larger step keeps the load balance's TE floor (~1e-14 m) out of the differences
+    step = STEP * (100 if quasi else 1)
+    checked = worst = 0
+    time = 0.0
+    try:
+        for p in range(4):
+            x0 = pose(rng, quasi)
+            f.set(x0)
+            f.s.doStep(time, H)  # warm start (quasi-static TE) at this pose
+            time += H
+            state = f.s.getFMUstate()  # before the step: repeated below with moved inputs
+            t = time
+            f.s.doStep(t, H)
+            time = t + H
+            after = f.s.getFMUstate()
+            y0 = f.out()
+            for _ in range(2):
+                seed = {n: SCALE[kind(n)] * rng.uniform(-1, 1) for n in f.inputs}
+                if not quasi:
+                    seed["mesh.load_torque"] = 0.0
+                f.s.setFMUstate(after)  # the published step (the differences below step again)
+                d = f.s.getDirectionalDerivative(f.vr(f.outputs), f.vr(f.inputs), [seed[n] for n in f.inputs])
+
+                def stepped(h):
+                    f.s.setFMUstate(state)
+                    f.set({n: x0[n] + h * seed[n] for n in f.inputs})
+                    f.s.doStep(t, H)
+                    return f.out()
+
+                yp, ym, yp2, ym2 = stepped(step), stepped(-step), stepped(step / 2), stepped(-step / 2)
+                fd = [(4 * (a - b) / step - (c - e) / (2 * step)) / 3 for a, b, c, e in zip(yp2, ym2, yp, ym)]
+                c1 = [(c - e) / (2 * step) for c, e in zip(yp, ym)]
+                c2 = [(a - b) / step for a, b in zip(yp2, ym2)]
+                scale = max(max(abs(v) for v in fd[:12]), 1e-300)
+                # a pose where the finite differences are not converged (a slice touching) is skipped
+                # (the central differences at h and h/2 must agree to a few 1e-5: Richardson's
+                # extrapolation of them is then far more accurate than the tolerance)
+                if any(abs(a - b) > 3e-5 * max(abs(b), 1e-3 * scale) + 1e-9 for a, b in zip(c1, c2)):
+                    continue
+                for n, a, b, y in zip(f.outputs, d, fd, y0):
+                    allowed = 1e-5 * max(abs(a), abs(b)) + 1e-6 * max(abs(b), 1e-3 * abs(y)) + 1e-12
+                    if n.startswith(("gear", "mesh.normal")):
+                        allowed += 1e-6 * scale
+                    if quasi:  # the load balance's TE floor, ~1e-14 m, through the mesh stiffness
+                        k = y0[f.outputs.index("mesh.stiffness")]
+                        noise = {"mesh.stiffness": 1e-8 * abs(y), "mesh.max_line_load": 1e-14 * k / 4e-3,
+                                 "mesh.te": 1e-14, "mesh.te_angle": 1e-12}.get(n, 1e-14 * k)
+                        allowed += noise / step
+                    worst = max(worst, abs(a - b) / allowed)
+                    assert abs(a - b) <= allowed, f"{name}: d {n} = {a}, finite difference {b} (value {y})"
+                checked += 1
+            f.s.setFMUstate(after)
+            # new inputs without a step: the derivative still belongs to the published outputs
+            d_before = f.s.getDirectionalDerivative(f.vr(f.outputs), f.vr(["gear1.phi"]), [1e-3])
+            f.set({"gear1.phi": x0["gear1.phi"] + 1e-3, "gear2.ux": 1e-6})
+            d_after = f.s.getDirectionalDerivative(f.vr(f.outputs), f.vr(["gear1.phi"]), [1e-3])
+            assert d_before == d_after
+            f.s.setFMUstate(after)
+            f.s.freeFMUstate(state)
+            f.s.freeFMUstate(after)
+        print(f"{name}: {checked} directions checked, worst error/allowed {worst:.3g}")
+        assert checked >= 5
+    finally:
+        f.free()
+
+
+def test_parameter_as_known_is_refused(fmu_dir, md, capfd):
+    f = Fmu(fmu_dir, md, {})
+    try:
+        f.set({"gear1.phi": 1e-4, "gear1.omega": W, "gear2.omega": -W})
+        f.s.doStep(0.0, H)
+        with pytest.raises(FMICallException):
+            f.s.getDirectionalDerivative(f.vr(["gear1.fx"]), f.vr(["pair.center_distance"]), [1.0])
+        assert "known pair.center_distance" in capfd.readouterr().out  # fmpy's logger prints it
+        with pytest.raises(FMICallException):  # unknowns must be Real outputs
+            f.s.getDirectionalDerivative(f.vr(["gear1.phi"]), f.vr(["gear1.phi"]), [1.0])
+        # still usable afterwards: a refused call does not change the instance
+        d = f.s.getDirectionalDerivative(f.vr(["mesh.te"]), f.vr(["gear2.phi"]), [1.0])
+        assert d[0] == pytest.approx(_rb2(f), rel=1e-12)
+        f.s.doStep(H, H)
+    finally:
+        f.free()
+
+
+def _rb2(f: Fmu) -> float:
+    """te = r_b1 phi1 + r_b2 phi2 for the external pair: d te/d phi2 = r_b2."""
+    return 0.5 * f.s.getReal(f.vr(["gear2.base_diameter"]))[0]
