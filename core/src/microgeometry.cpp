@@ -501,30 +501,33 @@ GearMicrogeometry make_microgeometry(const gm_gear_params& g, const ActiveFlank&
   return m;
 }
 
-double flank_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, double y) {
-  assert(flank == 0 || flank == 1);
-  if (!m.any) return 0;
+namespace {
+
+// The design modifications of one flank at (rho, y), for T = double or Dual (derivatives along
+// rho and y); the measured deviations are added by the callers.
+template <class T>
+T modification_gap(const GearMicrogeometry& m, int flank, const T& rho, const T& y) {
   const gm_flank_modification& d = m.flank[flank];
-  double gap = 0;
+  T gap = 0;
   if (m.profile_any[flank]) {
     const double L = m.profile_length;
-    const double s = (rho - m.active.rho_start) * m.profile_dir;  // from the SAP towards the tip
-    const double u = s * m.inv_profile_length;                    // 0 at the SAP, 1 at the tip
+    const T s = (rho - m.active.rho_start) * m.profile_dir;  // from the SAP towards the tip
+    const T u = s * m.inv_profile_length;                    // 0 at the SAP, 1 at the tip
     if (d.profile_crowning != 0) {
-      const double q = 2 * u - 1;
+      const T q = 2 * u - 1;
       gap += d.profile_crowning * q * q;
     }
     if (d.tip_relief != 0 && d.tip_relief_length > 0) {
-      const double depth = s - (L - d.tip_relief_length);
+      const T depth = s - (L - d.tip_relief_length);
       if (depth > 0) {
-        const double r = depth / d.tip_relief_length;
+        const T r = depth / d.tip_relief_length;
         gap += d.tip_relief * (d.tip_relief_parabolic ? r * r : r);
       }
     }
     if (d.root_relief != 0 && d.root_relief_length > 0) {
-      const double depth = d.root_relief_length - s;
+      const T depth = d.root_relief_length - s;
       if (depth > 0) {
-        const double r = depth / d.root_relief_length;
+        const T r = depth / d.root_relief_length;
         gap += d.root_relief * (d.root_relief_parabolic ? r * r : r);
       }
     }
@@ -532,19 +535,27 @@ double flank_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, d
   }
   if (m.lead_any[flank]) {
     const double b = m.active.face_width;
-    const double v = y / b;  // -1/2 .. 1/2
+    const T v = y / b;  // -1/2 .. 1/2
     if (d.lead_crowning != 0) gap += d.lead_crowning * 4 * v * v;
     if (d.helix_slope != 0) gap += d.helix_slope * v;
     if (d.end_relief != 0 && d.end_relief_length > 0) {
-      const double depth = std::fabs(y) - (0.5 * b - d.end_relief_length);
+      const T depth = (y < 0 ? -y : y) - (0.5 * b - d.end_relief_length);
       if (depth > 0) gap += d.end_relief * depth / d.end_relief_length;
     }
   }
-  if (!m.deviations.empty()) {
-    const int z = m.deviations.teeth();
-    if (tooth < 0 || tooth >= z) tooth = ((tooth % z) + z) % z;
-    gap += m.deviations.gap(tooth, flank, rho, y);
-  }
+  return gap;
+}
+
+int reduced_tooth(int tooth, int z) { return tooth < 0 || tooth >= z ? ((tooth % z) + z) % z : tooth; }
+
+}  // namespace
+
+double flank_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, double y) {
+  assert(flank == 0 || flank == 1);
+  if (!m.any) return 0;
+  double gap = modification_gap(m, flank, rho, y);
+  if (!m.deviations.empty())
+    gap += m.deviations.gap(reduced_tooth(tooth, m.deviations.teeth()), flank, rho, y);
   return gap;
 }
 
@@ -554,45 +565,9 @@ namespace {
 Dual flank_gap_dual(const GearMicrogeometry& m, int flank, int tooth, Dual rho, Dual y) {
   assert(flank == 0 || flank == 1);
   if (!m.any) return 0;
-  const gm_flank_modification& d = m.flank[flank];
-  Dual gap = 0;
-  if (m.profile_any[flank]) {
-    const Dual L = m.profile_length;
-    const Dual s = (rho - m.active.rho_start) * m.profile_dir;  // from the SAP towards the tip
-    const Dual u = s * m.inv_profile_length;                    // 0 at the SAP, 1 at the tip
-    if (d.profile_crowning != 0) {
-      const Dual q = 2 * u - 1;
-      gap += d.profile_crowning * q * q;
-    }
-    if (d.tip_relief != 0 && d.tip_relief_length > 0) {
-      const Dual depth = s - (L - d.tip_relief_length);
-      if (depth > 0) {
-        const Dual r = depth / d.tip_relief_length;
-        gap += d.tip_relief * (d.tip_relief_parabolic ? r * r : r);
-      }
-    }
-    if (d.root_relief != 0 && d.root_relief_length > 0) {
-      const Dual depth = d.root_relief_length - s;
-      if (depth > 0) {
-        const Dual r = depth / d.root_relief_length;
-        gap += d.root_relief * (d.root_relief_parabolic ? r * r : r);
-      }
-    }
-    if (d.profile_slope != 0) gap += d.profile_slope * (u - 0.5);
-  }
-  if (m.lead_any[flank]) {
-    const Dual b = m.active.face_width;
-    const Dual v = y / b;  // -1/2 .. 1/2
-    if (d.lead_crowning != 0) gap += d.lead_crowning * 4 * v * v;
-    if (d.helix_slope != 0) gap += d.helix_slope * v;
-    if (d.end_relief != 0 && d.end_relief_length > 0) {
-      const Dual depth = (y < 0 ? -y : y) - (0.5 * b - d.end_relief_length);
-      if (depth > 0) gap += d.end_relief * depth / d.end_relief_length;
-    }
-  }
+  Dual gap = modification_gap(m, flank, rho, y);
   if (!m.deviations.empty()) {
-    const int z = m.deviations.teeth();
-    if (tooth < 0 || tooth >= z) tooth = ((tooth % z) + z) % z;
+    tooth = reduced_tooth(tooth, m.deviations.teeth());
     double d_rho = 0, d_y = 0;
     const double measured = m.deviations.measured_slope(tooth, flank, rho.v, y.v, d_rho, d_y);
     gap += Dual(-(measured + m.deviations.cumulative_pitch(tooth, flank)),
