@@ -57,3 +57,19 @@ def test_main_job_on_set_a(fmu_path, tmp_path):
     means = [loaded["mesh.te"][loaded["torque"] == t].mean() for t in (50.0, 200.0, 350.0)]
     assert 0 < means[0] < means[1] < means[2]  # the loaded TE grows with the torque
     assert "order 57" in text and "order 114" in text
+
+
+def test_main_job_friction_sweep_of_set_b(fmu_path, tmp_path):
+    """Set B's friction sweep (the paper's Figure 8): friction moves the first mesh order far
+    more at 350 N m than at 50 N m."""
+    scene = load_scene(SCENES / "paper_setB_P1P2.toml")
+    run_main([scene], fmu_path, tmp_path)
+    rows = read(tmp_path / scene.name / "friction_sweep.csv")
+    assert set(rows["mu"]) == {0.30, 0.35, 0.40}
+
+    def spread(torque):
+        sel = rows["torque_Nm"] == torque
+        return np.ptp(rows["order1_m"][sel])
+
+    assert spread(350.0) > 5 * spread(50.0)
+    assert (tmp_path / scene.name / "friction_sweep.png").stat().st_size > 0

@@ -16,7 +16,7 @@ from gearmesh.scene_fmu import build_scene_fmu
 
 RUN_DEFAULTS = {"approach_um": 10e-6, "points_per_pitch": 40, "sweep_margin_um": 20e-6,
                 "sweep_points": 401, "torques_Nm": [], "speed_rpm": 10 * 2 * math.pi / 60,
-                "te_pitches": 3}
+                "te_pitches": 3, "friction_sweep": []}
 
 
 def write_table(path: pathlib.Path, columns: dict) -> None:
@@ -69,6 +69,21 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
             loaded = loaded_te_sweep(fmu, run["torques_Nm"], run["speed_rpm"], run["te_pitches"],
                                      run["points_per_pitch"], progress=f"{scene.name}: loaded TE")
         write_table(folder / "loaded_te.csv", loaded)
+    # friction sweep (the paper's Figures 7-8): mesh orders over torque for each mu
+    friction_rows = []
+    for mu in run["friction_sweep"]:
+        params = {"model.quasi_static": True, "model.friction_coefficient": mu}
+        with GearMeshFMU(fmu_path, params, instance_name=scene.name) as fmu:
+            sweep_mu = loaded_te_sweep(fmu, run["torques_Nm"], run["speed_rpm"], run["te_pitches"],
+                                       run["points_per_pitch"], progress=f"{scene.name}: mu {mu:g}")
+        for torque in run["torques_Nm"]:
+            te = sweep_mu["mesh.te"][sweep_mu["torque"] == torque]
+            orders = mesh_order_amplitudes(te, run["te_pitches"])
+            friction_rows.append({"mu": mu, "torque_Nm": torque, "mean_te_m": te.mean(),
+                                  "order1_m": orders[1], "order2_m": orders[2]})
+    if friction_rows:
+        write_table(folder / "friction_sweep.csv",
+                    {k: np.array([r[k] for r in friction_rows]) for k in friction_rows[0]})
     write_table(folder / "engagement_sweep.csv", sweep)
     write_table(folder / "revolution.csv", rev)
     te_um = sweep["mesh.te"] * 1e6
@@ -129,7 +144,29 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
         angle = np.degrees(loaded["gear1.phi"][loaded["torque"] == run["torques_Nm"][0]])
         plot(folder / "loaded_te.png", angle, curves, "gear 1 angle (deg)", "TE (um)",
              f"{scene.name}: loaded TE")
-        lines += ["", f"![loaded TE]({scene.name}/loaded_te.png)", ""]
+        torques = np.array(run["torques_Nm"], dtype=float)
+        orders = {}
+        for n in (1, 2):
+            orders[f"order {n * z1}"] = [
+                mesh_order_amplitudes(loaded["mesh.te"][loaded["torque"] == t],
+                                      run["te_pitches"])[n] * 1e6 for t in torques]
+        plot(folder / "mesh_orders.png", torques, orders, "torque (N m)", "amplitude (um)",
+             f"{scene.name}: mesh orders of the loaded TE")
+        lines += ["", f"![loaded TE]({scene.name}/loaded_te.png)",
+                  f"![mesh orders]({scene.name}/mesh_orders.png)", ""]
+    if friction_rows:
+        z1 = scene.parameters.get("gear1.teeth", 57)
+        torques = np.array(run["torques_Nm"], dtype=float)
+        curves = {}
+        for mu in run["friction_sweep"]:
+            rows = [r for r in friction_rows if r["mu"] == mu]
+            curves[f"mu {mu:g}, order {z1}"] = [r["order1_m"] * 1e6 for r in rows]
+            curves[f"mu {mu:g}, order {2 * z1}"] = [r["order2_m"] * 1e6 for r in rows]
+        plot(folder / "friction_sweep.png", torques, curves, "torque (N m)", "amplitude (um)",
+             f"{scene.name}: friction effect on the mesh orders")
+        lines += [f"Friction sweep (mu = {', '.join(f'{m:g}' for m in run['friction_sweep'])}): "
+                  f"`{scene.name}/friction_sweep.csv`", "",
+                  f"![friction sweep]({scene.name}/friction_sweep.png)", ""]
     if warnings:
         lines += ["Warnings of the FMU:", ""] + [f"* {w}" for w in warnings] + [""]
     if scene.assumptions:

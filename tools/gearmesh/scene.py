@@ -93,6 +93,7 @@ RUN_SCHEMA: dict[str, Key] = {
     "torques_Nm": Key("", 1.0, -1e6, 1e6, kind=list, unit="N m"),
     "speed_rpm": Key("", 2 * 3.141592653589793 / 60, -1e5, 1e5, unit="rpm"),
     "te_pitches": Key("", 1, 1, 1000, kind=int),
+    "friction_sweep": Key("", 1.0, 0.0, 2.0, kind=list),
 }
 
 
