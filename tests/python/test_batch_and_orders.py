@@ -40,6 +40,10 @@ def test_batch_runs_scenes_times_torques_times_variations(fmu_path, tmp_path):
     assert by[(300.0, 0.3)]["order1_m"] != by[(300.0, 0.4)]["order1_m"]
     with tidy.open() as fh:
         assert sum(1 for _ in fh) - 1 == 4 * 3 * 40  # one row per roll angle
+    report = (tmp_path / "batch_report.md").read_text()
+    assert "model.friction_coefficient 0.4: order 1" not in report  # labels live in the plot
+    assert "paper_setB_P1P2_orders.png" in report
+    assert (tmp_path / "paper_setB_P1P2_orders.png").stat().st_size > 0
 
 
 def test_bad_variation_is_named():
