@@ -1,0 +1,308 @@
+#include "fe_elasticity.hpp"
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <atomic>
+#include <stdexcept>
+#include <string>
+
+namespace gm::fe {
+
+namespace {
+
+std::atomic<std::size_t> g_factorizations{0};
+
+// 4-point degree-2 rule on the reference tetrahedron (volume 1/6): a = (5 + 3√5)/20,
+// b = (5 - √5)/20 (Hammer, Marlowe & Stroud 1956).
+struct QuadPoint {
+  Eigen::Vector3d xi;
+  double w;
+};
+const std::array<QuadPoint, 4>& tet_rule() {
+  static const std::array<QuadPoint, 4> rule = [] {
+    const double a = 0.5854101966249685, b = 0.1381966011250105, w = 1.0 / 24.0;
+    return std::array<QuadPoint, 4>{{{Eigen::Vector3d(b, b, b), w},
+                                     {Eigen::Vector3d(a, b, b), w},
+                                     {Eigen::Vector3d(b, a, b), w},
+                                     {Eigen::Vector3d(b, b, a), w}}};
+  }();
+  return rule;
+}
+
+// TET10 shape-function derivatives with respect to (ξ, η, ζ) at xi. Barycentrics
+// L = (1-ξ-η-ζ, ξ, η, ζ); corners N_i = L_i (2 L_i - 1), edge (a, b): N = 4 L_a L_b.
+Eigen::Matrix<double, 10, 3> tet10_dshape(const Eigen::Vector3d& xi) {
+  const std::array<double, 4> L{1.0 - xi.sum(), xi(0), xi(1), xi(2)};
+  static const std::array<Eigen::Vector3d, 4> dL{Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(1, 0, 0),
+                                                 Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1)};
+  Eigen::Matrix<double, 10, 3> d;
+  for (int i = 0; i < 4; ++i) d.row(i) = (4.0 * L[i] - 1.0) * dL[i].transpose();
+  for (int e = 0; e < 6; ++e) {
+    const int a = kTet10Edges[e][0], b = kTet10Edges[e][1];
+    d.row(4 + e) = 4.0 * (L[b] * dL[a] + L[a] * dL[b]).transpose();
+  }
+  return d;
+}
+
+// Physical gradients (10 x 3) and det J at xi.
+double tet10_gradients(const std::array<Eigen::Vector3d, 10>& x, const Eigen::Vector3d& xi,
+                       Eigen::Matrix<double, 10, 3>& grad) {
+  const Eigen::Matrix<double, 10, 3> dN = tet10_dshape(xi);
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();  // J(r, c) = ∂x_r / ∂ξ_c
+  for (int n = 0; n < 10; ++n) J += x[n] * dN.row(n);
+  const double det = J.determinant();
+  if (!(det > 0.0)) throw std::runtime_error("fe: inverted or degenerate TET10 element (det J <= 0)");
+  grad = dN * J.inverse();
+  return det;
+}
+
+Eigen::Matrix<double, 6, 30> strain_matrix(const Eigen::Matrix<double, 10, 3>& g) {
+  Eigen::Matrix<double, 6, 30> B = Eigen::Matrix<double, 6, 30>::Zero();
+  for (int n = 0; n < 10; ++n) {
+    const int c = 3 * n;
+    B(0, c) = g(n, 0);
+    B(1, c + 1) = g(n, 1);
+    B(2, c + 2) = g(n, 2);
+    B(3, c + 1) = g(n, 2), B(3, c + 2) = g(n, 1);
+    B(4, c) = g(n, 2), B(4, c + 2) = g(n, 0);
+    B(5, c) = g(n, 1), B(5, c + 1) = g(n, 0);
+  }
+  return B;
+}
+
+std::array<Eigen::Vector3d, 10> element_nodes(const Mesh& mesh, int e) {
+  std::array<Eigen::Vector3d, 10> x;
+  for (int n = 0; n < 10; ++n) x[n] = mesh.nodes[mesh.tets[e][n]];
+  return x;
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 6, 6> elasticity_matrix(const Material& m) {
+  if (!(m.E > 0.0) || !(m.nu > -1.0 && m.nu < 0.5)) throw std::runtime_error("fe: need E > 0 and -1 < nu < 0.5");
+  const double lambda = m.E * m.nu / ((1.0 + m.nu) * (1.0 - 2.0 * m.nu));
+  const double mu = m.E / (2.0 * (1.0 + m.nu));
+  Eigen::Matrix<double, 6, 6> D = Eigen::Matrix<double, 6, 6>::Zero();
+  D.topLeftCorner<3, 3>().setConstant(lambda);
+  D.topLeftCorner<3, 3>().diagonal().array() += 2.0 * mu;
+  D.bottomRightCorner<3, 3>().diagonal().setConstant(mu);
+  return D;
+}
+
+ElementStiffness element_stiffness(const std::array<Eigen::Vector3d, 10>& x, const Material& m) {
+  const Eigen::Matrix<double, 6, 6> D = elasticity_matrix(m);
+  ElementStiffness K = ElementStiffness::Zero();
+  Eigen::Matrix<double, 10, 3> g;
+  for (const QuadPoint& q : tet_rule()) {
+    const double det = tet10_gradients(x, q.xi, g);
+    const Eigen::Matrix<double, 6, 30> B = strain_matrix(g);
+    K.noalias() += (q.w * det) * B.transpose() * D * B;
+  }
+  return K;
+}
+
+Eigen::SparseMatrix<double> assemble_stiffness(const Mesh& mesh, const Material& m) {
+  const int n = 3 * static_cast<int>(mesh.nodes.size());
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(mesh.tets.size() * 900);
+  for (std::size_t e = 0; e < mesh.tets.size(); ++e) {
+    const auto& t = mesh.tets[e];
+    for (int id : t)
+      if (id < 0 || 3 * id >= n) throw std::runtime_error("fe: element node index out of range");
+    const ElementStiffness Ke = element_stiffness(element_nodes(mesh, static_cast<int>(e)), m);
+    for (int a = 0; a < 10; ++a)
+      for (int i = 0; i < 3; ++i)
+        for (int b = 0; b < 10; ++b)
+          for (int j = 0; j < 3; ++j) trip.emplace_back(3 * t[a] + i, 3 * t[b] + j, Ke(3 * a + i, 3 * b + j));
+  }
+  Eigen::SparseMatrix<double> K(n, n);
+  K.setFromTriplets(trip.begin(), trip.end());
+  return K;
+}
+
+Stress element_stress(const Mesh& mesh, int e, const Material& m, const Eigen::VectorXd& u,
+                      const Eigen::Vector3d& xi) {
+  Eigen::Matrix<double, 10, 3> g;
+  tet10_gradients(element_nodes(mesh, e), xi, g);
+  Eigen::Matrix<double, 30, 1> ue;
+  for (int n = 0; n < 10; ++n) ue.segment<3>(3 * n) = u.segment<3>(3 * mesh.tets[e][n]);
+  return elasticity_matrix(m) * (strain_matrix(g) * ue);
+}
+
+std::vector<int> nodes_where(const Mesh& mesh, const std::function<bool(const Eigen::Vector3d&)>& pred) {
+  std::vector<int> out;
+  for (std::size_t i = 0; i < mesh.nodes.size(); ++i)
+    if (pred(mesh.nodes[i])) out.push_back(static_cast<int>(i));
+  return out;
+}
+
+std::vector<int> dofs_of_nodes(const std::vector<int>& nodes) {
+  std::vector<int> out;
+  out.reserve(3 * nodes.size());
+  for (int n : nodes)
+    for (int c = 0; c < 3; ++c) out.push_back(3 * n + c);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+Eigen::VectorXd traction_loads(const Mesh& mesh, const std::function<bool(const Eigen::Vector3d&)>& on_face,
+                               const Eigen::Vector3d& t) {
+  // TET10 faces as TRI6 (corners a, b, c; mid-nodes on ab, bc, ca), gmsh local numbering.
+  static const int faces[4][6] = {{0, 1, 2, 4, 5, 6}, {0, 1, 3, 4, 9, 7}, {0, 2, 3, 6, 8, 7}, {1, 2, 3, 5, 8, 9}};
+  // 3-point degree-2 rule on the reference triangle (area 1/2), points (1/6, 1/6) etc.
+  static const double qp[3][2] = {{1.0 / 6, 1.0 / 6}, {2.0 / 3, 1.0 / 6}, {1.0 / 6, 2.0 / 3}};
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * static_cast<Eigen::Index>(mesh.nodes.size()));
+  std::vector<char> on(mesh.nodes.size());
+  for (std::size_t i = 0; i < mesh.nodes.size(); ++i) on[i] = on_face(mesh.nodes[i]) ? 1 : 0;
+  for (const auto& tet : mesh.tets) {
+    for (const auto& face : faces) {
+      std::array<int, 6> v;
+      bool all = true;
+      for (int i = 0; i < 6; ++i) all = all && on[v[i] = tet[face[i]]];
+      if (!all) continue;
+      for (const auto& q : qp) {
+        const double s = q[0], r = q[1], l0 = 1.0 - s - r;
+        // TRI6 shapes with barycentrics (l0, s, r).
+        const double N[6] = {l0 * (2 * l0 - 1), s * (2 * s - 1), r * (2 * r - 1), 4 * l0 * s, 4 * s * r, 4 * r * l0};
+        const double dNs[6] = {-(4 * l0 - 1), 4 * s - 1, 0, 4 * (l0 - s), 4 * r, -4 * r};
+        const double dNr[6] = {-(4 * l0 - 1), 0, 4 * r - 1, -4 * s, 4 * s, 4 * (l0 - r)};
+        Eigen::Vector3d ts = Eigen::Vector3d::Zero(), tr = Eigen::Vector3d::Zero();
+        for (int i = 0; i < 6; ++i) ts += dNs[i] * mesh.nodes[v[i]], tr += dNr[i] * mesh.nodes[v[i]];
+        const double dA = ts.cross(tr).norm() / 6.0;  // weight 1/6 per point
+        for (int i = 0; i < 6; ++i) f.segment<3>(3 * v[i]) += N[i] * dA * t;
+      }
+    }
+  }
+  return f;
+}
+
+std::size_t cholmod_factorization_count() { return g_factorizations.load(); }
+
+struct Solver::Factor {
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+};
+
+Solver::Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs)
+    : n_(static_cast<int>(K.rows())), fixed_(std::move(fixed_dofs)), factor_(std::make_unique<Factor>()) {
+  if (K.rows() != K.cols()) throw std::runtime_error("fe: stiffness matrix is not square");
+  std::sort(fixed_.begin(), fixed_.end());
+  fixed_.erase(std::unique(fixed_.begin(), fixed_.end()), fixed_.end());
+  std::vector<int> index(n_, n_);  // free index, or -1 - fixed index
+  for (std::size_t k = 0; k < fixed_.size(); ++k) {
+    if (fixed_[k] < 0 || fixed_[k] >= n_) throw std::runtime_error("fe: fixed dof out of range");
+    index[fixed_[k]] = -1 - static_cast<int>(k);
+  }
+  for (int i = 0; i < n_; ++i)
+    if (index[i] == n_) {
+      index[i] = static_cast<int>(free_.size());
+      free_.push_back(i);
+    }
+  if (free_.empty()) throw std::runtime_error("fe: every degree of freedom is fixed");
+  std::vector<Eigen::Triplet<double>> ff, fc;
+  ff.reserve(K.nonZeros() / 2 + free_.size());
+  for (int c = 0; c < K.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(K, c); it; ++it) {
+      const int r = static_cast<int>(it.row()), ir = index[r], ic = index[c];
+      if (ir < 0) continue;
+      if (ic >= 0) {
+        if (ir >= ic) ff.emplace_back(ir, ic, it.value());  // CHOLMOD reads the lower triangle only
+      } else {
+        fc.emplace_back(ir, -1 - ic, it.value());
+      }
+    }
+  Eigen::SparseMatrix<double> Kff(free_dofs(), free_dofs());
+  Kff.setFromTriplets(ff.begin(), ff.end());
+  K_fc_.resize(free_dofs(), static_cast<Eigen::Index>(fixed_.size()));
+  K_fc_.setFromTriplets(fc.begin(), fc.end());
+  factor_->llt.compute(Kff);
+  ++g_factorizations;
+  if (factor_->llt.info() != Eigen::Success)
+    throw std::runtime_error("fe: CHOLMOD factorization failed (stiffness not positive definite: "
+                             "is every rigid-body mode constrained?)");
+}
+
+Solver::~Solver() = default;
+
+Eigen::VectorXd Solver::solve(const Eigen::VectorXd& f, const Eigen::VectorXd& u_fixed) const {
+  if (f.size() != n_ || (u_fixed.size() != 0 && u_fixed.size() != n_))
+    throw std::runtime_error("fe: load or prescribed-displacement vector of the wrong size");
+  Eigen::VectorXd rhs(free_dofs());
+  for (int i = 0; i < free_dofs(); ++i) rhs(i) = f(free_[i]);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(n_);
+  if (u_fixed.size() != 0) {
+    Eigen::VectorXd uc(static_cast<Eigen::Index>(fixed_.size()));
+    for (std::size_t k = 0; k < fixed_.size(); ++k) u(fixed_[k]) = uc(k) = u_fixed(fixed_[k]);
+    rhs -= K_fc_ * uc;
+  }
+  const Eigen::VectorXd uf = factor_->llt.solve(rhs);
+  for (int i = 0; i < free_dofs(); ++i) u(free_[i]) = uf(i);
+  return u;
+}
+
+Eigen::MatrixXd Solver::solve(const Eigen::MatrixXd& F) const {
+  if (F.rows() != n_) throw std::runtime_error("fe: load matrix of the wrong size");
+  Eigen::MatrixXd rhs(free_dofs(), F.cols());
+  for (int i = 0; i < free_dofs(); ++i) rhs.row(i) = F.row(free_[i]);
+  const Eigen::MatrixXd uf = factor_->llt.solve(rhs);
+  Eigen::MatrixXd U = Eigen::MatrixXd::Zero(n_, F.cols());
+  for (int i = 0; i < free_dofs(); ++i) U.row(free_[i]) = uf.row(i);
+  return U;
+}
+
+Eigen::MatrixXd compliance_matrix(const Solver& solver, const std::vector<NodeDirection>& points) {
+  const Eigen::Index m = static_cast<Eigen::Index>(points.size());
+  std::vector<Eigen::Vector3d> n(points.size());
+  Eigen::MatrixXd F = Eigen::MatrixXd::Zero(solver.dofs(), m);
+  for (Eigen::Index j = 0; j < m; ++j) {
+    const NodeDirection& p = points[j];
+    if (p.node < 0 || 3 * p.node + 2 >= solver.dofs()) throw std::runtime_error("fe: compliance node out of range");
+    const double len = p.direction.norm();
+    if (!(len > 0.0)) throw std::runtime_error("fe: compliance direction is zero");
+    n[j] = p.direction / len;
+    F.block<3, 1>(3 * p.node, j) = n[j];
+  }
+  const Eigen::MatrixXd U = solver.solve(F);
+  Eigen::MatrixXd C(m, m);
+  for (Eigen::Index j = 0; j < m; ++j)
+    for (Eigen::Index k = 0; k < m; ++k) C(k, j) = n[k].dot(U.block<3, 1>(3 * points[k].node, j));
+  return C;
+}
+
+Mesh box_mesh(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int nx, int ny, int nz) {
+  if (nx < 1 || ny < 1 || nz < 1) throw std::runtime_error("fe: box mesh needs at least one cell per axis");
+  const int px = 2 * nx + 1, py = 2 * ny + 1, pz = 2 * nz + 1;
+  Mesh mesh;
+  mesh.nodes.reserve(static_cast<std::size_t>(px) * py * pz);
+  for (int k = 0; k < pz; ++k)
+    for (int j = 0; j < py; ++j)
+      for (int i = 0; i < px; ++i) {
+        const Eigen::Vector3d s(double(i) / (px - 1), double(j) / (py - 1), double(k) / (pz - 1));
+        mesh.nodes.push_back(lo + (hi - lo).cwiseProduct(s));
+      }
+  const auto id = [&](const Eigen::Vector3i& p) { return p(0) + px * (p(1) + py * p(2)); };
+  static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  mesh.tets.reserve(6 * static_cast<std::size_t>(nx) * ny * nz);
+  for (int c = 0; c < nz; ++c)
+    for (int b = 0; b < ny; ++b)
+      for (int a = 0; a < nx; ++a)
+        for (const auto& p : perms) {
+          // Kuhn simplex: walk from the low corner to the high one, one axis at a time.
+          std::array<Eigen::Vector3i, 4> v;
+          v[0] = Eigen::Vector3i(2 * a, 2 * b, 2 * c);
+          v[1] = v[0], v[1](p[0]) += 2;
+          v[2] = v[1], v[2](p[1]) += 2;
+          v[3] = v[0] + Eigen::Vector3i(2, 2, 2);
+          Eigen::Matrix3d M;
+          for (int r = 0; r < 3; ++r) M.col(r) = (v[r + 1] - v[0]).cast<double>().cwiseProduct(hi - lo);
+          if (M.determinant() < 0) std::swap(v[1], v[2]);
+          std::array<int, 10> t;
+          for (int r = 0; r < 4; ++r) t[r] = id(v[r]);
+          for (int e = 0; e < 6; ++e) t[4 + e] = id((v[kTet10Edges[e][0]] + v[kTet10Edges[e][1]]) / 2);
+          mesh.tets.push_back(t);
+        }
+  return mesh;
+}
+
+}  // namespace gm::fe

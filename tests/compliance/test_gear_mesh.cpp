@@ -1,0 +1,272 @@
+// Gear-body mesher (compliance_tool/src/gear_mesh.hpp): volume against the exact section area,
+// flank nodes on the involute, element counts from the options, bore nodes on the bore, helix.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <tuple>
+
+#include <Eigen/Geometry>
+
+#include "gear_mesh.hpp"
+#include "gearmesh/gearmesh.h"
+#include "tooth_compliance.hpp"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Gear {
+  gm_model_params p;
+  gm_pair_geometry g;
+};
+
+// z1 = 20 (the gear under test), z2 = 40, m 2 mm, b 10 mm, x = 0, optional helix.
+Gear small_gear(double beta = 0) {
+  Gear G;
+  gm_default_params(&G.p);
+  G.p.pair.normal_module = 0.002;
+  G.p.pair.helix_angle = beta;
+  G.p.gear[0].teeth = 20;
+  G.p.gear[1].teeth = 40;
+  for (int i = 0; i < 2; ++i) {
+    G.p.gear[i].profile_shift = 0;
+    G.p.gear[i].face_width = 0.010;
+    G.p.gear[i].tip_diameter = 0;
+  }
+  G.p.pair.center_distance = 0.5 * 0.002 / std::cos(beta) * 60;
+  char msg[512];
+  EXPECT_EQ(gm_compute_geometry(&G.p, &G.g, msg, sizeof msg), GM_OK) << msg;
+  return G;
+}
+
+gm::mesh::GearBodyMesh mesh_of(const Gear& G, const gm::mesh::GearBodyOptions& o) {
+  gm::mesh::GearBodyMesh m;
+  std::string msg;
+  EXPECT_EQ(gm::mesh::build_gear_body(G.p, G.g, 0, o, m, msg), GM_OK) << msg;
+  return m;
+}
+
+// Exact area of the section from a dense polygon of the core's own profile (independent of the
+// mesher's spline construction): all teeth, minus the bore.
+double exact_area(const Gear& G, double bore) {
+  gm::ToothSection s;
+  std::string msg;
+  gm::ToothSectionOptions so;
+  EXPECT_EQ(gm::build_tooth_section(G.p, G.g, 0, so, s, msg), GM_OK) << msg;
+  const int z = G.p.gear[0].teeth, n = 2000;
+  std::vector<std::pair<double, double>> half;  // flank A from root to tip (x, y)
+  for (int i = 0; i <= n; ++i) {
+    const gm::BeamStation b = gm::tooth_fillet_station(s, s.fillet_end * i / n);
+    half.push_back({b.y, b.half_thickness});
+  }
+  const double aa = std::acos(s.base_radius / s.tip_radius);
+  for (int i = 1; i <= n; ++i) {
+    const gm::BeamStation b =
+        gm::tooth_involute_station(s, s.form_pressure_angle + (aa - s.form_pressure_angle) * i / n);
+    half.push_back({b.y, b.half_thickness});
+  }
+  std::vector<std::pair<double, double>> poly;
+  for (int k = 0; k < z; ++k) {
+    const double a = 2 * kPi * k / z, c = std::cos(a), sn = std::sin(a);
+    auto put = [&](double x, double y) { poly.push_back({c * x - sn * y, sn * x + c * y}); };
+    for (const auto& q : half) put(q.first, -q.second);  // flank B up
+    const double th = std::atan2(half.back().second, half.back().first);
+    for (int i = 1; i < n; ++i) {  // tip arc
+      const double t = -th + 2 * th * i / n;
+      put(s.tip_radius * std::cos(t), s.tip_radius * std::sin(t));
+    }
+    for (auto it = half.rbegin(); it != half.rend(); ++it) put(it->first, it->second);  // A down
+    const double tf = std::atan2(half.front().second, half.front().first);
+    for (int i = 1; i < n; ++i) {  // root arc
+      const double t = tf + (2 * kPi / z - 2 * tf) * i / n;
+      put(s.root_radius * std::cos(t), s.root_radius * std::sin(t));
+    }
+  }
+  double A = 0;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const auto& p0 = poly[i];
+    const auto& p1 = poly[(i + 1) % poly.size()];
+    A += p0.first * p1.second - p1.first * p0.second;
+  }
+  return 0.5 * A - kPi * bore * bore;
+}
+
+// Angle of a flank node from the involute of its tooth and flank, times its radius: the
+// distance from the exact involute (helix removed), m.
+double involute_error(const gm::mesh::GearBodyMesh& m, int k, int f, const Eigen::Vector3d& x) {
+  const double R = std::hypot(x.x(), x.y());
+  const double rb = m.base_radius;
+  const double al = std::acos(std::min(1.0, rb / R));
+  const double eta = m.eta_b - (std::tan(al) - al);
+  const double centre = 2 * kPi * k / m.teeth + m.hand * m.twist_rate * x.z();
+  const double expect = centre + (f == 0 ? eta : -eta);
+  double d = std::atan2(x.y(), x.x()) - expect;
+  d = std::remainder(d, 2 * kPi);
+  return std::abs(d) * R;
+}
+
+TEST(GearMesh, SpurVolumeFlanksBore) {
+  const Gear G = small_gear();
+  gm::mesh::GearBodyOptions o;
+  o.bore_radius = 0.008;
+  const auto m = mesh_of(G, o);
+  ASSERT_FALSE(m.tets.empty());
+  const double V = gm::mesh::tet10_volume(m.nodes, m.tets);
+  const double Vx = exact_area(G, o.bore_radius) * 0.010;
+  EXPECT_NEAR(V / Vx, 1.0, 0.005) << "V " << V << " exact " << Vx;
+  // Bounds: between the root and tip discs.
+  EXPECT_GT(V, kPi * (m.root_radius * m.root_radius - 0.008 * 0.008) * 0.010);
+  EXPECT_LT(V, kPi * (m.tip_radius * m.tip_radius - 0.008 * 0.008) * 0.010);
+  // Bore nodes on the bore, spanning the face.
+  ASSERT_FALSE(m.bore_nodes.empty());
+  double zmin = 1, zmax = -1;
+  for (int id : m.bore_nodes) {
+    const auto& x = m.nodes[id];
+    EXPECT_NEAR(std::hypot(x.x(), x.y()), 0.008, 1e-9);
+    zmin = std::min(zmin, x.z());
+    zmax = std::max(zmax, x.z());
+  }
+  EXPECT_NEAR(zmin, -0.005, 1e-12);
+  EXPECT_NEAR(zmax, 0.005, 1e-12);
+  // Flank nodes on the involute within 1 um, roll and face consistent, all teeth, both flanks.
+  ASSERT_EQ(static_cast<int>(m.flanks.size()), 20);
+  double worst = 0;
+  for (int k = 0; k < 20; ++k)
+    for (int f = 0; f < 2; ++f) {
+      ASSERT_FALSE(m.flanks[k][f].empty());
+      for (const auto& fn : m.flanks[k][f]) {
+        const auto& x = m.nodes[fn.node];
+        worst = std::max(worst, involute_error(m, k, f, x));
+        const double R = std::hypot(x.x(), x.y());
+        EXPECT_NEAR(fn.roll, std::sqrt(R * R - m.base_radius * m.base_radius), 1e-12);
+        EXPECT_GE(R, m.form_radius - 1e-9);
+        EXPECT_LE(R, m.tip_radius + 1e-9);
+        EXPECT_EQ(fn.face, x.z());
+      }
+    }
+  EXPECT_LT(worst, 1e-6);
+  // Quadratic nodes: (8 + 1 + 8 mid) along the profile x (6 + 1 + 6 mid) across the width.
+  EXPECT_EQ(m.flanks[0][0].size(), static_cast<size_t>(17 * 13));
+  // Every tet positively oriented at its corners (gmsh ordering).
+  for (const auto& t : m.tets) {
+    const Eigen::Vector3d a = m.nodes[t[1]] - m.nodes[t[0]], b = m.nodes[t[2]] - m.nodes[t[0]],
+                          c = m.nodes[t[3]] - m.nodes[t[0]];
+    ASSERT_GT(a.cross(b).dot(c), 0.0);
+  }
+  // Mid-edge node 4 between corners 0 and 1 (straight edges inside: within the edge's length).
+  const auto& t = m.tets.front();
+  EXPECT_LT((m.nodes[t[4]] - 0.5 * (m.nodes[t[0]] + m.nodes[t[1]])).norm(),
+            0.25 * (m.nodes[t[1]] - m.nodes[t[0]]).norm());
+}
+
+TEST(GearMesh, ElementCountsFollowOptions) {
+  const Gear G = small_gear();
+  gm::mesh::GearBodyOptions o;
+  o.body_size = 0.004;
+  o.elements_along_profile = 6;
+  o.elements_across_width = 1;
+  const auto a = mesh_of(G, o);
+  o.elements_along_profile = 12;
+  const auto b = mesh_of(G, o);
+  o.elements_across_width = 3;
+  const auto c = mesh_of(G, o);
+  EXPECT_EQ(a.flanks[3][1].size(), static_cast<size_t>(13 * 3));
+  EXPECT_EQ(b.flanks[3][1].size(), static_cast<size_t>(25 * 3));
+  EXPECT_EQ(c.flanks[3][1].size(), static_cast<size_t>(25 * 7));
+  EXPECT_GT(b.tets.size(), a.tets.size());
+  EXPECT_GT(c.tets.size(), b.tets.size());
+  // Deterministic.
+  o.elements_along_profile = 6;
+  o.elements_across_width = 1;
+  const auto a2 = mesh_of(G, o);
+  ASSERT_EQ(a2.nodes.size(), a.nodes.size());
+  ASSERT_EQ(a2.tets.size(), a.tets.size());
+  EXPECT_EQ(a2.tets.back(), a.tets.back());
+  EXPECT_EQ(a2.nodes.back(), a.nodes.back());
+}
+
+TEST(GearMesh, HelicalTwist) {
+  const double beta = 15 * kPi / 180;
+  const Gear G = small_gear(beta);
+  gm::mesh::GearBodyOptions o;
+  o.bore_radius = 0.008;
+  o.elements_across_width = 3;
+  const auto m = mesh_of(G, o);
+  ASSERT_FALSE(m.tets.empty());
+  EXPECT_EQ(m.hand, 1);
+  EXPECT_NEAR(m.twist_rate, std::tan(beta) / (0.5 * G.g.gear[0].d), 1e-9);
+  const double V = gm::mesh::tet10_volume(m.nodes, m.tets);
+  EXPECT_NEAR(V / (exact_area(G, 0.008) * 0.010), 1.0, 0.005);
+  // The flank nodes follow the helix: on the involute of the section turned by z tan(beta_b)/r_b.
+  double worst = 0, worst_spur = 0;
+  for (int k = 0; k < m.teeth; ++k)
+    for (int f = 0; f < 2; ++f)
+      for (const auto& fn : m.flanks[k][f]) {
+        worst = std::max(worst, involute_error(m, k, f, m.nodes[fn.node]));
+        gm::mesh::GearBodyMesh spur = {};
+        spur.teeth = m.teeth;
+        spur.base_radius = m.base_radius;
+        spur.eta_b = m.eta_b;
+        worst_spur = std::max(worst_spur, involute_error(spur, k, f, m.nodes[fn.node]));
+      }
+  EXPECT_LT(worst, 1e-6);
+  // Without the helix the face ends are off by about r (b/2) tan(beta)/r = 1.3 mm.
+  EXPECT_GT(worst_spur, 1e-3);
+}
+
+TEST(GearMesh, WebHubAndHoles) {
+  const Gear G = small_gear();
+  gm::mesh::GearBodyOptions o;
+  o.bore_radius = 0.004;
+  o.hub_radius = 0.008;
+  o.rim_inner_radius = 0.014;
+  o.web_thickness = 0.004;
+  o.web_offset = 0.001;
+  o.holes = 4;
+  o.hole_radius = 0.002;
+  o.hole_circle_radius = 0.011;
+  o.body_size = 0.0015;
+  o.elements_along_profile = 6;
+  const auto m = mesh_of(G, o);
+  ASSERT_FALSE(m.tets.empty());
+  const double b = 0.010, rr = 0.014, rh = 0.008;
+  const double Vx = exact_area(G, rr) * b + kPi * (rh * rh - 0.004 * 0.004) * b +
+                    (kPi * (rr * rr - rh * rh) - 4 * kPi * 0.002 * 0.002) * 0.004;
+  const double V = gm::mesh::tet10_volume(m.nodes, m.tets);
+  EXPECT_NEAR(V / Vx, 1.0, 0.005) << V << " " << Vx;
+  // Conforming: no two nodes at the same place (the regions share their interfaces).
+  std::set<std::tuple<long, long, long>> seen;
+  for (const auto& x : m.nodes)
+    EXPECT_TRUE(seen.insert({std::lround(x.x() * 1e8), std::lround(x.y() * 1e8),
+                             std::lround(x.z() * 1e8)}).second);
+  // Flanks still right with a staged extrusion: 6 layers over 10 mm split at the web.
+  double worst = 0;
+  for (int k = 0; k < m.teeth; ++k)
+    for (int f = 0; f < 2; ++f)
+      for (const auto& fn : m.flanks[k][f]) worst = std::max(worst, involute_error(m, k, f, m.nodes[fn.node]));
+  EXPECT_LT(worst, 1e-6);
+  for (int id : m.bore_nodes) EXPECT_NEAR(std::hypot(m.nodes[id].x(), m.nodes[id].y()), 0.004, 1e-9);
+}
+
+TEST(GearMesh, RingGearIsNotYetSupported) {
+  gm_model_params p;
+  gm_default_params(&p);
+  p.pair.internal = 1;
+  p.pair.normal_module = 0.002;
+  p.gear[0].teeth = 21;
+  p.gear[1].teeth = 62;
+  p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
+  p.gear[0].thickness_allowance = p.gear[1].thickness_allowance = -30e-6;
+  p.pair.center_distance = 0.041;
+  gm_pair_geometry g;
+  char buf[512];
+  ASSERT_EQ(gm_compute_geometry(&p, &g, buf, sizeof buf), GM_OK) << buf;
+  gm::mesh::GearBodyMesh m;
+  std::string msg;
+  EXPECT_EQ(gm::mesh::build_gear_body(p, g, 1, {}, m, msg), GM_ERR_PARAMETER);
+  EXPECT_NE(msg.find("not yet"), std::string::npos) << msg;
+}
+
+}  // namespace
