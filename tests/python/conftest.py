@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import os
 import pathlib
-import shutil
 
 import pytest
 
@@ -27,3 +26,29 @@ def fmu_dir(fmu_path, tmp_path_factory) -> pathlib.Path:
     target = tmp_path_factory.mktemp("fmu")
     extract(str(fmu_path), str(target))
     return target
+
+
+@pytest.fixture(scope="session")
+def md(fmu_path):
+    """The FMU's model description."""
+    from fmpy import read_model_description
+
+    return read_model_description(str(fmu_path))
+
+
+@pytest.fixture
+def new(fmu_dir, md):
+    """Factory of FMI-level Instances (test_fmu_conformance.Instance) of the generic FMU, or of
+    another extracted FMU, freed after the test."""
+    from test_fmu_conformance import Instance
+
+    made = []
+
+    def make(directory=None, model_description=None, **kwargs):
+        inst = Instance(directory or fmu_dir, model_description or md, **kwargs)
+        made.append(inst)
+        return inst
+
+    yield make
+    for inst in made:
+        inst.free()

@@ -16,7 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from ctypes import byref, c_double, c_int, c_size_t, create_string_buffer
 
 import pytest
-from fmpy import read_model_description, simulate_fmu
+from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException, printLogMessage
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -169,24 +169,7 @@ def assert_error(call, *args, status=fmi2Error):
     return e
 
 
-@pytest.fixture(scope="session")
-def md(fmu_path):
-    return read_model_description(str(fmu_path))
 
-
-@pytest.fixture
-def new(fmu_dir, md):
-    """Factory of Instances, freed after the test."""
-    made = []
-
-    def make(**kwargs):
-        inst = Instance(fmu_dir, md, **kwargs)
-        made.append(inst)
-        return inst
-
-    yield make
-    for inst in made:
-        inst.free()
 
 
 @pytest.fixture(scope="session")

@@ -8,7 +8,6 @@ from __future__ import annotations
 import random
 
 import pytest
-from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
@@ -27,11 +26,6 @@ def kind(name: str) -> str:
         if tail == k:
             return k
     return tail[0]
-
-
-@pytest.fixture(scope="module")
-def md(fmu_dir):
-    return read_model_description(str(fmu_dir))
 
 
 class Fmu:

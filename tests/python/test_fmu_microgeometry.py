@@ -39,24 +39,7 @@ PITCH_FILE = "gearmesh-deviations 1\nteeth 57\npitch 5 A 2.0\npitch 6 A -2.0\n" 
 CORRUPT_FILE = "gearmesh-deviations 1\nteeth 57\npitch 5 A two\n"
 
 
-@pytest.fixture(scope="module")
-def md(fmu_path):
-    return read_model_description(str(fmu_path))
 
-
-@pytest.fixture
-def new(fmu_dir, md):
-    """Factory of Instances of the generic FMU (or of another extracted FMU), freed after the test."""
-    made = []
-
-    def make(directory=None, model_description=None, **kwargs):
-        inst = Instance(directory or fmu_dir, model_description or md, **kwargs)
-        made.append(inst)
-        return inst
-
-    yield make
-    for inst in made:
-        inst.free()
 
 
 @pytest.fixture(scope="module")

@@ -20,7 +20,7 @@ from gearmesh.scene import SceneError, parse_scene
 from gearmesh.scene_fmu import build_scene_fmu
 
 import test_fmu_conformance as conformance
-from test_fmu_conformance import Instance, assert_error
+from test_fmu_conformance import assert_error
 from test_fmu_microgeometry import Pair, Stepper
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
@@ -49,23 +49,7 @@ def sine_at(phi1: float) -> float:
     return 1e-6 * float(np.interp(u, [k, k + 1], rows[k:k + 2]))
 
 
-@pytest.fixture(scope="module")
-def md(fmu_path):
-    return read_model_description(str(fmu_path))
 
-
-@pytest.fixture
-def new(fmu_dir, md):
-    made = []
-
-    def make(directory=None, model_description=None, **kwargs):
-        inst = Instance(directory or fmu_dir, model_description or md, **kwargs)
-        made.append(inst)
-        return inst
-
-    yield make
-    for inst in made:
-        inst.free()
 
 
 @pytest.fixture(scope="module")
