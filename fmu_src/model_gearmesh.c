@@ -180,6 +180,8 @@ static const struct {
     {"gear2.deviations", offsetof(gm_model_params, gear[1].deviations)},
     {"model.stiffness_table", offsetof(gm_model_params, stiffness_table)},
     {"model.te_table", offsetof(gm_model_params, te_table)},
+    {"gear1.compliance", offsetof(gm_model_params, compliance[0])},
+    {"gear2.compliance", offsetof(gm_model_params, compliance[1])},
 };
 enum { RESOURCE_FILES = sizeof resource_parameters / sizeof resource_parameters[0] };
 

@@ -148,7 +148,11 @@ typedef enum {
   GM_FMU_GEAR_MICROGEOMETRY(X, i, n)                                                                               \
   X("gear" #i ".deviations", String, parameter, fixed, exact, "", "", "", "", p.gear[n].deviations, D_SET,         \
     "file name of a flank deviation file (measured grids, pitch; per tooth and flank) inside the FMU's "           \
-    "resources/ folder, \"\" = none; relative, without \"..\" or backslashes")
+    "resources/ folder, \"\" = none; relative, without \"..\" or backslashes")                                     \
+  X("gear" #i ".compliance", String, parameter, fixed, exact, "", "", "", "", p.compliance[n], D_SET,             \
+    "level 5 (required there, \"\" at other levels): file name of this gear's compliance database (.gcdb, "      \
+    "made by compliance_tool for this gear) inside the FMU's resources/ folder; relative, without \"..\" or "    \
+    "backslashes")
 
 /* Calculated parameters of gear i. */
 #define GM_FMU_GEAR_GEOMETRY(X, i, n)                                                                              \

@@ -201,6 +201,15 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
         st = gm::build_tooth_section(*p, g, i, gm::ToothSectionOptions{}, tooth[i], text);
       if (st != GM_OK) text = "model.stiffness = 4 (analytical): " + text;
     }
+    gm::ComplianceDb compliance[2];
+    if (p->stiffness_level == GM_STIFFNESS_FE) {
+      for (int i = 0; i < 2 && st == GM_OK; ++i) {
+        const std::string name = "gear" + std::to_string(i + 1) + ".compliance";
+        st = gm::read_compliance_db(p->compliance[i], compliance[i], text);
+        if (st != GM_OK) text = name + ": " + text;
+        if (st == GM_OK) st = gm::check_db_matches(compliance[i], *p, i, text);
+      }
+    }
     if (st != GM_OK) {
       copy_message(text, msg, msg_size);
       return st;
@@ -216,6 +225,9 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     m->tooth[1] = std::move(tooth[1]);
     m->stiffness_table = std::move(stiffness_table);
     m->te_table = std::move(te_table);
+    m->compliance[0] = std::move(compliance[0]);
+    m->compliance[1] = std::move(compliance[1]);
+    m->params.compliance[0] = m->params.compliance[1] = nullptr;
     m->params.gear[0].deviations = m->params.gear[1].deviations = nullptr;  // read, not kept
     m->params.stiffness_table = m->params.te_table = nullptr;
     m->geometry = g;
@@ -258,6 +270,20 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
     d->dual_forces.resize(m->slice_capacity);
     d->dual_stiffness.resize(m->slice_capacity);
     d->dual_balance.resize(m->slice_capacity);
+    if (m->params.stiffness_level == GM_STIFFNESS_FE) {
+      const int c = m->slice_capacity;
+      d->nlcp = std::make_unique<gm::NlcpSolver>(c);
+      d->fe_compliance.resize(c, c);
+      d->fe_tangent.resize(c, c);
+      d->fe_delta.resize(c);
+      d->fe_force.resize(c);
+      d->fe_weights.resize(c);
+      d->fe_work.resize(c);
+      d->fe_laws.resize(c);
+      d->fe_index.resize(c);
+      d->fe_key.resize(c);
+      d->fe_prev_key.resize(c);
+    }
     d->message.reserve(256);
     *out = d;
     return GM_OK;
@@ -321,6 +347,7 @@ gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, siz
     return GM_ERR_ARGUMENT;
   }
   d->te_estimate = h.te_estimate;
+  d->fe_prev_n = -1;  // level 5: the next solve starts cold
   d->message.clear();
   return GM_OK;
 }

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
 #include "dual.hpp"
@@ -106,7 +107,8 @@ void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>*
                 bool all) {
   const MeshLayout& L = m.layout;
   const double cb = L.cos_beta_b, cb2 = cb * cb;
-  const bool analytical = m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL;
+  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
+  const bool analytical = m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL || fe;
   const double rho_floor = 1e-3 * m.params.pair.normal_module;  // degenerate curvature guard
   for (int i = 0; i < n; ++i) {
     const ContactSliceT<T>& s = slices[i];
@@ -124,14 +126,18 @@ void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>*
       continue;
     }
     const T rho1 = std::max(s.roll[0], T(rho_floor)), rho2 = std::max(s.roll[1], T(rho_floor));
-    law.compliance = (tooth_compliance_t(m.tooth[0], rho1) + tooth_compliance_t(m.tooth[1], rho2)) *
-                     cb2 / s.width;
+    // FE: the global part is the coupled C of fe_assemble, not a per-slice compliance
+    law.compliance = fe ? T(0.0)
+                        : (tooth_compliance_t(m.tooth[0], rho1) +
+                           tooth_compliance_t(m.tooth[1], rho2)) * cb2 / s.width;
     law.local.width = s.width / cb;
     law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
     for (int g = 0; g < 2; ++g) {
       law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
       law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;
-      law.local.body[g].depth = tooth_contact_depth_s(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
+      // FE: the database's depth h (along the normal), the depth its displacements were taken at
+      law.local.body[g].depth = fe ? T(m.compliance[g].depth)
+                                   : tooth_contact_depth_s(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
     }
   }
 }
@@ -139,15 +145,21 @@ void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>*
 }  // namespace
 
 gm_status check_capabilities(const gm_model_params& p, std::string& msg) {
-  char buf[300];
   const int level = p.stiffness_level;
-  if (level == GM_STIFFNESS_FE) {
-    std::snprintf(buf, sizeof buf,
-                  "model.stiffness = %d: this build has levels 0 (user constant), 1 (user tables), "
-                  "2 (ISO 6336-1 method B), 3 (contact-line-length model) and 4 (analytical: "
-                  "Weber/Sainsot teeth with local Hertz); allowed values 0, 1, 2, 3, 4", level);
-    msg = buf;
-    return GM_ERR_PARAMETER;
+  for (int g = 0; g < 2; ++g) {
+    const bool given = p.compliance[g] && *p.compliance[g];
+    const std::string name = "gear" + std::to_string(g + 1) + ".compliance";
+    if (level == GM_STIFFNESS_FE && !given) {
+      msg = name + " = \"\": model.stiffness = 5 (FE) takes each gear's compliance from its "
+            "compliance database; allowed: the path of a .gcdb file made by compliance_tool for "
+            "this gear (in the FMU the name of a file inside resources/)";
+      return GM_ERR_PARAMETER;
+    }
+    if (level != GM_STIFFNESS_FE && given) {
+      msg = name + " = \"" + p.compliance[g] + "\": a compliance database is used at "
+            "model.stiffness = 5 (FE) only; allowed: \"\" at this level";
+      return GM_ERR_PARAMETER;
+    }
   }
   if (level == GM_STIFFNESS_USER_VARIABLE && !(p.stiffness_table && *p.stiffness_table)) {
     msg = "model.stiffness_table = \"\": model.stiffness = 1 (user tables) takes the pair "
@@ -255,6 +267,241 @@ void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K&
   }
 }
 
+
+// ---- Level 5 (FE): the coupled compliance between slices (PHYSICS 5, paper 2.2-2.3) ----
+//
+// C^g[i][j] for slices i (receiver) and j (load) on teeth t_i, t_j of gear g, offset
+// d = t_i - t_j (wrapped to -z/2..z/2; 0 beyond model.coupled_teeth), from the database block
+// C_d of tooth set t_j and the slices' flank (no coupling between flank A and flank B; with a
+// mirrored database flank B uses flank A's set with d -> -d):
+//
+//   C^g[i][j] = sum_{a,m} sum_{b,n} r_ia q_im r_jb q_jn C_d[(a, m)][(b, n)]
+//
+// Roll (on gear g's flank): r_ia are the linear interpolation weights of the slice's roll
+// distance between grid nodes a (clamped at the grid ends). Face (along gear g's axis from its
+// mid-face): q_im = |slice_i n strip_m| / w_i, the share of slice i's width inside node m's
+// tributary strip (strips end half-way between nodes; the end strips are unbounded). SCALING:
+// a database column is the response to a unit POINT load at a node, which the core reads as the
+// node's lumped share of a line load over its strip. A slice force F_j is a uniform line load
+// F_j / w_j over the slice width, so node n receives F_j q_jn; the receiver displacement is the
+// width average of the nodal displacements (weights q_im). The result is symmetric when C_d is
+// (Maxwell-Betti) and reproduces a per-unit-width compliance c'/w exactly when the database is
+// diagonal in face with C = c'/Delta_face and the slices coincide with the strips; with slices
+// narrower than the strips a face-diagonal database cannot resolve them (a real FE database is
+// smooth across the face, where this is a width average of a smooth kernel).
+struct FeSpot {
+  int roll_node = 0;          // lower roll node a (a + 1 also, unless n_roll = 1)
+  double roll_weight = 1;     // weight of node a; 1 - it for a + 1
+  double lo = 0, hi = 0;      // face interval of the slice, m
+  int face_lo = 0, face_hi = 0;  // face nodes whose strips it touches
+};
+
+FeSpot fe_spot(const ComplianceDb& db, double roll, double face, double width) {
+  FeSpot p;
+  const std::vector<double>& R = db.roll;
+  const int nr = int(R.size());
+  if (nr == 1 || roll <= R[0]) {
+    p.roll_node = 0;
+    p.roll_weight = 1;
+  } else if (roll >= R[nr - 1]) {
+    p.roll_node = nr - 2;
+    p.roll_weight = 0;
+  } else {
+    const int a = int(std::upper_bound(R.begin(), R.end(), roll) - R.begin()) - 1;
+    p.roll_node = a;
+    p.roll_weight = (R[a + 1] - roll) / (R[a + 1] - R[a]);
+  }
+  const std::vector<double>& Z = db.face;
+  const int nf = int(Z.size());
+  p.lo = face - 0.5 * width;
+  p.hi = face + 0.5 * width;
+  p.face_lo = 0;
+  while (p.face_lo + 1 < nf && 0.5 * (Z[p.face_lo] + Z[p.face_lo + 1]) <= p.lo) ++p.face_lo;
+  p.face_hi = p.face_lo;
+  while (p.face_hi + 1 < nf && 0.5 * (Z[p.face_hi] + Z[p.face_hi + 1]) < p.hi) ++p.face_hi;
+  return p;
+}
+
+// q_m of a spot: the share of its width in node m's strip
+double fe_face_share(const ComplianceDb& db, const FeSpot& p, int m) {
+  const std::vector<double>& Z = db.face;
+  const int nf = int(Z.size());
+  const double inf = std::numeric_limits<double>::infinity();
+  const double s_lo = m == 0 ? -inf : 0.5 * (Z[m - 1] + Z[m]);
+  const double s_hi = m == nf - 1 ? inf : 0.5 * (Z[m] + Z[m + 1]);
+  const double w = p.hi - p.lo;
+  return std::max(0.0, std::min(p.hi, s_hi) - std::max(p.lo, s_lo)) / w;
+}
+
+double fe_entry(const gm_model& m, int g, const ContactSlice& si, const FeSpot& pi,
+                const ContactSlice& sj, const FeSpot& pj) {
+  const ComplianceDb& db = m.compliance[g];
+  if (si.flank != sj.flank) return 0;
+  const int z = int(db.teeth);
+  int d = ((si.tooth[g] - sj.tooth[g]) % z + z) % z;
+  if (d > z / 2) d -= z;
+  if (sj.flank < 0 && db.mirror) d = -d;
+  if (std::abs(d) > std::min<int>(m.params.coupled_teeth, int(db.n_coupled))) return 0;
+  const std::size_t t = db.cyclic ? 0 : std::size_t(((sj.tooth[g] % z) + z) % z);
+  const std::size_t f = db.mirror ? 0 : (sj.flank > 0 ? 0 : 1);
+  const std::vector<double>& C = db.blocks[db.block_index(t, f, d)];
+  const std::size_t nf = db.face.size(), ng = db.n_grid();
+  const int nr = int(db.roll.size());
+  double sum = 0;
+  for (int ai = 0; ai < std::min(2, nr); ++ai) {
+    const double ra = ai == 0 ? pi.roll_weight : 1 - pi.roll_weight;
+    if (ra == 0) continue;
+    for (int mi = pi.face_lo; mi <= pi.face_hi; ++mi) {
+      const double qa = ra * fe_face_share(db, pi, mi);
+      if (qa == 0) continue;
+      const std::size_t row = (std::size_t(pi.roll_node + ai) * nf + mi) * ng;
+      for (int bj = 0; bj < std::min(2, nr); ++bj) {
+        const double rb = bj == 0 ? pj.roll_weight : 1 - pj.roll_weight;
+        if (rb == 0) continue;
+        for (int nj = pj.face_lo; nj <= pj.face_hi; ++nj) {
+          const double qb = rb * fe_face_share(db, pj, nj);
+          if (qb != 0) sum += qa * qb * C[row + std::size_t(pj.roll_node + bj) * nf + nj];
+        }
+      }
+    }
+  }
+  return sum;
+}
+
+// The coupled solve of level 5 over the candidates (all: every candidate, the quasi-static
+// setting; else those with Delta > 0). Plain (load_mode false): forces for the approaches.
+// Quasi-static: the rigid approach lambda along te_gain with sum_i b_i F_i = load. Writes
+// d.forces and d.slice_stiffness for all n candidates (0 where not loaded).
+ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool quasi,
+                    double load) {
+  ForceSolve out;
+  const ContactSlice* S = d.slices.data();
+  int na = 0;
+  for (int i = 0; i < n; ++i) {
+    d.forces[i] = 0;
+    d.slice_stiffness[i] = 0;
+    if (quasi || d.approach[i] > 0) d.fe_index[na++] = i;
+  }
+  if (na == 0) {
+    if (quasi) {  // no candidate: nothing to balance
+      out.converged = false;
+      out.message = "no candidate slice to carry the load";
+    }
+    d.fe_prev_n = 0;
+    return out;
+  }
+  Eigen::MatrixXd& C = d.fe_compliance;
+  for (int a = 0; a < na; ++a) {
+    const ContactSlice& sa = S[d.fe_index[a]];
+    d.fe_key[a] = ((static_cast<long long>(sa.tooth[0]) * 100003 + sa.tooth[1]) * 2 +
+                   (sa.flank > 0)) * 4099 + a;
+    d.fe_laws[a] = d.laws[d.fe_index[a]].local;
+    d.fe_delta[a] = d.approach[d.fe_index[a]];
+    d.fe_weights[a] = sa.te_gain;
+  }
+  for (int a = 0; a < na; ++a) {
+    const ContactSlice& sa = S[d.fe_index[a]];
+    for (int b = 0; b <= a; ++b) {
+      const ContactSlice& sb = S[d.fe_index[b]];
+      double c = 0;
+      for (int g = 0; g < 2; ++g) {  // face: from gear g's mid-face along its axis
+        const ComplianceDb& db = m.compliance[g];
+        const double za = sa.point.z() - kin.u[g][2] - m.layout.axial_offset[g];
+        const double zb = sb.point.z() - kin.u[g][2] - m.layout.axial_offset[g];
+        const FeSpot pa = fe_spot(db, sa.roll[g], za, sa.width);
+        const FeSpot pb = fe_spot(db, sb.roll[g], zb, sb.width);
+        c += fe_entry(m, g, sa, pa, sb, pb);
+      }
+      C(a, b) = C(b, a) = c;
+    }
+  }
+  // warm start from the previous call's forces when the candidates are the same
+  bool same = d.fe_prev_n == na;
+  for (int a = 0; same && a < na; ++a) same = d.fe_key[a] == d.fe_prev_key[a];
+  if (!same) d.fe_force.head(na).setZero();
+  for (int a = 0; a < na; ++a) d.fe_prev_key[a] = d.fe_key[a];
+  d.fe_prev_n = na;
+  NlcpOptions opt = d.nlcp->options();
+  // NlcpSolver's own tolerances (1e-15 m + 1e-10 |Delta|): model.solver_tolerance (1e-10 m by
+  // default) on the rigid approach would leave the load balance ~1e-5 off
+  opt.tolerance = std::min(opt.tolerance, m.params.solver_tolerance);
+  opt.max_iterations = m.params.solver_max_iterations;
+  d.nlcp->set_options(opt);
+  const auto Cn = C.topLeftCorner(na, na);
+  NlcpResult res;
+  if (!quasi) {
+    res = d.nlcp->solve(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_force.head(na));
+    out.iterations = res.iterations;
+  } else if (load == 0) {
+    // the rigid approach at which the first slice a positive load would close touches
+    double lambda = std::numeric_limits<double>::infinity();
+    for (int a = 0; a < na; ++a)
+      if (d.fe_weights[a] > 0) lambda = std::min(lambda, -d.fe_delta[a] / d.fe_weights[a]);
+    if (!std::isfinite(lambda)) lambda = 0;
+    d.fe_force.head(na).setZero();
+    out.lambda = lambda;
+    for (int i = 0; i < n; ++i) d.approach[i] += lambda * S[i].te_gain;
+    return out;
+  } else {
+    // w^T F = total with w = sign(load) te_gain; the balance b (with friction) differs from w,
+    // so total is rescaled until sum b_i F_i = load
+    const double sgn = load > 0 ? 1.0 : -1.0;
+    d.fe_weights.head(na) *= sgn;
+    double total = std::fabs(load), lambda = 0;
+    for (int outer = 0; outer < 30; ++outer) {
+      lambda = 0;
+      res = d.nlcp->solve_total(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_weights.head(na),
+                                total, d.fe_force.head(na), lambda);
+      out.iterations += res.iterations;
+      if (res.status != NlcpStatus::converged) break;
+      double bal = 0;
+      for (int a = 0; a < na; ++a) bal += d.balance[d.fe_index[a]] * d.fe_force[a];
+      if (!(bal * sgn > 0)) break;
+      if (std::fabs(bal - load) <= 1e-12 * std::fabs(load)) break;
+      total *= load / bal;
+    }
+    out.lambda = sgn * lambda;
+    for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
+  }
+  out.residual = res.residual;
+  if (res.status != NlcpStatus::converged) {
+    out.converged = false;
+    out.message = res.message && *res.message ? res.message
+                                               : "level 5 (FE): the coupled force solve did not "
+                                                 "converge; raise model.solver_max_iterations";
+    return out;
+  }
+  // forces, and each loaded slice's tangent stiffness: row sums of (C_AA + diag f'_A)^-1, so
+  // that their sum is the mesh stiffness under a uniform approach
+  int nl = 0;
+  for (int a = 0; a < na; ++a) {
+    if (d.fe_force[a] > 0) d.fe_index[nl++] = d.fe_index[a], d.fe_work[nl - 1] = d.fe_force[a];
+  }
+  // fe_index now holds the loaded candidates first (their a-order is kept; C rows are remapped)
+  // rebuild the loaded block from C: find each loaded one's position a again
+  int k = 0;
+  for (int a = 0; a < na && k < nl; ++a) {
+    if (d.fe_force[a] > 0) d.fe_weights[k++] = a;  // position of the k-th loaded in C
+  }
+  auto H = d.fe_tangent.topLeftCorner(nl, nl);
+  for (int p = 0; p < nl; ++p) {
+    const int ap = int(d.fe_weights[p]);
+    for (int q = 0; q < nl; ++q) H(p, q) = C(ap, int(d.fe_weights[q]));
+    const LocalLaw& law = d.fe_laws[ap];
+    if (has_local_law(law)) H(p, p) += evaluate_local_law(law, d.fe_work[p]).slope;
+  }
+  for (int p = 0; p < nl; ++p) d.forces[d.fe_index[p]] = d.fe_work[p];
+  if (nl > 0) {
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(H);
+    if (llt.info() == Eigen::Success) {
+      auto x = d.fe_delta.head(nl);  // the approaches are no longer needed
+      x.setOnes();
+      llt.solveInPlace(x);
+      for (int p = 0; p < nl; ++p) d.slice_stiffness[d.fe_index[p]] = x[p];
+    }
+  }
+  return out;
+}
 }  // namespace
 
 gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, gm_result& res) {
@@ -265,6 +512,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
   const int max_it = m.params.solver_max_iterations;
   gm_kinematics kin = kin_in;
   gm_result r{};
+  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
   int n = 0;
   if (!m.params.quasi_static) {
     n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
@@ -272,8 +520,10 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     apply_te_excitation(m, d.slices.data(), kin, n);
     build_laws(m, d.slices.data(), d.laws.data(), n, false);
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
-    const ForceSolve fs = solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it,
-                                          d.forces.data(), d.slice_stiffness.data());
+    const ForceSolve fs =
+        fe ? fe_solve(m, d, kin, n, false, 0.0)
+           : solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it, d.forces.data(),
+                             d.slice_stiffness.data());
     if (!fs.converged) {
       d.message = fs.message;
       return GM_ERR_SOLVER;
@@ -294,9 +544,13 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
       apply_te_excitation(m, d.slices.data(), kin, n);  // detection is redone every pass
       build_laws(m, d.slices.data(), d.laws.data(), n, true);
       balance_weights(m, d.slices.data(), kin, n, d.balance.data());
-      const ForceSolve fs = solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(),
-                                                  n, load, 0.0, tol, max_it, d.approach.data(),
-                                                  d.forces.data(), d.slice_stiffness.data());
+      if (fe)
+        for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+      const ForceSolve fs =
+          fe ? fe_solve(m, d, kin, n, true, load)
+             : solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(), n, load,
+                                     0.0, tol, max_it, d.approach.data(), d.forces.data(),
+                                     d.slice_stiffness.data());
       if (!fs.converged) {
         d.message = fs.message;
         return GM_ERR_SOLVER;
@@ -446,6 +700,11 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
   if (!inputs_finite(seed, d.message)) {
     d.message = "seed: " + d.message;
     return GM_ERR_INPUT;
+  }
+  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
+    d.message = "directional derivatives are not available at level 5 yet (model.stiffness = 5, "
+                "FE); allowed: levels 0-4, or finite differences of gm_evaluate";
+    return GM_ERR_ARGUMENT;
   }
   const MeshLayout& L = m.layout;
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];

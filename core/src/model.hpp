@@ -4,7 +4,13 @@
 #include <string>
 #include <vector>
 
+#include <memory>
+
+#include <Eigen/Core>
+
+#include "compliance_db.hpp"
 #include "contact_forces.hpp"
+#include "nlcp.hpp"
 #include "detection.hpp"
 #include "stiffness_iso.hpp"
 #include "tooth_compliance.hpp"
@@ -23,6 +29,7 @@ struct gm_model {
   gm::ToothSection tooth[2];   // level 4: Weber/Sainsot compliance of each gear's tooth
   gm::StiffnessTable stiffness_table;  // level 1: pair stiffness over gear 1's roll angle
   gm::TeTable te_table;        // any level: TE excitation over gear 1's angle (empty = none)
+  gm::ComplianceDb compliance[2];  // level 5: each gear's compliance database (checked to match)
 };
 
 struct gm_data {
@@ -33,6 +40,15 @@ struct gm_data {
   std::vector<double> forces;            // normal slice forces, N, same capacity
   std::vector<double> slice_stiffness;   // tangent stiffness of each slice, N/m
   double te_estimate = 0;                // quasi-static: last solved TE (warm start), m
+  // level 5 (FE): the coupled solve's workspace, sized to the slice capacity at creation
+  std::unique_ptr<gm::NlcpSolver> nlcp;
+  Eigen::MatrixXd fe_compliance;         // C = C1 + C2 between the solved slices, m/N
+  Eigen::MatrixXd fe_tangent;            // C_AA + diag f'_A, factorized in place (stiffness)
+  Eigen::VectorXd fe_delta, fe_force, fe_weights, fe_work;
+  std::vector<gm::LocalLaw> fe_laws;     // local Hertz laws of the solved slices
+  std::vector<int> fe_index;             // candidate index of each solved slice
+  std::vector<long long> fe_key, fe_prev_key;  // slice identities (warm start if unchanged)
+  int fe_prev_n = -1;                    // solved slices of the previous call (-1: none)
   // gm_directional_derivative's scratch: the same per slice, over dual numbers
   std::vector<gm::ContactSliceT<gm::Dual>> dual_slices;
   std::vector<gm::SliceLawT<gm::Dual>> dual_laws;

@@ -251,7 +251,8 @@ TEST(Evaluate, ParameterErrorsNameTheParameter) {
       {"gear1.tip_relief", [](gm_model_params& p) { p.gear[0].flank[1].tip_relief = -1e-6; }},
       {"gear2.deviations", [](gm_model_params& p) { p.gear[1].deviations = "/nonexistent/dev.txt"; }},
       {"model.friction_coefficient", [](gm_model_params& p) { p.friction_coefficient = -0.1; }},
-      {"model.stiffness", [](gm_model_params& p) { p.stiffness_level = 5; }},
+      {"gear1.compliance", [](gm_model_params& p) { p.stiffness_level = 5; }},
+      {"gear2.compliance", [](gm_model_params& p) { p.compliance[1] = "/nonexistent/g2.gcdb"; }},
       {"model.quasi_static", [](gm_model_params& p) { p.quasi_static = 2; }},
   };
   for (const Case& c : cases) {

@@ -1,0 +1,77 @@
+"""Stiffness level 5 (FE) through the FMU: a scene FMU with two synthetic compliance databases
+(.gcdb, core/src/compliance_db.hpp, written here byte by byte) as resources gear<i>.compliance
+evaluates; in single contact the slice force lies below the database's linear bound TE / (2 c)
+(the local Hertz law adds compliance) and above half of it; a database for another tooth count is
+refused naming gear1.compliance.
+"""
+from __future__ import annotations
+
+import math
+import struct
+import zlib
+
+import pytest
+
+from test_fmu_conformance import assert_error
+from test_fmu_microgeometry import Pair
+from test_fmu_user_tables import scene_fmu, started
+
+FACE = 0.023
+TE = 4e-6
+C_TOOTH = 1 / (3.0e10 * FACE)  # m/N: each gear's tooth compliance of the synthetic database
+
+
+def gcdb(teeth: int = 57, c: float = C_TOOTH) -> bytes:
+    """The default gear (paper set A) with a constant compliance c over a 2 x 1 flank grid
+    (roll-coupled, so that interpolation keeps it constant); n_c = 2, offsets d != 0 zero."""
+    m_n, x, z = 0.0026, 0.35, 57
+    d_a = z * m_n + 2 * m_n * (1.0 + x)
+    u32 = lambda v: struct.pack("<I", v)
+    f64 = lambda v: struct.pack("<d", v)
+    note = b"synthetic (test_fmu_fe_level.py)"
+    out = b"GMCDB" + u32(1) + u32(teeth) + u32(0)
+    for v in (m_n, math.radians(20), 0.0, x, 0.0, FACE, d_a, 1.0, 1.25, 0.38, 210e9, 0.3, 0.03, 1e-3):
+        out += f64(v)
+    out += u32(2) + u32(1) + f64(1e-3) + u32(len(note)) + note
+    out += u32(1) + u32(1) + u32(2) + u32(1) + u32(2)  # cyclic, mirror, n_roll, n_face, n_c
+    out += f64(0.0) + f64(0.03) + f64(0.0)             # roll grid, face grid
+    for d in range(-2, 3):
+        out += b"".join(f64(c if d == 0 else 0.0) for _ in range(4))
+    return out + u32(zlib.crc32(out) & 0xFFFFFFFF)
+
+
+@pytest.fixture(scope="module")
+def databases(tmp_path_factory):
+    d = tmp_path_factory.mktemp("gcdb")
+    files = {"g1.gcdb": gcdb(), "g2.gcdb": gcdb(), "z40.gcdb": gcdb(teeth=40)}
+    for name, data in files.items():
+        (d / name).write_bytes(data)
+    return {name: d / name for name in files}
+
+
+def test_level_5_evaluates_with_two_databases(new, fmu_path, tmp_path, databases):
+    params = {"model.stiffness": 5, "gear1.compliance": "g1.gcdb", "gear2.compliance": "g2.gcdb"}
+    directory, md = scene_fmu(fmu_path, tmp_path, params,
+                              {"g1.gcdb": databases["g1.gcdb"], "g2.gcdb": databases["g2.gcdb"]})
+    inst, step = started(new, directory, md)
+    assert inst.get("model.stiffness") == 5 and inst.get("gear1.compliance") == "g1.gcdb"
+    pair = Pair(inst)
+    names = ("mesh.normal_force", "mesh.stiffness", "mesh.pairs_in_contact")
+    bound = TE / (2 * C_TOOTH)
+    for frac in (0.47, 0.5, 0.53):  # single contact
+        force, stiffness, pairs = step(pair.pose(pair.phi1(frac * pair.length), TE), names)
+        assert pairs == 1
+        assert 0.5 * bound < force < bound, frac
+        assert 0 < stiffness < 1 / (2 * C_TOOTH), frac
+
+
+def test_database_of_another_gear_is_named(new, fmu_path, tmp_path, databases):
+    params = {"model.stiffness": 5, "gear1.compliance": "z40.gcdb", "gear2.compliance": "g2.gcdb"}
+    directory, md = scene_fmu(fmu_path, tmp_path, params,
+                              {"z40.gcdb": databases["z40.gcdb"], "g2.gcdb": databases["g2.gcdb"]})
+    inst = new(directory=directory, model_description=md)
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    assert_error(inst.slave.exitInitializationMode)
+    message = inst.log.messages("logStatusError")[-1]
+    assert "gear1.compliance" in message and "z = 40" in message, message
