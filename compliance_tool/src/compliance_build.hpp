@@ -1,0 +1,65 @@
+// Compliance database builder of compliance_tool (PHYSICS 5, FE level; DESIGN "compliance_tool"):
+// one gear of validated parameters -> gear-body mesh (gear_mesh.hpp) -> bore clamped -> TET10
+// stiffness, one CHOLMOD factorization (fe_elasticity.hpp) -> unit normal loads on the flank grid
+// of the reference tooth -> normal displacements at depth h on that tooth and its +-n_c
+// neighbours -> ComplianceDb (core/src/compliance_db.hpp).
+//
+// Definitions (all in the gear's body frame of gear_mesh.hpp):
+// * Flank grid: the nodes of tooth 0's flank A (gear_mesh's involute surface, form circle to tip,
+//   full face width). With quadratic elements and a layered extrusion they form an
+//   n_roll x n_face lattice (n_roll = 2 elements_along_profile + 1, n_face = 2
+//   elements_across_width + 1). The roll values are those of the nodes at the first face level,
+//   the face values those of the nodes on the form-circle edge (clustered within 1 um). The
+//   quadratic nodes in the middle of the layers' quad diagonals lie on the curved (twisted) flank
+//   a little off the mid-edge roll and face values; each node takes the nearest grid value (the
+//   offset is reported in BuildStats, > 1/4 spacing is an error).
+//   A node set that is not a full lattice is an error.
+// * Normal n at a grid node P (inward, into the tooth): in the transverse plane the involute's
+//   normal is the line from P to its base-circle tangency point T (polar angle of P minus the
+//   pressure angle at |P| for flank A), outward = (P - T)/|P - T|; in 3-D the helicoid's normal is
+//   the cross product of the profile tangent and the helix tangent (hand * tan(beta_b)/r_b * R
+//   e_theta + e_z), i.e. (cos beta_b n_t, -hand sin beta_b) outward; n = -outward. Spur: beta_b = 0.
+// * Load case j: unit force (1 N) at grid node j along n_j. Response at grid point k of tooth d:
+//   the FE displacement at Q_k,d = Rot(2 pi d / z) (P_k + h n_k), interpolated with the TET10
+//   shape functions of the element containing Q (found by bounding box, then Newton on the
+//   element's quadratic map), projected on Rot(2 pi d / z) n_k. Helical gears: n has an axial
+//   component, so at the face ends P_k + h n_k is pulled back onto the end face (z clamped). C_d[k][j] = that, m/N. By the
+//   cyclic symmetry of the body (the mesh itself is not exactly cyclic: the interpolation makes the
+//   neighbour responses mesh-independent to discretization order) this is the tooth-offset-d block.
+// * The body is taken as cyclic (one tooth set) and mirror-symmetric (flank B = flank A mirrored
+//   through the tooth's centre plane; for a helical gear that mirror also flips the face
+//   coordinate and the hand, which the reader has to apply): cyclic = 1, mirror = 1.
+// * The FE computation runs in mm, N, MPa (better conditioned); the database is in SI.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "compliance_db.hpp"
+#include "gear_mesh.hpp"
+#include "gearmesh/gearmesh.h"
+
+namespace gm::ctool {
+
+struct BuildOptions {
+  mesh::GearBodyOptions mesh;  // body and element counts (bore_radius 0 = 0.4 r_f)
+  double depth = 0.5e-3;       // h, m, > 0
+  int coupled = -1;            // n_c; < 0 = the parameters' coupled_teeth
+  int batch = 32;              // load cases per CHOLMOD solve call
+  std::string note;            // appended to the database note
+  // Progress messages (meshing, assembly, factorization, solves i/N); may be empty.
+  std::function<void(const std::string&)> progress;
+};
+
+struct BuildStats {
+  int nodes = 0, elements = 0, dofs = 0, grid = 0;
+  double mesh_seconds = 0, assembly_seconds = 0, factor_seconds = 0, solve_seconds = 0;
+  double locate_seconds = 0;
+  double max_roll_offset = 0;  // largest |roll or face - its grid value| of a flank node / spacing
+};
+
+// Compute the database of gear `gear` (0 = gear 1, 1 = gear 2) of p (validated here).
+gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOptions& options,
+                              ComplianceDb& out, BuildStats& stats, std::string& msg);
+
+}  // namespace gm::ctool
