@@ -328,20 +328,7 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   }
 
   // 6. Header.
-  out.teeth = std::uint32_t(z);
-  out.internal = (gear == 1 && p.pair.internal) ? 1u : 0u;
-  out.normal_module = p.pair.normal_module;
-  out.pressure_angle = p.pair.pressure_angle;
-  out.helix_angle = (gear == 0 || p.pair.internal) ? p.pair.helix_angle : -p.pair.helix_angle;
-  out.profile_shift = gp.profile_shift;
-  out.thickness_allowance = gp.thickness_allowance;
-  out.face_width = gp.face_width;
-  out.tip_diameter = g.gear[gear].d_a;
-  out.rack_addendum = p.pair.rack_addendum;
-  out.rack_dedendum = p.pair.rack_dedendum;
-  out.rack_tip_radius = p.pair.rack_tip_radius;
-  out.youngs_modulus = gp.youngs_modulus;
-  out.poisson_ratio = gp.poisson_ratio;
+  record_gear(out, p, g, gear);
   out.bore_radius = body.bore_radius;
   const int nprof = std::max(1, o.mesh.elements_along_profile);
   out.mesh_size = (roll.back() - roll.front()) / nprof;  // roll length per element along the profile

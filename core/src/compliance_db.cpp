@@ -490,4 +490,22 @@ gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int
   return GM_OK;
 }
 
+void record_gear(ComplianceDb& db, const gm_model_params& p, const gm_pair_geometry& g, int gear) {
+  const gm_gear_params& gp = p.gear[gear];
+  db.teeth = std::uint32_t(gp.teeth);
+  db.internal = (gear == 1 && p.pair.internal) ? 1u : 0u;
+  db.normal_module = p.pair.normal_module;
+  db.pressure_angle = p.pair.pressure_angle;
+  db.helix_angle = (gear == 0 || p.pair.internal) ? p.pair.helix_angle : -p.pair.helix_angle;
+  db.profile_shift = gp.profile_shift;
+  db.thickness_allowance = gp.thickness_allowance;
+  db.face_width = gp.face_width;
+  db.tip_diameter = g.gear[gear].d_a;
+  db.rack_addendum = p.pair.rack_addendum;
+  db.rack_dedendum = p.pair.rack_dedendum;
+  db.rack_tip_radius = p.pair.rack_tip_radius;
+  db.youngs_modulus = gp.youngs_modulus;
+  db.poisson_ratio = gp.poisson_ratio;
+}
+
 }  // namespace gm

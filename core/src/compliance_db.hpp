@@ -135,4 +135,8 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
 // quantity with both values, e.g. "gear1.compliance: made for z = 40, this gear has z = 57".
 gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int gear, std::string& msg);
 
+// Record in db the gear it is made for (what check_db_matches compares): gear `gear` (0 or 1)
+// of p, with its tip diameter from the pair geometry g. gear 2 of an external pair records -beta.
+void record_gear(ComplianceDb& db, const gm_model_params& p, const gm_pair_geometry& g, int gear);
+
 }  // namespace gm

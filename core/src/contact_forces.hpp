@@ -1,6 +1,6 @@
 // Normal slice forces from approaches (paper section 2.2, eq. 1-4; PHYSICS.md sections 5-6).
 //
-// The stiffness levels implemented so far have no coupling between slices (the paper's
+// Levels 0-4 have no coupling between slices (the paper's
 // Standard and Analytical levels, Figure 1: "convective coupling: no"), so C is diagonal and
 // the convex problem min 1/2 F^T C F + sum P_i(F_i) - Delta^T F, F >= 0 separates: each slice
 // solves c_i F + f_i(F) = Delta_i exactly (scalar Newton, monotone from below because
