@@ -7,11 +7,13 @@ GM_REPO=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 GM_VENV="$GM_REPO/.venv"
 GM_BUILD="$GM_REPO/build"
 
-# Compilers, CMake, Eigen, SuiteSparse, GoogleTest, Python, and the shared libraries the gmsh
-# wheel loads (GL/X11 client libraries; no display is needed).
+# Compilers, CMake, Eigen, SuiteSparse, GoogleTest, Python, the shared libraries the gmsh
+# wheel loads (GL/X11 client libraries; no display is needed), and OpenBLAS, which Debian's
+# alternatives then put behind libblas.so.3 (CHOLMOD's supernodal factorization of a gear body
+# runs about 4x faster than on the reference BLAS).
 GM_APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config binutils
-  libeigen3-dev libsuitesparse-dev libgtest-dev
+  libeigen3-dev libsuitesparse-dev libgtest-dev libopenblas0-pthread
   python3 python3-venv python3-pip
   libglu1-mesa libgl1 libxrender1 libxcursor1 libxft2 libxinerama1 libgomp1
 )
