@@ -150,6 +150,15 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
           std::to_string(z);
     return GM_ERR_PARAMETER;
   }
+  if (!(o.load_fraction > 0 && o.load_fraction <= 1)) {
+    msg = "compliance_tool: load fraction " + std::to_string(o.load_fraction) + ": allowed 0 < F <= 1";
+    return GM_ERR_PARAMETER;
+  }
+  if (o.load_fraction < 1 || o.every_tooth || (o.mesh.holes > 0 && o.mesh.holes % p.gear[gear].teeth != 0) || !mesh_file_of(o.mesh).empty()) {
+    msg = "compliance_tool: load fractions below 1, every-tooth loading, lightening holes other than a multiple of z per body and user "
+          "meshes are not implemented in this build yet";
+    return GM_ERR_PARAMETER;
+  }
   if (!(o.depth > 0) || !std::isfinite(o.depth)) {
     msg = "compliance_tool: depth must be > 0 m";
     return GM_ERR_PARAMETER;
@@ -320,6 +329,10 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
       say("  solves " + std::to_string(j0 + nb) + "/" + std::to_string(n_grid));
     }
     stats.solve_seconds = seconds_since(t0);
+    stats.tooth_sets = 1;
+    stats.symmetry = z;
+    stats.loaded = n_grid;
+    stats.solves = n_grid;
     out.blocks = std::move(blocks);
   } catch (const std::exception& e) {
     msg = std::string("compliance_tool: FE solve failed: ") + e.what();

@@ -34,6 +34,8 @@
 
 #include <functional>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 #include "compliance_db.hpp"
 #include "gear_mesh.hpp"
@@ -46,6 +48,9 @@ struct BuildOptions {
   double depth = 0.5e-3;       // h, m, > 0
   int coupled = -1;            // n_c; < 0 = the parameters' coupled_teeth
   int batch = 32;              // load cases per CHOLMOD solve call
+  bool every_tooth = false;    // load every distinct tooth even on a cyclic body (cyclic = 0)
+  double load_fraction = 1.0;  // share of the flank grid loaded, (0, 1]; the rest from the
+                               // reduction space (see the header comment)
   std::string note;            // appended to the database note
   // Progress messages (meshing, assembly, factorization, solves i/N); may be empty.
   std::function<void(const std::string&)> progress;
@@ -53,10 +58,45 @@ struct BuildOptions {
 
 struct BuildStats {
   int nodes = 0, elements = 0, dofs = 0, grid = 0;
+  int tooth_sets = 0;   // distinct tooth sets loaded (1 on a cyclic body)
+  int symmetry = 0;     // rotational symmetry order of the body g (z: cyclic per tooth)
+  int loaded = 0;       // loaded grid points per tooth set and flank
+  int solves = 0;       // load cases solved in all
   double mesh_seconds = 0, assembly_seconds = 0, factor_seconds = 0, solve_seconds = 0;
   double locate_seconds = 0;
   double max_roll_offset = 0;  // largest |roll or face - its grid value| of a flank node / spacing
 };
+
+// GearBodyOptions fields that the mesher may or may not have yet (internal ring gears' outer
+// radius, a user-supplied mesh): set them if they exist; false if this build's mesher lacks them.
+template <class T, class = void> struct HasOuterRadius : std::false_type {};
+template <class T>
+struct HasOuterRadius<T, std::void_t<decltype(std::declval<T&>().outer_radius)>> : std::true_type {};
+template <class T, class = void> struct HasMeshFile : std::false_type {};
+template <class T>
+struct HasMeshFile<T, std::void_t<decltype(std::declval<T&>().mesh_file)>> : std::true_type {};
+template <class T> bool set_outer_radius(T& o, double r) {
+  if constexpr (HasOuterRadius<T>::value) {
+    o.outer_radius = r;
+    return true;
+  } else {
+    (void)o, (void)r;
+    return false;
+  }
+}
+template <class T> bool set_mesh_file(T& o, const std::string& f) {
+  if constexpr (HasMeshFile<T>::value) {
+    o.mesh_file = f;
+    return true;
+  } else {
+    (void)o, (void)f;
+    return false;
+  }
+}
+template <class T> std::string mesh_file_of(const T& o) {
+  if constexpr (HasMeshFile<T>::value) return std::string(o.mesh_file);
+  else return (void)o, std::string();
+}
 
 // Compute the database of gear `gear` (0 = gear 1, 1 = gear 2) of p (validated here).
 gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOptions& options,
