@@ -101,7 +101,7 @@ BODY_SCHEMA: dict[str, Key] = {
     "hub_diameter_mm": Key("--hub-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
     "web_thickness_mm": Key("--web-thickness-mm", 1.0, 0.01, 2000, unit="mm"),
     "web_offset_mm": Key("--web-offset-mm", 1.0, -1000, 1000, unit="mm"),
-    "holes": Key("--holes", 1, 0, 100, kind=int),
+    "holes": Key("--holes", 1, 0, 1000, kind=int),
     "hole_diameter_mm": Key("--hole-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
     "hole_circle_diameter_mm": Key("--hole-circle-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
     "ring_outer_diameter_mm": Key("--ring-outer-diameter-mm", 1.0, 0.01, 80000, unit="mm"),
@@ -111,11 +111,11 @@ BODY_SCHEMA: dict[str, Key] = {
 # [fe] (FE level): the discretization of both gears' builds, as compliance_tool's flags.
 FE_SCHEMA: dict[str, Key] = {
     "depth_mm": Key("--depth-mm", 1.0, 0.001, 100, unit="mm"),
-    "profile_elements": Key("--profile-elements", 1, 1, 100, kind=int),
-    "width_elements": Key("--width-elements", 1, 1, 100, kind=int),
-    "fillet_elements": Key("--fillet-elements", 1, 1, 50, kind=int),
+    "profile_elements": Key("--profile-elements", 1, 1, 200, kind=int),
+    "width_elements": Key("--width-elements", 1, 1, 200, kind=int),
+    "fillet_elements": Key("--fillet-elements", 1, 1, 200, kind=int),
     "body_size_mm": Key("--body-size-mm", 1.0, 0.01, 1000, unit="mm"),
-    "load_fraction": Key("--load-fraction", 1.0, 0.05, 1.0),
+    "load_fraction": Key("--load-fraction", 1.0, 0.01, 1.0),
 }
 GEOMETRY_BODY_KEYS = [k for k in BODY_SCHEMA if k not in ("mesh_file", "compliance_file")]
 
@@ -279,10 +279,11 @@ def _parse_body(section: str, body, path: pathlib.Path) -> dict:
         if d_small is not None and d_big is not None and not d_small < d_big:
             raise SceneError(f"{where}.{big} = {d_big:g} mm: must exceed {where}.{small} = "
                              f"{d_small:g} mm")
-    for key in ("hub_diameter_mm", "web_thickness_mm", "web_offset_mm"):
-        if key in out and rim is None:
-            raise SceneError(f"{where}.{key}: a web needs its outer edge; allowed: together "
-                             f"with {where}.rim_inner_diameter_mm")
+    for key in ("rim_inner_diameter_mm", "hub_diameter_mm", "web_thickness_mm", "web_offset_mm"):
+        if key in out and (rim is None or hub is None):
+            missing = "rim_inner_diameter_mm" if rim is None else "hub_diameter_mm"
+            raise SceneError(f"{where}.{key}: a web lies between the hub and the rim; allowed: "
+                             f"together with {where}.{missing}")
     holes = out.get("holes", 0)
     hole_keys = ("hole_diameter_mm", "hole_circle_diameter_mm")
     if holes == 0:
