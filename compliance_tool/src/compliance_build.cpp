@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <exception>
 #include <limits>
+#include <map>
+#include <numeric>
+#include <stdexcept>
 #include <sstream>
 #include <vector>
 
@@ -74,23 +77,56 @@ struct Probe {
   Eigen::Vector3d n = Eigen::Vector3d::Zero();
 };
 
-// Locate x in the mesh (bounding boxes, then Newton on the quadratic map); false if outside.
+// Locate x in the mesh (bucket grid of element bounding boxes, then Newton on the quadratic map).
+// Returns the smallest barycentric coordinate of the best element found (>= 0: inside; slightly
+// negative: just outside, e.g. a surface point off the quadratic facet), -inf if none is near.
 class Locator {
  public:
   explicit Locator(const fe::Mesh& m) : m_(m) {
-    lo_.resize(m.tets.size());
-    hi_.resize(m.tets.size());
-    for (std::size_t e = 0; e < m.tets.size(); ++e) {
+    const std::size_t ne = m.tets.size();
+    lo_.resize(ne);
+    hi_.resize(ne);
+    Eigen::Vector3d glo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), ghi = -glo;
+    double mean_size = 0;
+    for (std::size_t e = 0; e < ne; ++e) {
       Eigen::Vector3d a = m.nodes[m.tets[e][0]], b = a;
       for (int n : m.tets[e]) a = a.cwiseMin(m.nodes[n]), b = b.cwiseMax(m.nodes[n]);
       lo_[e] = a;
       hi_[e] = b;
+      glo = glo.cwiseMin(a);
+      ghi = ghi.cwiseMax(b);
+      mean_size += (b - a).maxCoeff();
+    }
+    mean_size = ne ? mean_size / double(ne) : 1.0;
+    origin_ = glo;
+    cell_ = std::max(mean_size, 1e-12);
+    for (int c = 0; c < 3; ++c) dims_[c] = std::clamp(int((ghi(c) - glo(c)) / cell_) + 1, 1, 4096);
+    start_.assign(std::size_t(dims_[0]) * dims_[1] * dims_[2] + 1, 0);
+    // Two passes (count, fill): element lists per cell in one array.
+    for (int pass = 0; pass < 2; ++pass) {
+      std::vector<int> fill = pass ? std::vector<int>(start_.begin(), start_.end() - 1) : std::vector<int>();
+      if (pass) items_.resize(start_.back());
+      for (std::size_t e = 0; e < ne; ++e) {
+        const auto a = cell_of(lo_[e]), b = cell_of(hi_[e]);
+        for (int i = a[0]; i <= b[0]; ++i)
+          for (int j = a[1]; j <= b[1]; ++j)
+            for (int k = a[2]; k <= b[2]; ++k) {
+              const std::size_t c = (std::size_t(k) * dims_[1] + j) * dims_[0] + i;
+              if (pass) items_[fill[c]++] = int(e);
+              else ++start_[c + 1];
+            }
+      }
+      if (!pass)
+        for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
     }
   }
-  bool locate(const Eigen::Vector3d& x, int& elem, Eigen::Vector3d& xi) const {
-    const double tol = 1e-9;
+  double locate(const Eigen::Vector3d& x, int& elem, Eigen::Vector3d& xi) const {
+    const double tol = 1e-9 * std::max(1.0, x.norm());
     double best = -std::numeric_limits<double>::infinity();
-    for (std::size_t e = 0; e < lo_.size(); ++e) {
+    const auto c0 = cell_of(x);
+    const std::size_t c = (std::size_t(c0[2]) * dims_[1] + c0[1]) * dims_[0] + c0[0];
+    for (int q = start_[c]; q < start_[c + 1]; ++q) {
+      const int e = items_[q];
       if ((x - lo_[e]).minCoeff() < -tol || (hi_[e] - x).minCoeff() < -tol) continue;
       Eigen::Vector3d s(0.25, 0.25, 0.25);
       for (int it = 0; it < 20; ++it) {
@@ -110,20 +146,83 @@ class Locator {
       const double minbary = std::min(1.0 - s.sum(), s.minCoeff());
       if (minbary > best) {
         best = minbary;
-        elem = int(e);
+        elem = e;
         xi = s;
       }
-      if (minbary >= 0) return true;
+      if (minbary >= 0) break;
     }
-    return best > -1e-6;
+    return best;
   }
 
  private:
+  std::array<int, 3> cell_of(const Eigen::Vector3d& x) const {
+    std::array<int, 3> c{};
+    for (int i = 0; i < 3; ++i) c[i] = std::clamp(int(std::floor((x(i) - origin_(i)) / cell_)), 0, dims_[i] - 1);
+    return c;
+  }
   const fe::Mesh& m_;
   std::vector<Eigen::Vector3d> lo_, hi_;
+  Eigen::Vector3d origin_;
+  double cell_ = 1;
+  std::array<int, 3> dims_{1, 1, 1};
+  std::vector<int> start_, items_;
 };
 
+// Reading (or load) at a point: the displacement (or force) along n, distributed on the nodes of
+// the element containing the point with the TET10 shape functions (a point load anywhere is the
+// transpose of this reading: consistent nodal forces N_a(x) n).
+double reading(const Probe& pr, const Eigen::MatrixXd& U, int c) {
+  double w = 0;
+  for (int a = 0; a < 10; ++a) {
+    if (pr.weight[a] == 0) continue;
+    w += pr.weight[a] * pr.n.dot(U.block<3, 1>(3 * pr.nodes[a], c));
+  }
+  return w;
+}
+
+std::string eta_text(double elapsed, double done, double total) {
+  std::ostringstream s;
+  s.precision(3);
+  s << elapsed << " s";
+  if (done > 0 && done < total) s << ", ETA " << elapsed * (total - done) / done << " s";
+  return s.str();
+}
+
 }  // namespace
+
+std::vector<int> select_loaded(int n_roll, int n_face, double fraction) {
+  const int n = n_roll * n_face;
+  const int want = std::clamp(int(std::ceil(fraction * n - 1e-9)), 1, n);
+  std::vector<int> out;
+  if (want >= n) {
+    out.resize(n);
+    std::iota(out.begin(), out.end(), 0);
+    return out;
+  }
+  std::vector<char> is(n, 0);
+  auto add = [&](int k) {
+    if (!is[k] && int(out.size()) < want) is[k] = 1, out.push_back(k);
+  };
+  // The element vertices' lattice first (even roll and face indices), then greedily the point
+  // farthest (in grid steps) from every loaded one; ties to the lowest index.
+  for (int i = 0; i < n_roll; i += 2)
+    for (int j = 0; j < n_face; j += 2) add(i * n_face + j);
+  std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+  auto update = [&](int k) {
+    const int ik = k / n_face, jk = k % n_face;
+    for (int q = 0; q < n; ++q) dist[q] = std::min(dist[q], std::hypot(double(q / n_face - ik), double(q % n_face - jk)));
+  };
+  for (int k : out) update(k);
+  while (int(out.size()) < want) {
+    int best = -1;
+    for (int q = 0; q < n; ++q)
+      if (!is[q] && (best < 0 || dist[q] > dist[best])) best = q;
+    add(best);
+    update(best);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
 
 gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOptions& o,
                               ComplianceDb& out, BuildStats& stats, std::string& msg) {
@@ -152,11 +251,6 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   }
   if (!(o.load_fraction > 0 && o.load_fraction <= 1)) {
     msg = "compliance_tool: load fraction " + std::to_string(o.load_fraction) + ": allowed 0 < F <= 1";
-    return GM_ERR_PARAMETER;
-  }
-  if (o.load_fraction < 1 || o.every_tooth || (o.mesh.holes > 0 && o.mesh.holes % p.gear[gear].teeth != 0) || !mesh_file_of(o.mesh).empty()) {
-    msg = "compliance_tool: load fractions below 1, every-tooth loading, lightening holes other than a multiple of z per body and user "
-          "meshes are not implemented in this build yet";
     return GM_ERR_PARAMETER;
   }
   if (!(o.depth > 0) || !std::isfinite(o.depth)) {
@@ -259,46 +353,147 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     normal[k] = -n;  // inward
   }
 
-  // 3. Probes at depth h on teeth -n_c .. n_c.
+  // 3. Symmetry and the tooth sets to load.
+  const bool user_mesh = !mesh_file_of(o.mesh).empty();
+  const int sym = user_mesh ? 1 : (o.mesh.holes > 0 ? std::gcd(z, o.mesh.holes) : z);
+  stats.symmetry = sym;
+  const bool cyclic = sym == z && !o.every_tooth;
+  // Distinct teeth 0 .. classes-1 (tooth t ~ t mod classes); every tooth when forced.
+  const int classes = cyclic ? 1 : (o.every_tooth ? z : z / sym);
+  const bool helical = body.hand != 0;
+  // Flank B from flank A by the body's mirror symmetry (spur: the mirror through tooth 0's centre
+  // plane, y -> -y; helical: the half turn about tooth 0's radial centre line at mid-face,
+  // (x, y, z) -> (x, -y, -z), which also flips the face coordinate): a generated body has it
+  // unless a helical body's web is off mid-face. A user mesh is not assumed to have it.
+  const bool mirror_sym = !user_mesh && (!helical || std::fabs(o.mesh.web_offset) < 1e-12);
+  const bool load_b = !cyclic && !mirror_sym;
+  stats.tooth_sets = cyclic ? 1 : classes;
+  if (!cyclic) {
+    std::ostringstream s;
+    s << "body symmetry order " << sym << " of z = " << z << (o.every_tooth ? " (every tooth forced)" : "")
+      << ": loading " << classes << " distinct teeth" << (load_b ? ", both flanks" : ", flank A (flank B by the mirror)");
+    say(s.str());
+  }
+  // Placement of tooth t's flank f: x = A(t, f) x0 for tooth 0's flank-A grid point of index
+  // face_map(f, k).
+  const Eigen::Matrix3d mirror_m = helical ? Eigen::Vector3d(1, -1, -1).asDiagonal().toDenseMatrix()
+                                           : Eigen::Vector3d(1, -1, 1).asDiagonal().toDenseMatrix();
+  auto place = [&](int t, int f) {
+    const Eigen::Matrix3d r = Eigen::AngleAxisd(2 * kPi * t / z, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return f == 0 ? r : Eigen::Matrix3d(r * mirror_m);
+  };
+  auto src_index = [&](int f, int k) {
+    if (f == 0 || !helical) return k;
+    return (k / n_face) * n_face + (n_face - 1 - k % n_face);
+  };
+
+  // 4. Points: loads on the flank (surface) and readings at depth h, per (tooth, flank).
   const auto t_loc = Clock::now();
-  say("locating " + std::to_string((2 * nc + 1) * n_grid) + " depth points ...");
+  say("locating points (bucket grid) ...");
   Locator loc(fm);
-  std::vector<Probe> probes((2 * nc + 1) * n_grid);
-  for (int d = -nc; d <= nc; ++d) {
-    const Eigen::Matrix3d rot = Eigen::AngleAxisd(2 * kPi * d / z, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  std::vector<Eigen::Vector3d> depth0(n_grid);
+  for (int k = 0; k < n_grid; ++k) {
+    // Helical: the normal has an axial component, so at a face end the depth point would leave
+    // the body; it is kept on the end face (z clamped to +-b/2).
+    Eigen::Vector3d Qb = body.nodes[grid_node[k]] + o.depth * normal[k];
+    Qb.z() = std::clamp(Qb.z(), -0.5 * body.face_width, 0.5 * body.face_width);
+    depth0[k] = Qb;
+  }
+  std::map<std::pair<int, int>, std::vector<Probe>> surf_cache, depth_cache;
+  std::string loc_err;
+  auto points = [&](int t, int f, bool depth) -> const std::vector<Probe>* {
+    t = ((t % z) + z) % z;
+    auto& cache = depth ? depth_cache : surf_cache;
+    const auto key = std::make_pair(t, f);
+    auto it = cache.find(key);
+    if (it != cache.end()) return &it->second;
+    std::vector<Probe> v(n_grid);
+    const Eigen::Matrix3d A = place(t, f);
     for (int k = 0; k < n_grid; ++k) {
-      // Helical: the normal has an axial component, so at a face end the depth point would leave
-      // the body; it is kept on the end face (z clamped to +-b/2).
-      Eigen::Vector3d Qb = body.nodes[grid_node[k]] + o.depth * normal[k];
-      Qb.z() = std::clamp(Qb.z(), -0.5 * body.face_width, 0.5 * body.face_width);
-      const Eigen::Vector3d Q = rot * Qb * mm;
+      const int k0 = src_index(f, k);
+      Probe& pr = v[k];
+      pr.n = A * normal[k0];
+      if (!depth && t == 0 && f == 0) {  // the reference flank's own nodes
+        pr.nodes.fill(grid_node[k]);
+        pr.weight.fill(0);
+        pr.weight[0] = 1;
+        continue;
+      }
+      const Eigen::Vector3d X = A * (depth ? depth0[k0] : Eigen::Vector3d(body.nodes[grid_node[k0]])) * mm;
       int e = -1;
       Eigen::Vector3d xi;
-      if (!loc.locate(Q, e, xi)) {
+      const double best = loc.locate(X, e, xi);
+      if (!(best > (depth ? -1e-6 : -1e-3))) {
         std::ostringstream s;
-        s << "compliance_tool: the point at depth h = " << o.depth << " m below grid point " << k
-          << " of tooth offset " << d << " lies outside the mesh (h too large?)";
-        msg = s.str();
-        return GM_ERR_PARAMETER;
+        s << "compliance_tool: the " << (depth ? "point at depth h = " + std::to_string(o.depth) + " m below"
+                                               : std::string("flank point at"))
+          << " grid point " << k << " of tooth " << t << " flank " << (f ? "B" : "A")
+          << " lies outside the mesh" << (depth ? " (h too large?)" : " (the body is not the same on every tooth?)");
+        loc_err = s.str();
+        return nullptr;
       }
-      Probe& pr = probes[(d + nc) * n_grid + k];
       pr.nodes = fm.tets[e];
       pr.weight = tet10_shape(xi);
-      pr.n = rot * normal[k];
     }
-  }
+    return &cache.emplace(key, std::move(v)).first->second;
+  };
+
+  // Load sets: (tooth class, flank) with their reading points.
+  struct LoadSet {
+    int t = 0, f = 0;
+    const std::vector<Probe>* surf = nullptr;
+    std::vector<const std::vector<Probe>*> depth;  // d = -nc..nc
+  };
+  std::vector<LoadSet> sets;
+  for (int t = 0; t < classes; ++t)
+    for (int f = 0; f < (load_b ? 2 : 1); ++f) {
+      LoadSet ls;
+      ls.t = t;
+      ls.f = f;
+      ls.surf = points(t, f, false);
+      for (int d = -nc; d <= nc && ls.surf; ++d) {
+        ls.depth.push_back(points(t + d, f, true));
+        if (!ls.depth.back()) ls.surf = nullptr;
+      }
+      if (!ls.surf) {
+        msg = loc_err;
+        return GM_ERR_PARAMETER;
+      }
+      sets.push_back(std::move(ls));
+    }
   stats.locate_seconds = seconds_since(t_loc);
 
-  // 4. Assemble, clamp the bore, factorize.
+  // Loaded grid points (all, or a well-spread subset: see select_loaded).
+  const std::vector<int> loaded = select_loaded(n_roll, n_face, o.load_fraction);
+  std::vector<int> unloaded;
+  {
+    std::vector<char> is(n_grid, 0);
+    for (int k : loaded) is[k] = 1;
+    for (int k = 0; k < n_grid; ++k)
+      if (!is[k]) unloaded.push_back(k);
+  }
+  const int nL = int(loaded.size());
+  stats.loaded = nL;
+  if (!unloaded.empty()) {
+    std::ostringstream s;
+    s << "loading " << nL << " of " << n_grid << " grid points (fraction " << o.load_fraction
+      << "), the other " << unloaded.size() << " from the reduction space";
+    say(s.str());
+  }
+
+  // 5. Assemble, clamp the bore, factorize.
   fe::Material mat;
   mat.E = gp.youngs_modulus * 1e-6;  // MPa
   mat.nu = gp.poisson_ratio;
+  const int nd = 2 * nc + 1;
+  // result[set][d] = C_d of that set
+  std::vector<std::vector<std::vector<double>>> result(sets.size());
   try {
     say("assembling " + std::to_string(stats.dofs) + " dofs ...");
     auto t0 = Clock::now();
     const Eigen::SparseMatrix<double> K = fe::assemble_stiffness(fm, mat);
     stats.assembly_seconds = seconds_since(t0);
-    say("factorizing (CHOLMOD) ...");
+    say("factorizing (CHOLMOD, " + std::to_string(stats.dofs) + " dofs) ...");
     t0 = Clock::now();
     fe::Solver solver(K, fe::dofs_of_nodes(body.bore_nodes));
     stats.factor_seconds = seconds_since(t0);
@@ -308,36 +503,118 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
       say(s.str());
     }
 
-    // 5. Solves.
+    // 6. Solves: per load set, the loaded columns; S[k][c] = the surface reading at grid point k
+    // under loaded case c (for the reduction space).
     t0 = Clock::now();
-    std::vector<std::vector<double>> blocks(2 * nc + 1, std::vector<double>(std::size_t(n_grid) * n_grid));
+    const int total = int(sets.size()) * nL;
     const int batch = std::max(1, o.batch);
-    for (int j0 = 0; j0 < n_grid; j0 += batch) {
-      const int nb = std::min(batch, n_grid - j0);
-      Eigen::MatrixXd F = Eigen::MatrixXd::Zero(stats.dofs, nb);
-      for (int c = 0; c < nb; ++c)
-        F.block<3, 1>(3 * grid_node[j0 + c], c) = normal[j0 + c];
-      const Eigen::MatrixXd U = solver.solve(F);
-      for (int c = 0; c < nb; ++c)
-        for (std::size_t q = 0; q < probes.size(); ++q) {
-          const Probe& pr = probes[q];
-          double w = 0;
-          for (int a = 0; a < 10; ++a) w += pr.weight[a] * pr.n.dot(U.block<3, 1>(3 * pr.nodes[a], c));
-          const int d = int(q) / n_grid, k = int(q) % n_grid;
-          blocks[d][std::size_t(k) * n_grid + (j0 + c)] = w / mm;  // mm/N -> m/N
+    int done = 0;
+    for (std::size_t si = 0; si < sets.size(); ++si) {
+      const LoadSet& ls = sets[si];
+      auto& blocks = result[si];
+      blocks.assign(nd, std::vector<double>(std::size_t(n_grid) * n_grid, 0.0));
+      Eigen::MatrixXd S(n_grid, nL);
+      for (int c0 = 0; c0 < nL; c0 += batch) {
+        const int nb = std::min(batch, nL - c0);
+        Eigen::MatrixXd F = Eigen::MatrixXd::Zero(stats.dofs, nb);
+        for (int c = 0; c < nb; ++c) {
+          const Probe& lp = (*ls.surf)[loaded[c0 + c]];
+          for (int a = 0; a < 10; ++a)
+            if (lp.weight[a] != 0) F.block<3, 1>(3 * lp.nodes[a], c) += lp.weight[a] * lp.n;
         }
-      say("  solves " + std::to_string(j0 + nb) + "/" + std::to_string(n_grid));
+        const Eigen::MatrixXd U = solver.solve(F);
+        for (int c = 0; c < nb; ++c) {
+          const int j = loaded[c0 + c];
+          for (int d = 0; d < nd; ++d)
+            for (int k = 0; k < n_grid; ++k)
+              blocks[d][std::size_t(k) * n_grid + j] = reading((*ls.depth[d])[k], U, c) / mm;  // m/N
+          if (!unloaded.empty())
+            for (int k = 0; k < n_grid; ++k) S(k, c0 + c) = reading((*ls.surf)[k], U, c);
+        }
+        done += nb;
+        std::ostringstream s;
+        s << "  solves " << done << "/" << total;
+        if (sets.size() > 1) s << " (tooth " << ls.t << (ls.f ? " flank B" : "") << ")";
+        s << ", " << eta_text(seconds_since(t0), done, total);
+        say(s.str());
+      }
+      // Unloaded columns from the reduction space Psi = the loaded cases' displacement fields
+      // (the paper's Psi): u_j ~ Psi a_j with (Psi^T K Psi) a_j = Psi^T f_j, the Galerkin
+      // (energy-best) approximation in that space. Psi^T K Psi = Psi^T F_L = S_LL (the surface
+      // readings at the loaded points), Psi^T f_j = S_jL; the readings at depth follow as
+      // C[:, L] a_j. Nothing but the loaded solves is needed.
+      if (!unloaded.empty()) {
+        Eigen::MatrixXd SLL(nL, nL), SjL(nL, unloaded.size());
+        for (int i = 0; i < nL; ++i) {
+          for (int l = 0; l < nL; ++l) SLL(i, l) = S(loaded[i], l);
+          for (std::size_t u = 0; u < unloaded.size(); ++u) SjL(i, u) = S(unloaded[u], i);
+        }
+        const Eigen::MatrixXd Ssym = 0.5 * (SLL + SLL.transpose());
+        const Eigen::LDLT<Eigen::MatrixXd> ldlt(Ssym);
+        if (ldlt.info() != Eigen::Success || !ldlt.isPositive())
+          throw std::runtime_error("the loaded points' compliance matrix is not positive definite");
+        const Eigen::MatrixXd Acoef = ldlt.solve(SjL);  // nL x n_unloaded
+        for (int d = 0; d < nd; ++d)
+          for (int k = 0; k < n_grid; ++k) {
+            double* row = &blocks[d][std::size_t(k) * n_grid];
+            for (std::size_t u = 0; u < unloaded.size(); ++u) {
+              double v = 0;
+              for (int i = 0; i < nL; ++i) v += row[loaded[i]] * Acoef(i, u);
+              row[unloaded[u]] = v;
+            }
+          }
+        // The reduction space carries the global shapes but not the local field under the
+        // unloaded point itself (its own diagonal is where it errs most). Where both roll
+        // neighbours j -+ 1 row are loaded, the column is instead the mean of theirs shifted by
+        // one row (C[k][j] = (C[k+1][j+1] + C[k-1][j-1]) / 2 in roll rows: the local field moves
+        // with the load, second order along the profile), for the receivers k off the grid's
+        // first and last roll rows; the reduction space stays for the rest.
+        std::vector<char> is_loaded(n_grid, 0);
+        for (int k : loaded) is_loaded[k] = 1;
+        for (int j : unloaded) {
+          const int ir = j / n_face;
+          if (ir == 0 || ir == n_roll - 1 || !is_loaded[j - n_face] || !is_loaded[j + n_face]) continue;
+          for (int d = 0; d < nd; ++d)
+            for (int k = n_face; k < n_grid - n_face; ++k)
+              blocks[d][std::size_t(k) * n_grid + j] =
+                  0.5 * (blocks[d][std::size_t(k + n_face) * n_grid + (j + n_face)] +
+                         blocks[d][std::size_t(k - n_face) * n_grid + (j - n_face)]);
+        }
+      }
     }
     stats.solve_seconds = seconds_since(t0);
-    stats.tooth_sets = 1;
-    stats.symmetry = z;
-    stats.loaded = n_grid;
-    stats.solves = n_grid;
-    out.blocks = std::move(blocks);
+    stats.solves = total;
   } catch (const std::exception& e) {
     msg = std::string("compliance_tool: FE solve failed: ") + e.what();
     out = ComplianceDb{};
     return GM_ERR_SOLVER;
+  }
+
+  // The database's blocks: cyclic, one set; else z tooth sets (copies for the symmetric repeats),
+  // flank A then flank B (by the mirror: B of tooth t, offset d = A of tooth -t, offset -d, with
+  // the face index flipped for helical gears).
+  if (cyclic) {
+    out.blocks = std::move(result[0]);
+  } else {
+    out.blocks.resize(std::size_t(z) * 2 * nd);
+    auto set_of = [&](int t, int f) -> const std::vector<std::vector<double>>& {
+      const int c = ((t % classes) + classes) % classes;
+      return result[load_b ? 2 * c + f : c];
+    };
+    for (int t = 0; t < z; ++t)
+      for (int f = 0; f < 2; ++f)
+        for (int d = -nc; d <= nc; ++d) {
+          auto& dst = out.blocks[(std::size_t(t) * 2 + f) * nd + (d + nc)];
+          if (f == 0 || load_b) {
+            dst = set_of(t, f)[d + nc];
+            continue;
+          }
+          const auto& src = set_of(-t, 0)[-d + nc];
+          dst.resize(src.size());
+          for (int k = 0; k < n_grid; ++k)
+            for (int j = 0; j < n_grid; ++j)
+              dst[std::size_t(k) * n_grid + j] = src[std::size_t(src_index(1, k)) * n_grid + src_index(1, j)];
+        }
   }
 
   // 6. Header.
@@ -357,8 +634,8 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     if (!o.note.empty()) s << "; " << o.note;
     out.note = s.str();
   }
-  out.cyclic = 1;
-  out.mirror = 1;
+  out.cyclic = cyclic ? 1 : 0;
+  out.mirror = cyclic ? 1 : 0;
   out.roll = roll;
   out.face = face;
   out.n_coupled = std::uint32_t(nc);

@@ -1,13 +1,19 @@
 // Compliance database builder (compliance_tool/src/compliance_build.hpp) on a small coarse gear
 // (z = 20, m 2 mm, b 10 mm, n_c = 1): the written file reads back and matches the gear;
 // Maxwell-Betti symmetry of C_0 (approximate: responses at depth h, loads on the surface);
-// a uniform line load against the analytical tooth compliance; neighbour coupling.
+// a uniform line load against the analytical tooth compliance; neighbour coupling; a load
+// fraction of 0.6 against the full database; mesh convergence of the line-load compliance over
+// three meshes; a lightweight body (thin web, 5 holes: not cyclic) against the solid one.
+// One process: the builds are shared (about 40 s in all here).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "compliance_build.hpp"
 #include "compliance_db.hpp"
@@ -15,6 +21,23 @@
 #include "tooth_compliance.hpp"
 
 namespace {
+
+gm_model_params small_gear() {
+  gm_model_params p;
+  gm_default_params(&p);
+  p.pair.normal_module = 0.002;
+  p.pair.helix_angle = 0;
+  p.gear[0].teeth = 20;
+  p.gear[1].teeth = 40;
+  for (int i = 0; i < 2; ++i) {
+    p.gear[i].profile_shift = 0;
+    p.gear[i].face_width = 0.010;
+    p.gear[i].tip_diameter = 0;
+  }
+  p.pair.center_distance = 0.5 * 0.002 * 60;
+  p.coupled_teeth = 1;
+  return p;
+}
 
 struct Built {
   gm_model_params p;
@@ -28,18 +51,7 @@ struct Built {
 const Built& built() {
   static const Built B = [] {
     Built b;
-    gm_default_params(&b.p);
-    b.p.pair.normal_module = 0.002;
-    b.p.pair.helix_angle = 0;
-    b.p.gear[0].teeth = 20;
-    b.p.gear[1].teeth = 40;
-    for (int i = 0; i < 2; ++i) {
-      b.p.gear[i].profile_shift = 0;
-      b.p.gear[i].face_width = 0.010;
-      b.p.gear[i].tip_diameter = 0;
-    }
-    b.p.pair.center_distance = 0.5 * 0.002 * 60;
-    b.p.coupled_teeth = 1;
+    b.p = small_gear();
     char msg[512];
     EXPECT_EQ(gm_compute_geometry(&b.p, &b.g, msg, sizeof msg), GM_OK) << msg;
     b.o.mesh.elements_along_profile = 3;
@@ -65,6 +77,37 @@ const Built& built() {
 
 double C(const gm::ComplianceDb& db, int d, std::size_t k, std::size_t j) {
   return db.blocks[db.block_index(0, 0, d)][k * db.n_grid() + j];
+}
+
+// The same gear and mesh with other build options.
+Built variant(const std::function<void(Built&)>& change, const char* what) {
+  Built b;
+  b.p = built().p;
+  b.g = built().g;
+  b.o = built().o;
+  change(b);
+  const auto t0 = std::chrono::steady_clock::now();
+  std::string m;
+  EXPECT_EQ(gm::ctool::build_compliance_db(b.p, 0, b.o, b.db, b.stats, m), GM_OK) << m;
+  b.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("[build %s] %d nodes, %d elements, grid %d, %d tooth set(s), %d solves; factor %.2f s, "
+              "solves %.2f s, total %.2f s\n", what, b.stats.nodes, b.stats.elements, b.stats.grid,
+              b.stats.tooth_sets, b.stats.solves, b.stats.factor_seconds, b.stats.solve_seconds, b.seconds);
+  return b;
+}
+
+// Line-load compliance at mid-profile (middle roll row) of tooth set t, m^2/N: a uniform line
+// load q as nodal forces q * tributary width (the core's face strips), read at mid-face.
+double line_load(const gm::ComplianceDb& db, std::size_t t = 0, int d = 0) {
+  const std::size_t nf = db.face.size(), ir = db.roll.size() / 2, k = ir * nf + nf / 2;
+  const std::vector<double>& Cd = db.blocks[db.block_index(t, 0, d)];
+  double w = 0;
+  for (std::size_t j = 0; j < nf; ++j) {
+    const double lo = j == 0 ? db.face[0] : 0.5 * (db.face[j - 1] + db.face[j]);
+    const double hi = j + 1 == nf ? db.face[nf - 1] : 0.5 * (db.face[j] + db.face[j + 1]);
+    w += Cd[k * db.n_grid() + ir * nf + j] * (hi - lo);
+  }
+  return w;
 }
 
 TEST(ComplianceBuild, WritesReadsAndMatchesTheGear) {
@@ -151,6 +194,171 @@ TEST(ComplianceBuild, NeighbourCouplingIsSmallerAndPositive) {
   EXPECT_GT(cm, 0);
   EXPECT_LT(cp, c0);
   EXPECT_LT(cm, c0);
+}
+
+// Load fraction 0.6: 21 of the 35 grid points loaded, the other columns from the reduction space
+// (and, inside the profile, from the shifted roll neighbours): against the full database of the
+// same mesh.
+TEST(ComplianceBuild, LoadFractionAgainstFullDatabase) {
+  const Built& full = built();
+  const Built f = variant([](Built& b) { b.o.load_fraction = 0.6; }, "fraction 0.6");
+  ASSERT_FALSE(f.db.blocks.empty());
+  EXPECT_EQ(f.stats.loaded, 21);
+  const std::vector<int> L = gm::ctool::select_loaded(7, 5, 0.6);
+  ASSERT_EQ(L.size(), 21u);
+  double cmax = 0, worst = 0, worst_loaded = 0;
+  for (const auto& B : full.db.blocks)
+    for (double v : B) cmax = std::max(cmax, std::fabs(v));
+  const std::size_t n = full.db.n_grid();
+  std::vector<char> is(n, 0);
+  for (int k : L) is[k] = 1;
+  for (std::size_t bi = 0; bi < full.db.blocks.size(); ++bi)
+    for (std::size_t k = 0; k < n; ++k)
+      for (std::size_t j = 0; j < n; ++j) {
+        const double e = std::fabs(f.db.blocks[bi][k * n + j] - full.db.blocks[bi][k * n + j]) / cmax;
+        (is[j] ? worst_loaded : worst) = std::max(is[j] ? worst_loaded : worst, e);
+      }
+  const double w_full = line_load(full.db), w_f = line_load(f.db);
+  std::printf("[fraction 0.6] max |C - C_full| / max C: unloaded columns %.4f, loaded columns %.2g; "
+              "line-load compliance at mid-profile %+.4f relative; solves %d vs %d\n",
+              worst, worst_loaded, w_f / w_full - 1, f.stats.solves, full.stats.solves);
+  EXPECT_LT(worst_loaded, 1e-12);  // the loaded columns are the same solves
+  EXPECT_LT(worst, 0.10);
+  EXPECT_LT(std::fabs(w_f / w_full - 1), 0.03);
+}
+
+TEST(ComplianceBuild, SelectLoadedSpreadsThePoints) {
+  // Fraction 1: every point; small fractions: at least one; the vertex lattice comes first.
+  EXPECT_EQ(gm::ctool::select_loaded(7, 5, 1.0).size(), 35u);
+  EXPECT_EQ(gm::ctool::select_loaded(7, 5, 1e-6).size(), 1u);
+  const std::vector<int> L = gm::ctool::select_loaded(7, 5, 0.5);
+  EXPECT_EQ(L.size(), 18u);
+  for (int i = 0; i < 7; i += 2)
+    for (int j = 0; j < 5; j += 2) EXPECT_NE(std::find(L.begin(), L.end(), i * 5 + j), L.end()) << i << " " << j;
+}
+
+// Face-averaged line-load compliance at mid-profile, m^2/N: the mean over the face (tributary
+// weights) of the displacement under a uniform unit line load, sum_k sum_j w_k C_0[k][j] w_j / b
+// over the middle roll row (symmetric in load and reading, so less sensitive to where the single
+// mid-face reading sits in its element).
+double mean_line_load(const gm::ComplianceDb& db) {
+  const std::size_t nf = db.face.size(), ir = db.roll.size() / 2, n = db.n_grid();
+  const std::vector<double>& C0 = db.blocks[db.block_index(0, 0, 0)];
+  std::vector<double> w(nf);
+  for (std::size_t j = 0; j < nf; ++j) {
+    const double lo = j == 0 ? db.face[0] : 0.5 * (db.face[j - 1] + db.face[j]);
+    const double hi = j + 1 == nf ? db.face[nf - 1] : 0.5 * (db.face[j] + db.face[j + 1]);
+    w[j] = hi - lo;
+  }
+  double s = 0;
+  for (std::size_t k = 0; k < nf; ++k)
+    for (std::size_t j = 0; j < nf; ++j) s += w[k] * C0[(ir * nf + k) * n + ir * nf + j] * w[j];
+  return s / (db.face.back() - db.face.front());
+}
+
+// Mesh convergence of the tooth compliance: the face-averaged line-load compliance at
+// mid-profile over three meshes (profile x width elements 2 x 1, 3 x 2, 4 x 3; the middle one is
+// the shared build), differences shrinking; Richardson extrapolation with the observed order
+// when the sequence is monotone; the finest (or extrapolated) value against Weber + Sainsot.
+TEST(ComplianceBuild, LineLoadComplianceConvergesWithTheMesh) {
+  const Built& mid = built();
+  const Built coarse = variant([](Built& b) {
+    b.o.mesh.elements_along_profile = 2;
+    b.o.mesh.elements_across_width = 1;
+    b.o.coupled = 0;
+  }, "2 x 1");
+  const Built fine = variant([](Built& b) {
+    b.o.mesh.elements_along_profile = 4;
+    b.o.mesh.elements_across_width = 3;
+    b.o.coupled = 0;
+  }, "4 x 3");
+  ASSERT_FALSE(coarse.db.blocks.empty());
+  ASSERT_FALSE(fine.db.blocks.empty());
+  const double w1 = mean_line_load(coarse.db), w2 = mean_line_load(mid.db), w3 = mean_line_load(fine.db);
+  std::printf("[convergence] mid-face reading only (line_load): 2x1 %.5g, 3x2 %.5g, 4x3 %.5g m^2/N\n",
+              line_load(coarse.db), line_load(mid.db), line_load(fine.db));
+  // The mid-profile row is at the middle of the involute's length on every mesh.
+  EXPECT_NEAR(coarse.db.roll[coarse.db.roll.size() / 2], fine.db.roll[fine.db.roll.size() / 2], 2e-6);
+  const double d12 = w2 - w1, d23 = w3 - w2;
+  // Richardson with the observed order for the refinement ratios 3/2 and 4/3 (element size
+  // h ~ 1/n along the profile): w = w_inf + A h^p; solved for p by bisection.
+  const double h1 = 1.0 / 2, h2 = 1.0 / 3, h3 = 1.0 / 4;
+  auto resid = [&](double q) {
+    return (w2 - w1) * (std::pow(h2, q) - std::pow(h3, q)) - (w3 - w2) * (std::pow(h1, q) - std::pow(h2, q));
+  };
+  double lo = 0.2, hi = 6, order = -1;
+  if (resid(lo) * resid(hi) < 0) {
+    for (int i = 0; i < 100; ++i) {
+      const double m = 0.5 * (lo + hi);
+      (resid(lo) * resid(m) <= 0 ? hi : lo) = m;
+    }
+    order = 0.5 * (lo + hi);
+  }
+  // Not monotone (no order found): no extrapolation, the finest value stands for the limit.
+  const double q = order;
+  const double w_inf = order > 0 ? w3 - (w3 - w2) / (std::pow(h3, q) - std::pow(h2, q)) * std::pow(h3, q) : w3;
+  gm::ToothSection s;
+  gm::ToothSectionOptions so;
+  so.bore_radius = mid.db.bore_radius;
+  std::string msg;
+  ASSERT_EQ(gm::build_tooth_section(mid.p, mid.g, 0, so, s, msg), GM_OK) << msg;
+  const double ana = gm::tooth_compliance(s, mid.db.roll[mid.db.roll.size() / 2]);
+  std::printf("[convergence] face-averaged line-load compliance at mid-profile (m^2/N): 2x1 %.5g, 3x2 %.5g, 4x3 %.5g; "
+              "differences %.3g, %.3g; observed order %.2f (-1: not monotone); Richardson %.5g (fine mesh "
+              "%+.2f %% from it); "
+              "analytical (Weber + Sainsot) %.5g, Richardson / analytical %.4f\n",
+              w1, w2, w3, d12, d23, order, w_inf, 100 * (w3 / w_inf - 1), ana, w_inf / ana);
+  EXPECT_LT(std::fabs(d23), std::fabs(d12));  // shrinking differences
+  EXPECT_GT(w_inf / ana, 0.8);
+  EXPECT_LT(w_inf / ana, 1.25);
+}
+
+// A lightweight body (thin web 3 mm of b = 10 mm between hub and rim, 5 lightening holes) is
+// more compliant than the solid one with the same teeth, and couples the teeth more. Five holes
+// on 20 teeth: symmetry order 5, so 4 distinct teeth are loaded, cyclic = 0.
+TEST(ComplianceBuild, LightweightBodyIsMoreCompliantAndCouplesMore) {
+  const Built& solid = built();
+  const Built light = variant([](Built& b) {
+    b.o.mesh.rim_inner_radius = 0.0140;
+    b.o.mesh.hub_radius = 0.0095;
+    b.o.mesh.web_thickness = 0.003;
+    b.o.mesh.holes = 5;
+    b.o.mesh.hole_radius = 0.0016;
+    b.o.mesh.hole_circle_radius = 0.01175;
+  }, "lightweight");
+  ASSERT_FALSE(light.db.blocks.empty());
+  const gm::ComplianceDb& L = light.db;
+  EXPECT_EQ(L.cyclic, 0u);
+  EXPECT_EQ(L.mirror, 0u);
+  EXPECT_EQ(light.stats.symmetry, 5);
+  EXPECT_EQ(light.stats.tooth_sets, 4);
+  ASSERT_EQ(L.blocks.size(), 20u * 2 * 3);
+  // Symmetric repeats are copies: tooth t and t + 4.
+  EXPECT_EQ(L.blocks[L.block_index(1, 0, 1)], L.blocks[L.block_index(5, 0, 1)]);
+  // Flank B of tooth t is flank A of tooth -t mirrored (d -> -d).
+  EXPECT_EQ(L.blocks[L.block_index(1, 1, 1)], L.blocks[L.block_index(19, 0, -1)]);
+  const std::size_t nf = L.face.size(), k = (L.roll.size() / 2) * nf + nf / 2;
+  double worst_ratio = 1e9, max_coupling_light = 0;
+  for (std::size_t t = 0; t < 4; ++t) {
+    const double ratio = line_load(L, t) / line_load(solid.db);
+    worst_ratio = std::min(worst_ratio, ratio);
+    const std::vector<double>& c0 = L.blocks[L.block_index(t, 0, 0)];
+    const std::vector<double>& cp = L.blocks[L.block_index(t, 0, 1)];
+    const double coupling = cp[k * L.n_grid() + k] / c0[k * L.n_grid() + k];
+    max_coupling_light = std::max(max_coupling_light, coupling);
+    std::printf("[lightweight] tooth %zu: line-load compliance %.4g m^2/N = %.3f x solid; "
+                "C+1/C0 at mid-profile mid-face %.3f\n", t, line_load(L, t), ratio, coupling);
+  }
+  const std::size_t nfs = solid.db.face.size(), ks = (solid.db.roll.size() / 2) * nfs + nfs / 2;
+  const double solid_coupling = C(solid.db, 1, ks, ks) / C(solid.db, 0, ks, ks);
+  std::printf("[lightweight] solid C+1/C0 %.3f; smallest compliance ratio light/solid %.3f\n",
+              solid_coupling, worst_ratio);
+  EXPECT_GT(worst_ratio, 1.0);
+  for (std::size_t t = 0; t < 4; ++t) {
+    const std::vector<double>& c0 = L.blocks[L.block_index(t, 0, 0)];
+    const std::vector<double>& cp = L.blocks[L.block_index(t, 0, 1)];
+    EXPECT_GT(cp[k * L.n_grid() + k] / c0[k * L.n_grid() + k], solid_coupling) << "tooth " << t;
+  }
 }
 
 }  // namespace
