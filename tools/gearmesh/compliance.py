@@ -231,6 +231,9 @@ def build_gear(scene: Scene, gear: int, tool: pathlib.Path | None = None,
             lines = [t for t in tail if t.strip()]
             errors = [t for t in lines if not t.startswith("usage:") and not t.startswith("  ")]
             message = (errors or lines or ["no message"])[0 if rc == 2 else -1]
+            if rc < 0:
+                cause = " (SIGKILL: often the out-of-memory killer; coarsen [fe])" if rc == -9 else ""
+                message = f"killed by signal {-rc}{cause} after: {message}"
             raise ComplianceError(f"{label}: compliance_tool failed (exit {rc}): "
                                   f"{_explain(scene, gear, message)}")
         summary = parse_summary(stdout)
