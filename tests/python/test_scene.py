@@ -68,3 +68,21 @@ def test_paper_set_b_has_the_papers_crowning():
     s = load_scene(SCENES / "paper_setB_P1P2.toml")
     assert s.parameters["gear1.profile_crowning"] == pytest.approx(5e-6)
     assert s.parameters["gear2.profile_crowning"] == pytest.approx(10e-6)
+
+
+def test_fe_scenes_parse_with_their_bodies():
+    """The FE-level scenes: level 5, body tables in mm, and set A's FE scene has set A's gears."""
+    plain = load_scene(SCENES / "paper_setA_3U4U.toml")
+    fe = load_scene(SCENES / "fe" / "paper_setA_3U4U_fe.toml")
+    assert fe.parameters["model.stiffness"] == 5 and fe.parameters["model.coupled_teeth"] == 2
+    assert fe.bodies == {1: {"bore_diameter_mm": 50.0}, 2: {"bore_diameter_mm": 50.0}}
+    same = {k: v for k, v in plain.parameters.items() if k != "model.stiffness"}
+    assert {k: fe.parameters[k] for k in same} == same
+    light = load_scene(SCENES / "fe" / "lightweight_vs_solid_fe.toml")
+    assert light.bodies[1]["holes"] == 19 and light.bodies[1]["web_thickness_mm"] == 6.0
+    ring = load_scene(SCENES / "fe" / "internal_ring_fe.toml")
+    assert ring.parameters["pair.internal"] is True and "ring_outer_diameter_mm" in ring.bodies[2]
+    helical = load_scene(SCENES / "fe" / "helical_fe.toml")
+    assert helical.fe == {"profile_elements": 6, "width_elements": 8}
+    for s in (fe, light, ring, helical):
+        assert s.description and s.assumptions

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
+from gearmesh.compliance import with_databases
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.main_job import RUN_DEFAULTS
 from gearmesh.prescribed_motion import loaded_te_sweep, mesh_order_amplitudes
@@ -35,6 +36,7 @@ def expand(scenes: list[Scene], torques: list[float] | None,
     combos = list(itertools.product(*(variations[n] for n in names))) or [()]
     cases = []
     for scene in scenes:
+        scene = with_databases(scene)  # level 5: built once here, not in every case's process
         run = {**RUN_DEFAULTS, **scene.run}
         for torque in torques or run["torques_Nm"]:
             for combo in combos:

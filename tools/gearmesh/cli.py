@@ -34,6 +34,14 @@ def main(argv: list[str] | None = None) -> int:
     p_ref.add_argument("scenes", nargs="*", type=pathlib.Path)
     p_ref.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
     p_ref.add_argument("--write", action="store_true", help="overwrite the reference curves")
+    p_comp = sub.add_parser("compliance", help="build the scenes' compliance databases (FE "
+                            "level) into the cache, or copy them out with --out")
+    p_comp.add_argument("scenes", nargs="+", type=pathlib.Path)
+    p_comp.add_argument("--gear", type=int, choices=(1, 2), help="only this gear")
+    p_comp.add_argument("--out", type=pathlib.Path, help="folder to copy <scene>.gear<i>.gcdb to")
+    p_comp.add_argument("--tool", type=pathlib.Path, help="compliance_tool binary")
+    p_comp.add_argument("--threads", type=int, default=1, help="threads of the tool (1..256)")
+    p_comp.add_argument("--force", action="store_true", help="rebuild even if cached")
     args = parser.parse_args(argv)
 
     try:
@@ -45,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
         for s in scenes:
             print(f"{s.path}: ok ({len(s.parameters)} parameters)")
         return 0
+    if args.command == "compliance":
+        return _compliance(scenes, args)
     if args.command == "batch":
         from gearmesh import batch
 
@@ -76,4 +86,35 @@ def main(argv: list[str] | None = None) -> int:
 
     report = run_main(scenes, args.fmu, args.out)
     print(f"gearmesh: report written to {report}")
+    return 0
+
+
+def _compliance(scenes, args) -> int:
+    import shutil
+
+    from gearmesh import compliance
+
+    for s in scenes:
+        gears = compliance.needs_build(s)
+        if args.gear is not None:
+            gears = [g for g in gears if g == args.gear]
+        if not gears:
+            print(f"{s.name}: nothing to build (level {s.parameters.get('model.stiffness', 0)}, "
+                  "or prebuilt compliance_file)")
+            continue
+        try:
+            builds = compliance.build_databases(s, tool=args.tool, gears=gears,
+                                                threads=args.threads, force=args.force)
+        except compliance.ComplianceError as exc:
+            print(f"gearmesh: {exc}", file=sys.stderr)
+            return 1
+        for i, b in builds.items():
+            where = b.path
+            if args.out:
+                args.out.mkdir(parents=True, exist_ok=True)
+                where = shutil.copyfile(b.path, args.out / f"{s.name}.gear{i}.gcdb")
+            how = "cached" if b.cached else f"built in {b.seconds:.1f} s"
+            extra = (f", {b.summary['nodes']} nodes, peak {b.summary['peak_rss_MiB']} MiB"
+                     if "nodes" in b.summary else "")
+            print(f"{s.name} gear{i}: {where} ({how}{extra})")
     return 0

@@ -94,7 +94,8 @@ class GearMeshFMU:
             self._call(setters[kind], refs, vals)
 
     def _set_strings(self, refs, values):
-        self.fmu.setString(refs, [v.encode("utf-8") if isinstance(v, str) else v for v in values])
+        # fmpy's setString encodes str itself (bytes would fail there)
+        self.fmu.setString(refs, [v.decode("utf-8") if isinstance(v, bytes) else v for v in values])
 
     def get(self, names: list[str]) -> dict:
         """Values of the named variables."""

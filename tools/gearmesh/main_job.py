@@ -8,6 +8,7 @@ import pathlib
 
 import numpy as np
 
+from gearmesh.compliance import with_databases
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import (GEOMETRY, engagement_sweep, loaded_te_sweep,
                                        mesh_order_amplitudes, revolution_at_approach)
@@ -50,6 +51,7 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
     """Build the scene's FMU (its start values and resources only), run it; returns the
     scene's markdown section."""
     run = {**RUN_DEFAULTS, **scene.run}
+    scene = with_databases(scene)  # level 5: the gears' compliance databases as resources
     folder = out / scene.name
     folder.mkdir(parents=True, exist_ok=True)
     fmu_path = build_scene_fmu(generic_fmu, scene.parameters, scene.resources,

@@ -9,6 +9,7 @@ import tempfile
 
 import numpy as np
 
+from gearmesh.compliance import with_databases
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.main_job import RUN_DEFAULTS
 from gearmesh.prescribed_motion import loaded_te_sweep
@@ -29,6 +30,7 @@ def compute(scene: Scene, generic_fmu: pathlib.Path) -> dict:
     run = {**RUN_DEFAULTS, **scene.run}
     if not run["torques_Nm"]:
         raise ValueError(f"{scene.path}: run.torques_Nm is empty: no reference curve to compute")
+    scene = with_databases(scene)  # level 5: the gears' compliance databases as resources
     with tempfile.TemporaryDirectory() as tmp:
         fmu_path = build_scene_fmu(generic_fmu, scene.parameters, scene.resources,
                                    pathlib.Path(tmp) / f"{scene.name}.fmu")

@@ -2,6 +2,13 @@
 
 A scene lists only what it uses; every key it omits keeps the FMU's default (the core's
 gm_default_params). Each key maps to one FMU parameter with a factor to SI.
+
+The FE level (model.stiffness_level = 5) adds two kinds of tables that are not FMU parameters but
+inputs of compliance_tool (gearmesh.compliance builds each gear's database from them):
+[gear1.body] / [gear2.body], the gear body (BODY_SCHEMA), and [fe], the FE discretization
+(FE_SCHEMA). Their values stay in the scene's units (mm), as the tool's flags take them. They are
+refused at any other level: nothing in a scene is silently unused. A gear without a body table
+gets the tool's default body (a solid disc with a bore of 0.4 root radius, the analytical level's).
 """
 from __future__ import annotations
 
@@ -80,11 +87,40 @@ SCHEMA: dict[str, dict[str, Key]] = {
         # user tables (core/src/user_tables.hpp): files next to the scene, shipped in resources/
         "stiffness_table_file": Key("model.stiffness_table", kind=str),  # level 1
         "te_table_file": Key("model.te_table", kind=str),                # any level
+        # FE level: neighbour teeth coupled each side (the databases are built with as many)
+        "coupled_teeth": Key("model.coupled_teeth", 1, 0, 10, kind=int),
     },
 }
 
+# [gear<i>.body] (FE level): compliance_tool's body options, in mm as the tool's flags
+# (Key.variable = the flag). Diameters: the tool checks them against the tooth geometry (root
+# circle, ...); here only what needs no geometry (consistency between the keys).
+BODY_SCHEMA: dict[str, Key] = {
+    "bore_diameter_mm": Key("--bore-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
+    "rim_inner_diameter_mm": Key("--rim-inner-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
+    "hub_diameter_mm": Key("--hub-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
+    "web_thickness_mm": Key("--web-thickness-mm", 1.0, 0.01, 2000, unit="mm"),
+    "web_offset_mm": Key("--web-offset-mm", 1.0, -1000, 1000, unit="mm"),
+    "holes": Key("--holes", 1, 0, 1000, kind=int),
+    "hole_diameter_mm": Key("--hole-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
+    "hole_circle_diameter_mm": Key("--hole-circle-diameter-mm", 1.0, 0.01, 40000, unit="mm"),
+    "ring_outer_diameter_mm": Key("--ring-outer-diameter-mm", 1.0, 0.01, 80000, unit="mm"),
+    "mesh_file": Key("--mesh", kind=str),            # a user mesh instead of the gmsh body
+    "compliance_file": Key("", kind=str),            # a prebuilt .gcdb: no build
+}
+# [fe] (FE level): the discretization of both gears' builds, as compliance_tool's flags.
+FE_SCHEMA: dict[str, Key] = {
+    "depth_mm": Key("--depth-mm", 1.0, 0.001, 100, unit="mm"),
+    "profile_elements": Key("--profile-elements", 1, 1, 200, kind=int),
+    "width_elements": Key("--width-elements", 1, 1, 200, kind=int),
+    "fillet_elements": Key("--fillet-elements", 1, 1, 200, kind=int),
+    "body_size_mm": Key("--body-size-mm", 1.0, 0.01, 1000, unit="mm"),
+    "load_fraction": Key("--load-fraction", 1.0, 0.01, 1.0),
+}
+GEOMETRY_BODY_KEYS = [k for k in BODY_SCHEMA if k not in ("mesh_file", "compliance_file")]
+
 # Sections that describe the scene or its runs rather than FMU parameters.
-META_SECTIONS = {"scene", "run"}
+META_SECTIONS = {"scene", "run", "fe"}
 RUN_SCHEMA: dict[str, Key] = {
     "approach_um": Key("", 1e-6, 0.0, 1000, unit="um"),
     "points_per_pitch": Key("", 1, 4, 1000, kind=int),
@@ -106,6 +142,9 @@ class Scene:
     parameters: dict[str, float | int | bool | str] = field(default_factory=dict)  # FMU name -> SI
     resources: dict[str, pathlib.Path] = field(default_factory=dict)  # name in resources/ -> file
     run: dict[str, float | int] = field(default_factory=dict)                # run key -> SI
+    # FE level: gear number -> body key -> value (scene units; files as resolved paths)
+    bodies: dict[int, dict[str, float | int | pathlib.Path]] = field(default_factory=dict)
+    fe: dict[str, float | int] = field(default_factory=dict)                 # [fe] key -> value
 
 
 def _convert(where: str, key: Key, value):
@@ -156,9 +195,14 @@ def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
         if not isinstance(body, dict):
             raise SceneError(f"{section}: expected a table")
         for key, value in body.items():
+            if section in ("gear1", "gear2") and key == "body":
+                scene.bodies[int(section[-1])] = _parse_body(section, value, path)
+                continue
             spec = SCHEMA[section].get(key)
             if spec is None:
                 allowed = ", ".join(sorted(SCHEMA[section]))
+                if section in ("gear1", "gear2"):
+                    allowed += f"; and the table [{section}.body] (FE level)"
                 raise SceneError(f"{section}.{key}: unknown key; allowed: {allowed}")
             value = _convert(f"{section}.{key}", spec, value)
             if spec.kind is str:  # a file beside the scene, shipped in the FMU's resources/
@@ -178,12 +222,123 @@ def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
     if has_table and level != 1:
         raise SceneError(f"model.stiffness_table_file: used at model.stiffness_level = 1 only, "
                          f"this scene has {level}; allowed: level 1, or no stiffness table")
+    fe = raw.get("fe", {})
+    if not isinstance(fe, dict):
+        raise SceneError("fe: expected a table")
+    for key, value in fe.items():
+        spec = FE_SCHEMA.get(key)
+        if spec is None:
+            raise SceneError(f"fe.{key}: unknown key; allowed: {', '.join(sorted(FE_SCHEMA))}")
+        scene.fe[key] = _convert(f"fe.{key}", spec, value)
+    _check_fe_level(scene, level)
     for key, value in raw.get("run", {}).items():
         spec = RUN_SCHEMA.get(key)
         if spec is None:
             raise SceneError(f"run.{key}: unknown key; allowed: {', '.join(sorted(RUN_SCHEMA))}")
         scene.run[key] = _convert(f"run.{key}", spec, value)
     return scene
+
+
+def _parse_body(section: str, body, path: pathlib.Path) -> dict:
+    """[gear<i>.body]: keys, ranges, files, and the consistency that needs no gear geometry."""
+    where = f"{section}.body"
+    if not isinstance(body, dict):
+        raise SceneError(f"{where}: expected a table ([{where}])")
+    out: dict = {}
+    for key, value in body.items():
+        spec = BODY_SCHEMA.get(key)
+        if spec is None:
+            raise SceneError(f"{where}.{key}: unknown key; allowed: {', '.join(sorted(BODY_SCHEMA))}")
+        value = _convert(f"{where}.{key}", spec, value)
+        if spec.kind is str:
+            source = (path.parent / value).resolve()
+            if not source.is_file():
+                raise SceneError(f"{where}.{key} = {value!r}: no such file next to the scene "
+                                 f"({source})")
+            value = source
+        out[key] = value
+    if "compliance_file" in out and len(out) > 1:
+        other = sorted(set(out) - {"compliance_file"})[0]
+        raise SceneError(f"{where}.{other}: a prebuilt database (compliance_file) already fixes the "
+                         f"body; allowed: compliance_file alone, or the body keys without it")
+    if "mesh_file" in out:
+        shape = sorted(set(out) & set(GEOMETRY_BODY_KEYS))
+        if shape:
+            raise SceneError(f"{where}.{shape[0]}: a user mesh (mesh_file) already fixes the body; "
+                             "allowed: mesh_file alone, or the body keys without it")
+
+    def diameter(key):
+        return out.get(key)
+
+    bore, hub, rim = (diameter(k) for k in ("bore_diameter_mm", "hub_diameter_mm",
+                                            "rim_inner_diameter_mm"))
+    for (small, d_small), (big, d_big) in (
+            (("bore_diameter_mm", bore), ("hub_diameter_mm", hub)),
+            (("bore_diameter_mm", bore), ("rim_inner_diameter_mm", rim)),
+            (("hub_diameter_mm", hub), ("rim_inner_diameter_mm", rim))):
+        if d_small is not None and d_big is not None and not d_small < d_big:
+            raise SceneError(f"{where}.{big} = {d_big:g} mm: must exceed {where}.{small} = "
+                             f"{d_small:g} mm")
+    for key in ("rim_inner_diameter_mm", "hub_diameter_mm", "web_thickness_mm", "web_offset_mm"):
+        if key in out and (rim is None or hub is None):
+            missing = "rim_inner_diameter_mm" if rim is None else "hub_diameter_mm"
+            raise SceneError(f"{where}.{key}: a web lies between the hub and the rim; allowed: "
+                             f"together with {where}.{missing}")
+    holes = out.get("holes", 0)
+    hole_keys = ("hole_diameter_mm", "hole_circle_diameter_mm")
+    if holes == 0:
+        for key in hole_keys:
+            if key in out:
+                raise SceneError(f"{where}.{key}: no lightening holes (holes = 0); allowed: "
+                                 f"{where}.holes >= 1 with it, or leave it out")
+    else:
+        for key in hole_keys:
+            if key not in out:
+                raise SceneError(f"{where}.holes = {holes}: needs {where}.{key}")
+        d_hole, d_circle = out["hole_diameter_mm"], out["hole_circle_diameter_mm"]
+        inner = hub if hub is not None else bore  # the web's (or disc's) inner edge if known
+        if inner is not None and not d_circle - d_hole > inner:
+            raise SceneError(f"{where}.hole_circle_diameter_mm = {d_circle:g} mm: the holes "
+                             f"({where}.hole_diameter_mm = {d_hole:g} mm) reach into the "
+                             f"{'hub' if hub is not None else 'bore'} ({inner:g} mm); allowed: "
+                             f"hole circle - hole diameter > {inner:g} mm")
+        if rim is not None and not d_circle + d_hole < rim:
+            raise SceneError(f"{where}.hole_circle_diameter_mm = {d_circle:g} mm: the holes "
+                             f"({where}.hole_diameter_mm = {d_hole:g} mm) reach into the rim "
+                             f"({where}.rim_inner_diameter_mm = {rim:g} mm); allowed: hole circle "
+                             f"+ hole diameter < {rim:g} mm")
+        if holes >= 2 and not d_circle * math.sin(math.pi / holes) > d_hole:
+            raise SceneError(f"{where}.holes = {holes}: holes of {d_hole:g} mm on a "
+                             f"{d_circle:g} mm circle overlap; allowed: hole diameter < hole "
+                             f"circle x sin(180 deg / holes) = "
+                             f"{d_circle * math.sin(math.pi / holes):.4g} mm")
+    return out
+
+
+def _check_fe_level(scene: Scene, level: int) -> None:
+    """Body and FE tables are inputs of the FE level only; refused elsewhere (nothing unused)."""
+    fe_keys = [f"gear{i}.body" for i in sorted(scene.bodies)] + (["fe"] if scene.fe else [])
+    if "model.coupled_teeth" in scene.parameters:
+        fe_keys.append("model.coupled_teeth")
+    if level != 5:
+        if fe_keys:
+            raise SceneError(f"{fe_keys[0]}: an input of the FE level (model.stiffness_level = 5) "
+                             f"only, this scene has {level}; allowed: level 5, or leave it out")
+        return
+    internal = scene.parameters.get("pair.internal", False)
+    for i, body in scene.bodies.items():
+        if "ring_outer_diameter_mm" in body and not (i == 2 and internal):
+            raise SceneError(f"gear{i}.body.ring_outer_diameter_mm: the outer rim of an internal "
+                             "ring gear; allowed: gear2 of a pair with pair.internal = true")
+    prebuilt = [i for i in (1, 2) if "compliance_file" in scene.bodies.get(i, {})]
+    for i in prebuilt:
+        source = scene.bodies[i]["compliance_file"]
+        name = f"gear{i}_{source.name}"
+        scene.resources[name] = source
+        scene.parameters[f"gear{i}.compliance"] = name
+    if scene.fe and len(prebuilt) == 2:
+        raise SceneError(f"fe.{sorted(scene.fe)[0]}: both gears use a prebuilt database "
+                         "(compliance_file), nothing is built; allowed: leave [fe] out")
 
 
 def load_scene(path: pathlib.Path | str) -> Scene:

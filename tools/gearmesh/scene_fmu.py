@@ -22,7 +22,7 @@ from xml.sax.saxutils import escape
 START_VALUES = "gearmesh-start-values.txt"  # under resources/, read by the binary
 _MAGIC = "gearmesh-start-values 1"
 # String parameters whose value is the name of a file inside resources/.
-_RESOURCE_PARAMETERS = (".deviations", "model.stiffness_table", "model.te_table")
+_RESOURCE_PARAMETERS = (".deviations", ".compliance", "model.stiffness_table", "model.te_table")
 
 Value = float | int | bool | str
 
@@ -34,7 +34,8 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
     replaced. Raises ValueError naming the bad parameter or resource; `out` is then untouched.
 
     Parameters and inputs can be given (they are the variables with start values); a String
-    parameter that names a resource (gear<i>.deviations, model.stiffness_table, model.te_table)
+    parameter that names a resource (gear<i>.deviations, gear<i>.compliance, model.stiffness_table,
+    model.te_table)
     must name one of the scene FMU's resources. Building from a scene FMU adds to its resources
     and start values."""
     generic_fmu, out = pathlib.Path(generic_fmu), pathlib.Path(out)
