@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "dual.hpp"
+#include "fe_compliance.hpp"
 
 namespace gm {
 namespace {
@@ -268,119 +269,19 @@ void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K&
 }
 
 
-// ---- Level 5 (FE): the coupled compliance between slices (PHYSICS 5, paper 2.2-2.3) ----
-//
-// C^g[i][j] for slices i (receiver) and j (load) on teeth t_i, t_j of gear g, offset
-// d = t_i - t_j (wrapped to -z/2..z/2; 0 beyond model.coupled_teeth), from the database block
-// C_d of tooth set t_j and the slices' flank (no coupling between flank A and flank B; with a
-// mirrored database flank B uses flank A's set with d -> -d):
-//
-//   C^g[i][j] = sum_{a,m} sum_{b,n} r_ia q_im r_jb q_jn C_d[(a, m)][(b, n)]
-//
-// Roll (on gear g's flank): r_ia are the linear interpolation weights of the slice's roll
-// distance between grid nodes a (clamped at the grid ends). Face (along gear g's axis from its
-// mid-face): q_im = |slice_i n strip_m| / w_i, the share of slice i's width inside node m's
-// tributary strip (strips end half-way between nodes; the end strips are unbounded). SCALING:
-// a database column is the response to a unit POINT load at a node, which the core reads as the
-// node's lumped share of a line load over its strip. A slice force F_j is a uniform line load
-// F_j / w_j over the slice width, so node n receives F_j q_jn; the receiver displacement is the
-// width average of the nodal displacements (weights q_im). The result is symmetric when C_d is
-// (Maxwell-Betti) and reproduces a per-unit-width compliance c'/w exactly when the database is
-// diagonal in face with C = c'/Delta_face and the slices coincide with the strips; with slices
-// narrower than the strips a face-diagonal database cannot resolve them (a real FE database is
-// smooth across the face, where this is a width average of a smooth kernel).
-struct FeSpot {
-  int roll_node = 0;          // lower roll node a (a + 1 also, unless n_roll = 1)
-  double roll_weight = 1;     // weight of node a; 1 - it for a + 1
-  double lo = 0, hi = 0;      // face interval of the slice, m
-  int face_lo = 0, face_hi = 0;  // face nodes whose strips it touches
-};
-
-FeSpot fe_spot(const ComplianceDb& db, double roll, double face, double width) {
-  FeSpot p;
-  const std::vector<double>& R = db.roll;
-  const int nr = int(R.size());
-  if (nr == 1 || roll <= R[0]) {
-    p.roll_node = 0;
-    p.roll_weight = 1;
-  } else if (roll >= R[nr - 1]) {
-    p.roll_node = nr - 2;
-    p.roll_weight = 0;
-  } else {
-    const int a = int(std::upper_bound(R.begin(), R.end(), roll) - R.begin()) - 1;
-    p.roll_node = a;
-    p.roll_weight = (R[a + 1] - roll) / (R[a + 1] - R[a]);
-  }
-  const std::vector<double>& Z = db.face;
-  const int nf = int(Z.size());
-  p.lo = face - 0.5 * width;
-  p.hi = face + 0.5 * width;
-  p.face_lo = 0;
-  while (p.face_lo + 1 < nf && 0.5 * (Z[p.face_lo] + Z[p.face_lo + 1]) <= p.lo) ++p.face_lo;
-  p.face_hi = p.face_lo;
-  while (p.face_hi + 1 < nf && 0.5 * (Z[p.face_hi] + Z[p.face_hi + 1]) < p.hi) ++p.face_hi;
-  return p;
-}
-
-// q_m of a spot: the share of its width in node m's strip
-double fe_face_share(const ComplianceDb& db, const FeSpot& p, int m) {
-  const std::vector<double>& Z = db.face;
-  const int nf = int(Z.size());
-  const double inf = std::numeric_limits<double>::infinity();
-  const double s_lo = m == 0 ? -inf : 0.5 * (Z[m - 1] + Z[m]);
-  const double s_hi = m == nf - 1 ? inf : 0.5 * (Z[m] + Z[m + 1]);
-  const double w = p.hi - p.lo;
-  return std::max(0.0, std::min(p.hi, s_hi) - std::max(p.lo, s_lo)) / w;
-}
-
-double fe_entry(const gm_model& m, int g, const ContactSlice& si, const FeSpot& pi,
-                const ContactSlice& sj, const FeSpot& pj) {
-  const ComplianceDb& db = m.compliance[g];
-  if (si.flank != sj.flank) return 0;
-  const int z = int(db.teeth);
-  int d = ((si.tooth[g] - sj.tooth[g]) % z + z) % z;
-  if (d > z / 2) d -= z;
-  if (sj.flank < 0 && db.mirror) d = -d;
-  if (std::abs(d) > std::min<int>(m.params.coupled_teeth, int(db.n_coupled))) return 0;
-  const std::size_t t = db.cyclic ? 0 : std::size_t(((sj.tooth[g] % z) + z) % z);
-  const std::size_t f = db.mirror ? 0 : (sj.flank > 0 ? 0 : 1);
-  const std::vector<double>& C = db.blocks[db.block_index(t, f, d)];
-  const std::size_t nf = db.face.size(), ng = db.n_grid();
-  const int nr = int(db.roll.size());
-  double sum = 0;
-  for (int ai = 0; ai < std::min(2, nr); ++ai) {
-    const double ra = ai == 0 ? pi.roll_weight : 1 - pi.roll_weight;
-    if (ra == 0) continue;
-    for (int mi = pi.face_lo; mi <= pi.face_hi; ++mi) {
-      const double qa = ra * fe_face_share(db, pi, mi);
-      if (qa == 0) continue;
-      const std::size_t row = (std::size_t(pi.roll_node + ai) * nf + mi) * ng;
-      for (int bj = 0; bj < std::min(2, nr); ++bj) {
-        const double rb = bj == 0 ? pj.roll_weight : 1 - pj.roll_weight;
-        if (rb == 0) continue;
-        for (int nj = pj.face_lo; nj <= pj.face_hi; ++nj) {
-          const double qb = rb * fe_face_share(db, pj, nj);
-          if (qb != 0) sum += qa * qb * C[row + std::size_t(pj.roll_node + bj) * nf + nj];
-        }
-      }
-    }
-  }
-  return sum;
-}
-
 // The coupled solve of level 5 over the candidates (all: every candidate, the quasi-static
-// setting; else those with Delta > 0). Plain (load_mode false): forces for the approaches.
+// setting; else those with Delta > 0). Plain (quasi false): forces for the approaches.
 // Quasi-static: the rigid approach lambda along te_gain with sum_i b_i F_i = load. Writes
 // d.forces and d.slice_stiffness for all n candidates (0 where not loaded).
-ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool quasi,
-                    double load) {
+ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool all,
+                    bool quasi, double load) {
   ForceSolve out;
   const ContactSlice* S = d.slices.data();
   int na = 0;
   for (int i = 0; i < n; ++i) {
     d.forces[i] = 0;
     d.slice_stiffness[i] = 0;
-    if (quasi || d.approach[i] > 0) d.fe_index[na++] = i;
+    if (all || d.approach[i] > 0) d.fe_index[na++] = i;
   }
   if (na == 0) {
     if (quasi) {  // no candidate: nothing to balance
@@ -399,22 +300,8 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
     d.fe_delta[a] = d.approach[d.fe_index[a]];
     d.fe_weights[a] = sa.te_gain;
   }
-  for (int a = 0; a < na; ++a) {
-    const ContactSlice& sa = S[d.fe_index[a]];
-    for (int b = 0; b <= a; ++b) {
-      const ContactSlice& sb = S[d.fe_index[b]];
-      double c = 0;
-      for (int g = 0; g < 2; ++g) {  // face: from gear g's mid-face along its axis
-        const ComplianceDb& db = m.compliance[g];
-        const double za = sa.point.z() - kin.u[g][2] - m.layout.axial_offset[g];
-        const double zb = sb.point.z() - kin.u[g][2] - m.layout.axial_offset[g];
-        const FeSpot pa = fe_spot(db, sa.roll[g], za, sa.width);
-        const FeSpot pb = fe_spot(db, sb.roll[g], zb, sb.width);
-        c += fe_entry(m, g, sa, pa, sb, pb);
-      }
-      C(a, b) = C(b, a) = c;
-    }
-  }
+  const double uz[2] = {kin.u[0][2], kin.u[1][2]};
+  d.fe_assembly.assemble(m, S, d.fe_index.data(), na, uz, C);
   // warm start from the previous call's forces when the candidates are the same
   bool same = d.fe_prev_n == na;
   for (int a = 0; same && a < na; ++a) same = d.fe_key[a] == d.fe_prev_key[a];
@@ -521,7 +408,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     build_laws(m, d.slices.data(), d.laws.data(), n, false);
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
     const ForceSolve fs =
-        fe ? fe_solve(m, d, kin, n, false, 0.0)
+        fe ? fe_solve(m, d, kin, n, false, false, 0.0)
            : solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it, d.forces.data(),
                              d.slice_stiffness.data());
     if (!fs.converged) {
@@ -547,7 +434,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
       if (fe)
         for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
       const ForceSolve fs =
-          fe ? fe_solve(m, d, kin, n, true, load)
+          fe ? fe_solve(m, d, kin, n, true, true, load)
              : solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(), n, load,
                                      0.0, tol, max_it, d.approach.data(), d.forces.data(),
                                      d.slice_stiffness.data());
