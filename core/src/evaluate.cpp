@@ -269,6 +269,8 @@ void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K&
 }
 
 
+constexpr double kNlcpRelativeTolerance = 1e-10;  // NlcpOptions' default
+
 // The coupled solve of level 5 over the candidates (all: every candidate, the quasi-static
 // setting; else those with Delta > 0). Plain (quasi false): forces for the approaches.
 // Quasi-static: the rigid approach lambda along te_gain with sum_i b_i F_i = load. Writes
@@ -312,6 +314,18 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
   // NlcpSolver's own tolerances (1e-15 m + 1e-10 |Delta|): model.solver_tolerance (1e-10 m by
   // default) on the rigid approach would leave the load balance ~1e-5 off
   opt.tolerance = std::min(opt.tolerance, m.params.solver_tolerance);
+  // The relative part on the approaches that can load a slice: the open candidates of the
+  // quasi-static solve (backlash gaps of ~100 um) would loosen it by their size. A
+  // model.solver_tolerance below the absolute part (1e-15 m) tightens it in proportion.
+  {
+    double closing = 0, all_max = 0;
+    for (int a = 0; a < na; ++a) {
+      closing = std::max(closing, d.fe_delta[a]);
+      all_max = std::max(all_max, std::fabs(d.fe_delta[a]));
+    }
+    const double rel = kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-15);
+    opt.relative_tolerance = all_max > 0 && closing > 0 ? rel * closing / all_max : rel;
+  }
   opt.max_iterations = m.params.solver_max_iterations;
   d.nlcp->set_options(opt);
   const auto Cn = C.topLeftCorner(na, na);
@@ -509,13 +523,10 @@ struct DualPass {
   bool has_touch = false;
 };
 
-gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
-                    DualPass& out) {
-  const int n = detect_contacts(m.layout, kin, d.dual_slices.data(), m.slice_capacity, d.message);
-  if (n < 0) return GM_ERR_INPUT;
-  ContactSliceT<Dual>* slices = d.dual_slices.data();
-  apply_te_excitation(m, slices, kin, n);
-  build_laws(m, slices, d.dual_laws.data(), n, all);
+// Levels 0-4: the value problem solved as gm_evaluate solves it, then the implicit derivative
+// of each loaded slice (the slices are independent).
+gm_status separable_dual_forces(const gm_model& m, gm_data& d, int n) {
+  const ContactSliceT<Dual>* slices = d.dual_slices.data();
   // the value problem, solved as gm_evaluate solves it
   for (int i = 0; i < n; ++i) {
     const SliceLawT<Dual>& dl = d.dual_laws[i];
@@ -559,6 +570,125 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
     local_law_approach_slope(law.local, d.dual_forces[i], f, fp);  // f' along F and p
     d.dual_stiffness[i] = 1.0 / (law.compliance + fp);
   }
+  return GM_OK;
+}
+
+// Level 5: the value problem as gm_evaluate solves it (detection, laws and the coupled solve in
+// double at the values; the same candidates in the same order as the dual detection), then the
+// implicit derivative on the loaded set A, where C_AA F_A + f_A(F_A) = Delta_A holds:
+//   (C_AA + diag f'_A) dF_A = dDelta_A - dC_AA F_A - (df/dp)_A dp,
+// dC from the database interpolation over dual numbers (roll weights: the slope of the linear
+// interpolation; face shares: of the slice's interval), df/dp of the local Hertz law at fixed F.
+// The tangent stiffness of each loaded slice, x = (C_AA + diag f'_A)^-1 1, moves with
+// dx = -(C_AA + diag f'_A)^-1 (dC_AA + diag df'_A) x.
+gm_status fe_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int n,
+                         bool all) {
+  gm_kinematics kv{};
+  for (int i = 0; i < 2; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      kv.u[i][a] = kin.u[i][a].v;
+      kv.v[i][a] = kin.v[i][a].v;
+    }
+    for (int a = 0; a < 2; ++a) {
+      kv.r[i][a] = kin.r[i][a].v;
+      kv.w[i][a] = kin.w[i][a].v;
+    }
+    kv.phi[i] = kin.phi[i].v;
+    kv.omega[i] = kin.omega[i].v;
+  }
+  kv.load_torque = kin.load_torque.v;
+  const int nv = detect_contacts(m.layout, kv, d.slices.data(), m.slice_capacity, d.message);
+  if (nv < 0) return GM_ERR_INPUT;
+  const ContactSliceT<Dual>* S = d.dual_slices.data();
+  bool same = nv == n;
+  for (int i = 0; same && i < n; ++i)
+    same = d.slices[i].tooth[0] == S[i].tooth[0] && d.slices[i].tooth[1] == S[i].tooth[1] &&
+           d.slices[i].flank == S[i].flank;
+  if (!same) {
+    d.message = "level 5 (FE): the derivative's detection found other candidates than the "
+                "evaluation's (internal error)";
+    return GM_ERR_SOLVER;
+  }
+  apply_te_excitation(m, d.slices.data(), kv, n);
+  build_laws(m, d.slices.data(), d.laws.data(), n, all);
+  for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+  const ForceSolve fs = fe_solve(m, d, kv, n, all, false, 0.0);
+  if (!fs.converged) {
+    d.message = fs.message;
+    return GM_ERR_SOLVER;
+  }
+  int na = 0;
+  for (int i = 0; i < n; ++i) {
+    d.dual_forces[i] = Dual(0);
+    d.dual_stiffness[i] = Dual(0);
+    if (d.forces[i] > 0) d.fe_index[na++] = i;
+  }
+  if (na == 0) return GM_OK;
+  const Dual uz[2] = {kin.u[0][2], kin.u[1][2]};
+  auto H = d.fe_tangent.topLeftCorner(na, na);
+  auto dC = d.fe_dual_c.topLeftCorner(na, na);
+  for (int p = 0; p < na; ++p) {
+    for (int q = 0; q <= p; ++q) {
+      const Dual c = fe_pair_compliance(m, S[d.fe_index[p]], S[d.fe_index[q]], uz);
+      H(p, q) = H(q, p) = c.v;
+      dC(p, q) = dC(q, p) = c.d;
+    }
+  }
+  auto rhs = d.fe_delta.head(na);
+  auto x = d.fe_work.head(na);
+  auto dx = d.fe_weights.head(na);
+  for (int p = 0; p < na; ++p) {
+    const int i = d.fe_index[p];
+    double fd = 0;
+    if (has_local_law(d.laws[i].local)) {
+      Dual f, fp;
+      local_law_approach_slope(d.dual_laws[i].local, Dual(d.forces[i], 0), f, fp);
+      H(p, p) += fp.v;
+      fd = f.d;
+    }
+    double dcf = 0;
+    for (int q = 0; q < na; ++q) dcf += dC(p, q) * d.forces[d.fe_index[q]];
+    rhs[p] = S[i].approach.d - dcf - fd;
+  }
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(H);
+  if (llt.info() != Eigen::Success) {
+    d.message = "level 5 (FE): C + diag(f') is not positive definite on the loaded slices";
+    return GM_ERR_SOLVER;
+  }
+  llt.solveInPlace(rhs);  // dF_A
+  x.setOnes();
+  llt.solveInPlace(x);
+  for (int p = 0; p < na; ++p) {
+    const int i = d.fe_index[p];
+    d.dual_forces[i] = Dual(d.forces[i], rhs[p]);
+    double dfp = 0;
+    if (has_local_law(d.laws[i].local)) {
+      Dual f, fp;
+      local_law_approach_slope(d.dual_laws[i].local, d.dual_forces[i], f, fp);
+      dfp = fp.d;
+    }
+    dx[p] = dfp * x[p];
+    for (int q = 0; q < na; ++q) dx[p] += dC(p, q) * x[q];
+  }
+  llt.solveInPlace(dx);
+  for (int p = 0; p < na; ++p) d.dual_stiffness[d.fe_index[p]] = Dual(x[p], -dx[p]);
+  return GM_OK;
+}
+
+gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
+                    DualPass& out) {
+  const int n = detect_contacts(m.layout, kin, d.dual_slices.data(), m.slice_capacity, d.message);
+  if (n < 0) return GM_ERR_INPUT;
+  ContactSliceT<Dual>* slices = d.dual_slices.data();
+  apply_te_excitation(m, slices, kin, n);
+  build_laws(m, slices, d.dual_laws.data(), n, all);
+  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
+    const gm_status st = fe_dual_forces(m, d, kin, n, all);
+    if (st != GM_OK) return st;
+  } else {
+    const gm_status st = separable_dual_forces(m, d, n);
+    if (st != GM_OK) return st;
+  }
   out = DualPass{};
   if (all) {
     balance_weights(m, slices, kin, n, d.dual_balance.data());
@@ -579,6 +709,33 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
   return GM_OK;
 }
 
+// Level 5: saves the coupled solve's warm start (previous forces and candidates) and restores
+// it when the derivative returns, so that gm_evaluate's next result does not depend on it.
+class FeWarmStartGuard {
+ public:
+  FeWarmStartGuard(gm_data& d, bool active) : d_(d), active_(active), n_(d.fe_prev_n) {
+    for (int a = 0; active_ && a < n_; ++a) {
+      d_.fe_saved_force[a] = d_.fe_force[a];
+      d_.fe_saved_key[a] = d_.fe_prev_key[a];
+    }
+  }
+  ~FeWarmStartGuard() {
+    if (!active_) return;
+    for (int a = 0; a < n_; ++a) {
+      d_.fe_force[a] = d_.fe_saved_force[a];
+      d_.fe_prev_key[a] = d_.fe_saved_key[a];
+    }
+    d_.fe_prev_n = n_;
+  }
+  FeWarmStartGuard(const FeWarmStartGuard&) = delete;
+  FeWarmStartGuard& operator=(const FeWarmStartGuard&) = delete;
+
+ private:
+  gm_data& d_;
+  bool active_;
+  int n_;
+};
+
 }  // namespace
 
 gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinematics& at,
@@ -588,11 +745,8 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
     d.message = "seed: " + d.message;
     return GM_ERR_INPUT;
   }
-  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
-    d.message = "directional derivatives are not available at level 5 yet (model.stiffness = 5, "
-                "FE); allowed: levels 0-4, or finite differences of gm_evaluate";
-    return GM_ERR_ARGUMENT;
-  }
+  // level 5: the coupled solve's warm start is the evaluation's, left as it was
+  const FeWarmStartGuard guard(d, m.params.stiffness_level == GM_STIFFNESS_FE);
   const MeshLayout& L = m.layout;
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   KinematicsT<Dual> kin = dual_kinematics(at, seed);
