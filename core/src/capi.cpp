@@ -283,6 +283,9 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
       d->fe_index.resize(c);
       d->fe_key.resize(c);
       d->fe_prev_key.resize(c);
+      d->fe_dual_c.resize(c, c);
+      d->fe_saved_force.resize(c);
+      d->fe_saved_key.resize(c);
     }
     d->message.reserve(256);
     *out = d;
@@ -298,6 +301,8 @@ void gm_data_reset(const gm_model* m, gm_data* d) {
   if (!m || !d) return;
   d->message.clear();
   d->te_estimate = 0;
+  d->fe_prev_n = -1;
+  d->fe_assembly.invalidate();
 }
 
 gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, gm_result* res) {
@@ -348,6 +353,7 @@ gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, siz
   }
   d->te_estimate = h.te_estimate;
   d->fe_prev_n = -1;  // level 5: the next solve starts cold
+  d->fe_assembly.invalidate();  // derived caches: rebuilt by the next call
   d->message.clear();
   return GM_OK;
 }

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "dual.hpp"
+#include "fe_compliance.hpp"
 
 namespace gm {
 namespace {
@@ -268,119 +269,21 @@ void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K&
 }
 
 
-// ---- Level 5 (FE): the coupled compliance between slices (PHYSICS 5, paper 2.2-2.3) ----
-//
-// C^g[i][j] for slices i (receiver) and j (load) on teeth t_i, t_j of gear g, offset
-// d = t_i - t_j (wrapped to -z/2..z/2; 0 beyond model.coupled_teeth), from the database block
-// C_d of tooth set t_j and the slices' flank (no coupling between flank A and flank B; with a
-// mirrored database flank B uses flank A's set with d -> -d):
-//
-//   C^g[i][j] = sum_{a,m} sum_{b,n} r_ia q_im r_jb q_jn C_d[(a, m)][(b, n)]
-//
-// Roll (on gear g's flank): r_ia are the linear interpolation weights of the slice's roll
-// distance between grid nodes a (clamped at the grid ends). Face (along gear g's axis from its
-// mid-face): q_im = |slice_i n strip_m| / w_i, the share of slice i's width inside node m's
-// tributary strip (strips end half-way between nodes; the end strips are unbounded). SCALING:
-// a database column is the response to a unit POINT load at a node, which the core reads as the
-// node's lumped share of a line load over its strip. A slice force F_j is a uniform line load
-// F_j / w_j over the slice width, so node n receives F_j q_jn; the receiver displacement is the
-// width average of the nodal displacements (weights q_im). The result is symmetric when C_d is
-// (Maxwell-Betti) and reproduces a per-unit-width compliance c'/w exactly when the database is
-// diagonal in face with C = c'/Delta_face and the slices coincide with the strips; with slices
-// narrower than the strips a face-diagonal database cannot resolve them (a real FE database is
-// smooth across the face, where this is a width average of a smooth kernel).
-struct FeSpot {
-  int roll_node = 0;          // lower roll node a (a + 1 also, unless n_roll = 1)
-  double roll_weight = 1;     // weight of node a; 1 - it for a + 1
-  double lo = 0, hi = 0;      // face interval of the slice, m
-  int face_lo = 0, face_hi = 0;  // face nodes whose strips it touches
-};
-
-FeSpot fe_spot(const ComplianceDb& db, double roll, double face, double width) {
-  FeSpot p;
-  const std::vector<double>& R = db.roll;
-  const int nr = int(R.size());
-  if (nr == 1 || roll <= R[0]) {
-    p.roll_node = 0;
-    p.roll_weight = 1;
-  } else if (roll >= R[nr - 1]) {
-    p.roll_node = nr - 2;
-    p.roll_weight = 0;
-  } else {
-    const int a = int(std::upper_bound(R.begin(), R.end(), roll) - R.begin()) - 1;
-    p.roll_node = a;
-    p.roll_weight = (R[a + 1] - roll) / (R[a + 1] - R[a]);
-  }
-  const std::vector<double>& Z = db.face;
-  const int nf = int(Z.size());
-  p.lo = face - 0.5 * width;
-  p.hi = face + 0.5 * width;
-  p.face_lo = 0;
-  while (p.face_lo + 1 < nf && 0.5 * (Z[p.face_lo] + Z[p.face_lo + 1]) <= p.lo) ++p.face_lo;
-  p.face_hi = p.face_lo;
-  while (p.face_hi + 1 < nf && 0.5 * (Z[p.face_hi] + Z[p.face_hi + 1]) < p.hi) ++p.face_hi;
-  return p;
-}
-
-// q_m of a spot: the share of its width in node m's strip
-double fe_face_share(const ComplianceDb& db, const FeSpot& p, int m) {
-  const std::vector<double>& Z = db.face;
-  const int nf = int(Z.size());
-  const double inf = std::numeric_limits<double>::infinity();
-  const double s_lo = m == 0 ? -inf : 0.5 * (Z[m - 1] + Z[m]);
-  const double s_hi = m == nf - 1 ? inf : 0.5 * (Z[m] + Z[m + 1]);
-  const double w = p.hi - p.lo;
-  return std::max(0.0, std::min(p.hi, s_hi) - std::max(p.lo, s_lo)) / w;
-}
-
-double fe_entry(const gm_model& m, int g, const ContactSlice& si, const FeSpot& pi,
-                const ContactSlice& sj, const FeSpot& pj) {
-  const ComplianceDb& db = m.compliance[g];
-  if (si.flank != sj.flank) return 0;
-  const int z = int(db.teeth);
-  int d = ((si.tooth[g] - sj.tooth[g]) % z + z) % z;
-  if (d > z / 2) d -= z;
-  if (sj.flank < 0 && db.mirror) d = -d;
-  if (std::abs(d) > std::min<int>(m.params.coupled_teeth, int(db.n_coupled))) return 0;
-  const std::size_t t = db.cyclic ? 0 : std::size_t(((sj.tooth[g] % z) + z) % z);
-  const std::size_t f = db.mirror ? 0 : (sj.flank > 0 ? 0 : 1);
-  const std::vector<double>& C = db.blocks[db.block_index(t, f, d)];
-  const std::size_t nf = db.face.size(), ng = db.n_grid();
-  const int nr = int(db.roll.size());
-  double sum = 0;
-  for (int ai = 0; ai < std::min(2, nr); ++ai) {
-    const double ra = ai == 0 ? pi.roll_weight : 1 - pi.roll_weight;
-    if (ra == 0) continue;
-    for (int mi = pi.face_lo; mi <= pi.face_hi; ++mi) {
-      const double qa = ra * fe_face_share(db, pi, mi);
-      if (qa == 0) continue;
-      const std::size_t row = (std::size_t(pi.roll_node + ai) * nf + mi) * ng;
-      for (int bj = 0; bj < std::min(2, nr); ++bj) {
-        const double rb = bj == 0 ? pj.roll_weight : 1 - pj.roll_weight;
-        if (rb == 0) continue;
-        for (int nj = pj.face_lo; nj <= pj.face_hi; ++nj) {
-          const double qb = rb * fe_face_share(db, pj, nj);
-          if (qb != 0) sum += qa * qb * C[row + std::size_t(pj.roll_node + bj) * nf + nj];
-        }
-      }
-    }
-  }
-  return sum;
-}
+constexpr double kNlcpRelativeTolerance = 1e-10;  // NlcpOptions' default
 
 // The coupled solve of level 5 over the candidates (all: every candidate, the quasi-static
-// setting; else those with Delta > 0). Plain (load_mode false): forces for the approaches.
+// setting; else those with Delta > 0). Plain (quasi false): forces for the approaches.
 // Quasi-static: the rigid approach lambda along te_gain with sum_i b_i F_i = load. Writes
 // d.forces and d.slice_stiffness for all n candidates (0 where not loaded).
-ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool quasi,
-                    double load) {
+ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool all,
+                    bool quasi, double load) {
   ForceSolve out;
   const ContactSlice* S = d.slices.data();
   int na = 0;
   for (int i = 0; i < n; ++i) {
     d.forces[i] = 0;
     d.slice_stiffness[i] = 0;
-    if (quasi || d.approach[i] > 0) d.fe_index[na++] = i;
+    if (all || d.approach[i] > 0) d.fe_index[na++] = i;
   }
   if (na == 0) {
     if (quasi) {  // no candidate: nothing to balance
@@ -399,22 +302,8 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
     d.fe_delta[a] = d.approach[d.fe_index[a]];
     d.fe_weights[a] = sa.te_gain;
   }
-  for (int a = 0; a < na; ++a) {
-    const ContactSlice& sa = S[d.fe_index[a]];
-    for (int b = 0; b <= a; ++b) {
-      const ContactSlice& sb = S[d.fe_index[b]];
-      double c = 0;
-      for (int g = 0; g < 2; ++g) {  // face: from gear g's mid-face along its axis
-        const ComplianceDb& db = m.compliance[g];
-        const double za = sa.point.z() - kin.u[g][2] - m.layout.axial_offset[g];
-        const double zb = sb.point.z() - kin.u[g][2] - m.layout.axial_offset[g];
-        const FeSpot pa = fe_spot(db, sa.roll[g], za, sa.width);
-        const FeSpot pb = fe_spot(db, sb.roll[g], zb, sb.width);
-        c += fe_entry(m, g, sa, pa, sb, pb);
-      }
-      C(a, b) = C(b, a) = c;
-    }
-  }
+  const double uz[2] = {kin.u[0][2], kin.u[1][2]};
+  d.fe_assembly.assemble(m, S, d.fe_index.data(), na, uz, C);
   // warm start from the previous call's forces when the candidates are the same
   bool same = d.fe_prev_n == na;
   for (int a = 0; same && a < na; ++a) same = d.fe_key[a] == d.fe_prev_key[a];
@@ -425,6 +314,18 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
   // NlcpSolver's own tolerances (1e-15 m + 1e-10 |Delta|): model.solver_tolerance (1e-10 m by
   // default) on the rigid approach would leave the load balance ~1e-5 off
   opt.tolerance = std::min(opt.tolerance, m.params.solver_tolerance);
+  // The relative part on the approaches that can load a slice: the open candidates of the
+  // quasi-static solve (backlash gaps of ~100 um) would loosen it by their size. A
+  // model.solver_tolerance below the absolute part (1e-15 m) tightens it in proportion.
+  {
+    double closing = 0, all_max = 0;
+    for (int a = 0; a < na; ++a) {
+      closing = std::max(closing, d.fe_delta[a]);
+      all_max = std::max(all_max, std::fabs(d.fe_delta[a]));
+    }
+    const double rel = kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-15);
+    opt.relative_tolerance = all_max > 0 && closing > 0 ? rel * closing / all_max : rel;
+  }
   opt.max_iterations = m.params.solver_max_iterations;
   d.nlcp->set_options(opt);
   const auto Cn = C.topLeftCorner(na, na);
@@ -521,7 +422,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     build_laws(m, d.slices.data(), d.laws.data(), n, false);
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
     const ForceSolve fs =
-        fe ? fe_solve(m, d, kin, n, false, 0.0)
+        fe ? fe_solve(m, d, kin, n, false, false, 0.0)
            : solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it, d.forces.data(),
                              d.slice_stiffness.data());
     if (!fs.converged) {
@@ -547,7 +448,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
       if (fe)
         for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
       const ForceSolve fs =
-          fe ? fe_solve(m, d, kin, n, true, load)
+          fe ? fe_solve(m, d, kin, n, true, true, load)
              : solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(), n, load,
                                      0.0, tol, max_it, d.approach.data(), d.forces.data(),
                                      d.slice_stiffness.data());
@@ -622,13 +523,10 @@ struct DualPass {
   bool has_touch = false;
 };
 
-gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
-                    DualPass& out) {
-  const int n = detect_contacts(m.layout, kin, d.dual_slices.data(), m.slice_capacity, d.message);
-  if (n < 0) return GM_ERR_INPUT;
-  ContactSliceT<Dual>* slices = d.dual_slices.data();
-  apply_te_excitation(m, slices, kin, n);
-  build_laws(m, slices, d.dual_laws.data(), n, all);
+// Levels 0-4: the value problem solved as gm_evaluate solves it, then the implicit derivative
+// of each loaded slice (the slices are independent).
+gm_status separable_dual_forces(const gm_model& m, gm_data& d, int n) {
+  const ContactSliceT<Dual>* slices = d.dual_slices.data();
   // the value problem, solved as gm_evaluate solves it
   for (int i = 0; i < n; ++i) {
     const SliceLawT<Dual>& dl = d.dual_laws[i];
@@ -672,6 +570,125 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
     local_law_approach_slope(law.local, d.dual_forces[i], f, fp);  // f' along F and p
     d.dual_stiffness[i] = 1.0 / (law.compliance + fp);
   }
+  return GM_OK;
+}
+
+// Level 5: the value problem as gm_evaluate solves it (detection, laws and the coupled solve in
+// double at the values; the same candidates in the same order as the dual detection), then the
+// implicit derivative on the loaded set A, where C_AA F_A + f_A(F_A) = Delta_A holds:
+//   (C_AA + diag f'_A) dF_A = dDelta_A - dC_AA F_A - (df/dp)_A dp,
+// dC from the database interpolation over dual numbers (roll weights: the slope of the linear
+// interpolation; face shares: of the slice's interval), df/dp of the local Hertz law at fixed F.
+// The tangent stiffness of each loaded slice, x = (C_AA + diag f'_A)^-1 1, moves with
+// dx = -(C_AA + diag f'_A)^-1 (dC_AA + diag df'_A) x.
+gm_status fe_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int n,
+                         bool all) {
+  gm_kinematics kv{};
+  for (int i = 0; i < 2; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      kv.u[i][a] = kin.u[i][a].v;
+      kv.v[i][a] = kin.v[i][a].v;
+    }
+    for (int a = 0; a < 2; ++a) {
+      kv.r[i][a] = kin.r[i][a].v;
+      kv.w[i][a] = kin.w[i][a].v;
+    }
+    kv.phi[i] = kin.phi[i].v;
+    kv.omega[i] = kin.omega[i].v;
+  }
+  kv.load_torque = kin.load_torque.v;
+  const int nv = detect_contacts(m.layout, kv, d.slices.data(), m.slice_capacity, d.message);
+  if (nv < 0) return GM_ERR_INPUT;
+  const ContactSliceT<Dual>* S = d.dual_slices.data();
+  bool same = nv == n;
+  for (int i = 0; same && i < n; ++i)
+    same = d.slices[i].tooth[0] == S[i].tooth[0] && d.slices[i].tooth[1] == S[i].tooth[1] &&
+           d.slices[i].flank == S[i].flank;
+  if (!same) {
+    d.message = "level 5 (FE): the derivative's detection found other candidates than the "
+                "evaluation's (internal error)";
+    return GM_ERR_SOLVER;
+  }
+  apply_te_excitation(m, d.slices.data(), kv, n);
+  build_laws(m, d.slices.data(), d.laws.data(), n, all);
+  for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+  const ForceSolve fs = fe_solve(m, d, kv, n, all, false, 0.0);
+  if (!fs.converged) {
+    d.message = fs.message;
+    return GM_ERR_SOLVER;
+  }
+  int na = 0;
+  for (int i = 0; i < n; ++i) {
+    d.dual_forces[i] = Dual(0);
+    d.dual_stiffness[i] = Dual(0);
+    if (d.forces[i] > 0) d.fe_index[na++] = i;
+  }
+  if (na == 0) return GM_OK;
+  const Dual uz[2] = {kin.u[0][2], kin.u[1][2]};
+  auto H = d.fe_tangent.topLeftCorner(na, na);
+  auto dC = d.fe_dual_c.topLeftCorner(na, na);
+  for (int p = 0; p < na; ++p) {
+    for (int q = 0; q <= p; ++q) {
+      const Dual c = fe_pair_compliance(m, S[d.fe_index[p]], S[d.fe_index[q]], uz);
+      H(p, q) = H(q, p) = c.v;
+      dC(p, q) = dC(q, p) = c.d;
+    }
+  }
+  auto rhs = d.fe_delta.head(na);
+  auto x = d.fe_work.head(na);
+  auto dx = d.fe_weights.head(na);
+  for (int p = 0; p < na; ++p) {
+    const int i = d.fe_index[p];
+    double fd = 0;
+    if (has_local_law(d.laws[i].local)) {
+      Dual f, fp;
+      local_law_approach_slope(d.dual_laws[i].local, Dual(d.forces[i], 0), f, fp);
+      H(p, p) += fp.v;
+      fd = f.d;
+    }
+    double dcf = 0;
+    for (int q = 0; q < na; ++q) dcf += dC(p, q) * d.forces[d.fe_index[q]];
+    rhs[p] = S[i].approach.d - dcf - fd;
+  }
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(H);
+  if (llt.info() != Eigen::Success) {
+    d.message = "level 5 (FE): C + diag(f') is not positive definite on the loaded slices";
+    return GM_ERR_SOLVER;
+  }
+  llt.solveInPlace(rhs);  // dF_A
+  x.setOnes();
+  llt.solveInPlace(x);
+  for (int p = 0; p < na; ++p) {
+    const int i = d.fe_index[p];
+    d.dual_forces[i] = Dual(d.forces[i], rhs[p]);
+    double dfp = 0;
+    if (has_local_law(d.laws[i].local)) {
+      Dual f, fp;
+      local_law_approach_slope(d.dual_laws[i].local, d.dual_forces[i], f, fp);
+      dfp = fp.d;
+    }
+    dx[p] = dfp * x[p];
+    for (int q = 0; q < na; ++q) dx[p] += dC(p, q) * x[q];
+  }
+  llt.solveInPlace(dx);
+  for (int p = 0; p < na; ++p) d.dual_stiffness[d.fe_index[p]] = Dual(x[p], -dx[p]);
+  return GM_OK;
+}
+
+gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
+                    DualPass& out) {
+  const int n = detect_contacts(m.layout, kin, d.dual_slices.data(), m.slice_capacity, d.message);
+  if (n < 0) return GM_ERR_INPUT;
+  ContactSliceT<Dual>* slices = d.dual_slices.data();
+  apply_te_excitation(m, slices, kin, n);
+  build_laws(m, slices, d.dual_laws.data(), n, all);
+  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
+    const gm_status st = fe_dual_forces(m, d, kin, n, all);
+    if (st != GM_OK) return st;
+  } else {
+    const gm_status st = separable_dual_forces(m, d, n);
+    if (st != GM_OK) return st;
+  }
   out = DualPass{};
   if (all) {
     balance_weights(m, slices, kin, n, d.dual_balance.data());
@@ -692,6 +709,33 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
   return GM_OK;
 }
 
+// Level 5: saves the coupled solve's warm start (previous forces and candidates) and restores
+// it when the derivative returns, so that gm_evaluate's next result does not depend on it.
+class FeWarmStartGuard {
+ public:
+  FeWarmStartGuard(gm_data& d, bool active) : d_(d), active_(active), n_(d.fe_prev_n) {
+    for (int a = 0; active_ && a < n_; ++a) {
+      d_.fe_saved_force[a] = d_.fe_force[a];
+      d_.fe_saved_key[a] = d_.fe_prev_key[a];
+    }
+  }
+  ~FeWarmStartGuard() {
+    if (!active_) return;
+    for (int a = 0; a < n_; ++a) {
+      d_.fe_force[a] = d_.fe_saved_force[a];
+      d_.fe_prev_key[a] = d_.fe_saved_key[a];
+    }
+    d_.fe_prev_n = n_;
+  }
+  FeWarmStartGuard(const FeWarmStartGuard&) = delete;
+  FeWarmStartGuard& operator=(const FeWarmStartGuard&) = delete;
+
+ private:
+  gm_data& d_;
+  bool active_;
+  int n_;
+};
+
 }  // namespace
 
 gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinematics& at,
@@ -701,11 +745,8 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
     d.message = "seed: " + d.message;
     return GM_ERR_INPUT;
   }
-  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
-    d.message = "directional derivatives are not available at level 5 yet (model.stiffness = 5, "
-                "FE); allowed: levels 0-4, or finite differences of gm_evaluate";
-    return GM_ERR_ARGUMENT;
-  }
+  // level 5: the coupled solve's warm start is the evaluation's, left as it was
+  const FeWarmStartGuard guard(d, m.params.stiffness_level == GM_STIFFNESS_FE);
   const MeshLayout& L = m.layout;
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   KinematicsT<Dual> kin = dual_kinematics(at, seed);

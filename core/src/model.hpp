@@ -12,6 +12,7 @@
 #include "contact_forces.hpp"
 #include "nlcp.hpp"
 #include "detection.hpp"
+#include "fe_compliance.hpp"
 #include "stiffness_iso.hpp"
 #include "tooth_compliance.hpp"
 #include "user_tables.hpp"
@@ -49,6 +50,10 @@ struct gm_data {
   std::vector<int> fe_index;             // candidate index of each solved slice
   std::vector<long long> fe_key, fe_prev_key;  // slice identities (warm start if unchanged)
   int fe_prev_n = -1;                    // solved slices of the previous call (-1: none)
+  gm::FeAssembly fe_assembly;            // cached face sums of the databases (derived data)
+  Eigen::MatrixXd fe_dual_c;             // derivative: dC between the loaded slices, m/N
+  Eigen::VectorXd fe_saved_force;        // derivative: the warm start, restored afterwards
+  std::vector<long long> fe_saved_key;
   // gm_directional_derivative's scratch: the same per slice, over dual numbers
   std::vector<gm::ContactSliceT<gm::Dual>> dual_slices;
   std::vector<gm::SliceLawT<gm::Dual>> dual_laws;

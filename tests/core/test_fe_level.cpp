@@ -1,7 +1,9 @@
 // Stiffness level 5 (FE) with synthetic compliance databases: a database that holds the
 // analytical tooth compliance of level 4 (no coupling) reproduces level 4's loaded TE; coupling
-// between slices and neighbouring teeth makes the mesh more compliant; a database made for
-// another gear is refused naming its parameter.
+// between slices and neighbouring teeth makes the mesh more compliant, and the derivative along
+// the TE follows the coupled mesh stiffness; the cached dynamic assembly equals the reference
+// assembly over a rotation sweep; a database made for another gear is refused naming its
+// parameter. (Directional derivatives against finite differences: test_jacobian.cpp.)
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,7 +13,10 @@
 #include <vector>
 
 #include "compliance_db.hpp"
+#include "fe_compliance.hpp"
+#include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
+#include "model.hpp"
 #include "geometry.hpp"
 #include "test_support.hpp"
 #include "tooth_compliance.hpp"
@@ -177,12 +182,106 @@ TEST(FeLevel, CouplingMakesTheMeshMoreCompliantAndTheSolverConverges) {
   const gm_result r2 = q.at(rc[n / 2].te, c.geo().p_bt / c.rb(0) * (n / 2 + 0.5) / n);
   EXPECT_LE(r2.solver_iterations, 1);  // warm start from the same candidates' forces
   EXPECT_NEAR(r2.normal_force, r1.normal_force, 1e-9 * r1.normal_force);
-  // the derivative is refused at level 5, saying so
+  // the derivative along a pure TE direction (gear 2's spin): the normal force moves with the
+  // coupled mesh stiffness, plus the compliance's change as gear 2's contact points roll (small)
   gm_kinematics at{}, seed{};
-  seed.phi[0] = 1;
+  at.phi[0] = c.geo().p_bt / c.rb(0) * (n / 2 + 0.5) / n;
+  at.phi[1] = (rc[n / 2].te - c.rb(0) * at.phi[0]) / c.rb(1);
+  const gm_result r3 = q.eval(at);
+  seed.phi[1] = 1e-6 / c.rb(1);  // dTE = 1 um
   gm_result dr{};
-  EXPECT_EQ(gm_directional_derivative(q.m, q.d, &at, &seed, &dr), GM_ERR_ARGUMENT);
-  EXPECT_NE(std::string(gm_data_message(q.d)).find("not available at level 5"), std::string::npos);
+  ASSERT_EQ(gm_directional_derivative(q.m, q.d, &at, &seed, &dr), GM_OK) << gm_data_message(q.d);
+  EXPECT_NEAR(dr.te, 1e-6, 1e-18);
+  EXPECT_NEAR(dr.normal_force, r3.stiffness * 1e-6, 0.03 * r3.stiffness * 1e-6);
+  // and leaves the warm start as it was: the next evaluation repeats the last one bit for bit
+  const gm_result r4 = q.eval(at);
+  EXPECT_EQ(r4.normal_force, r3.normal_force);
+}
+
+// Level 5 parameters with each gear's smooth synthetic database (fe_synthetic.hpp) on disk.
+struct SmoothFe {
+  std::string path[2];
+  gm_model_params p;
+  SmoothFe(gm_model_params base, const std::string& tag, const gm_test::SmoothDbShape& shape = {}) {
+    base.stiffness_level = GM_STIFFNESS_FE;
+    base.compliance[0] = base.compliance[1] = nullptr;
+    for (int g = 0; g < 2; ++g) {
+      std::string msg;
+      const gm::ComplianceDb db = gm_test::smooth_db(base, g, shape, msg);
+      EXPECT_TRUE(msg.empty()) << msg;
+      path[g] = write_db(tag + "_smooth_g" + std::to_string(g + 1) + ".gcdb", db);
+    }
+    p = base;
+    p.compliance[0] = path[0].c_str();
+    p.compliance[1] = path[1].c_str();
+  }
+};
+
+// The cached dynamic assembly against the straightforward reference over a rotation sweep that
+// crosses mesh events (pairs entering and leaving), spur and helical (slices at different roll
+// distances), with an axial motion in the middle (the face strips change: that call computes
+// directly, and the cache is rebuilt): equal to round-off; and a fresh assembly (nothing cached)
+// gives the very same bits as the long-lived one at every pose.
+TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
+  for (double beta : {0.0, 15.0}) {
+    gm_model_params base = fe_paper(6);
+    base.pair.helix_angle = beta * kPi / 180;
+    if (beta != 0) {  // as bench_evaluate: unshifted, a little backlash
+      base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
+      base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
+    }
+    const SmoothFe fe(base, "sweep" + std::to_string(int(beta)));
+    Instance I(fe.p);
+    const gm_model& m = *I.m;
+    const int cap = m.slice_capacity;
+    std::vector<gm::ContactSlice> slices(std::size_t(cap), gm::ContactSlice{});
+    std::vector<int> index(static_cast<std::size_t>(cap), 0);
+    Eigen::MatrixXd Cc(cap, cap), Cf(cap, cap), Cr(cap, cap);
+    gm::FeAssembly cached;
+    int events = 0, cached_calls = 0, direct_calls = 0, last_pairs = -1, checked = 0;
+    double worst = 0;
+    const int steps = 150;
+    for (int s = 0; s < steps; ++s) {
+      gm_kinematics k{};
+      k.phi[0] = 2.5 * 2 * kPi / 57 * s / steps;  // two and a half pitches
+      k.phi[1] = (3e-6 - I.rb(0) * k.phi[0]) / I.rb(1);
+      if (s >= 70 && s < 75) k.u[1][2] = 20e-6 * (s - 69);  // axial motion of gear 2
+      std::string msg;
+      const int n = gm::detect_contacts(m.layout, k, slices.data(), cap, msg);
+      ASSERT_GE(n, 0) << msg;
+      int na = 0, pairs = 0, last = -1;
+      for (int i = 0; i < n; ++i) {
+        if (slices[std::size_t(i)].approach <= -20e-6) continue;  // near candidates
+        index[std::size_t(na++)] = i;
+        if (slices[std::size_t(i)].pair != last) ++pairs, last = slices[std::size_t(i)].pair;
+      }
+      if (na == 0) continue;
+      if (pairs != last_pairs) ++events;
+      last_pairs = pairs;
+      const double uz[2] = {k.u[0][2], k.u[1][2]};
+      cached.assemble(m, slices.data(), index.data(), na, uz, Cc);
+      (cached.cached(0) && cached.cached(1) ? cached_calls : direct_calls)++;
+      gm::FeAssembly fresh;
+      fresh.assemble(m, slices.data(), index.data(), na, uz, Cf);
+      gm::fe_assemble_reference(m, slices.data(), index.data(), na, uz, Cr);
+      const double scale = Cr.topLeftCorner(na, na).cwiseAbs().maxCoeff();
+      ASSERT_GT(scale, 0);
+      for (int a = 0; a < na; ++a)
+        for (int b = 0; b < na; ++b) {
+          worst = std::max(worst, std::fabs(Cc(a, b) - Cr(a, b)) / scale);
+          ASSERT_EQ(Cc(a, b), Cf(a, b)) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
+          ASSERT_EQ(Cc(a, b), Cc(b, a));
+        }
+      ++checked;
+    }
+    std::printf("beta %g: %d poses, %d set changes, %d cached / %d direct calls, cached - "
+                "reference up to %.3g of the largest entry, %zu values cached\n",
+                beta, checked, events, cached_calls, direct_calls, worst, cached.cached_values());
+    EXPECT_LT(worst, 1e-14);
+    EXPECT_GE(events, 4);
+    EXPECT_GE(direct_calls, 6);  // the first call and each axial move
+    EXPECT_GE(cached_calls, checked - 10);
+  }
 }
 
 TEST(FeLevel, DatabaseOfAnotherGearIsRefusedNamingItsParameter) {

@@ -2,7 +2,9 @@
 (.gcdb, core/src/compliance_db.hpp, written here byte by byte) as resources gear<i>.compliance
 evaluates; in single contact the slice force lies below the database's linear bound TE / (2 c)
 (the local Hertz law adds compliance) and above half of it; a database for another tooth count is
-refused naming gear1.compliance.
+refused naming gear1.compliance; fmi2GetDirectionalDerivative at level 5 (smooth databases on a
+17 x 13 flank grid, +-2 coupled teeth) matches Richardson differences of repeated steps, plain and
+quasi-static.
 """
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ import zlib
 import pytest
 
 from test_fmu_conformance import assert_error
+from test_fmu_jacobian import check_against_repeated_steps
 from test_fmu_microgeometry import Pair
 from test_fmu_user_tables import scene_fmu, started
 
@@ -21,7 +24,7 @@ TE = 4e-6
 C_TOOTH = 1 / (3.0e10 * FACE)  # m/N: each gear's tooth compliance of the synthetic database
 
 
-def gcdb(teeth: int = 57, c: float = C_TOOTH) -> bytes:
+def gcdb(teeth: int = 57, c: float = C_TOOTH, smooth: bool = False) -> bytes:
     """The default gear (paper set A) with a constant compliance c over a 2 x 1 flank grid
     (roll-coupled, so that interpolation keeps it constant); n_c = 2, offsets d != 0 zero."""
     m_n, x, z = 0.0026, 0.35, 57
@@ -33,6 +36,8 @@ def gcdb(teeth: int = 57, c: float = C_TOOTH) -> bytes:
     for v in (m_n, math.radians(20), 0.0, x, 0.0, FACE, d_a, 1.0, 1.25, 0.38, 210e9, 0.3, 0.03, 1e-3):
         out += f64(v)
     out += u32(2) + u32(1) + f64(1e-3) + u32(len(note)) + note
+    if smooth:
+        return _smooth_grid(out, c)
     out += u32(1) + u32(1) + u32(2) + u32(1) + u32(2)  # cyclic, mirror, n_roll, n_face, n_c
     out += f64(0.0) + f64(0.03) + f64(0.0)             # roll grid, face grid
     for d in range(-2, 3):
@@ -40,10 +45,32 @@ def gcdb(teeth: int = 57, c: float = C_TOOTH) -> bytes:
     return out + u32(zlib.crc32(out) & 0xFFFFFFFF)
 
 
+def _smooth_grid(head: bytes, c: float) -> bytes:
+    """A compliance_tool-like grid, as tests/core/fe_synthetic.hpp: 17 roll nodes over 18..36 mm
+    (the paper gear's flank from below the start of active profile to beyond the tip, 34.3 mm),
+    13 face nodes edge to edge, n_c = 2; C_d = 0.15^|d| c s(rho_a) s(rho_b) exp(-|drho|/3 mm)
+    exp(-|dz|/3 mm)/(6 mm) sqrt(dz_m dz_n), s^2 = 0.7 + 0.8 u^2 over the grid (u = 0..1)."""
+    n_roll, n_face, l = 17, 13, 3e-3
+    roll = [0.018 + 0.018 * a / (n_roll - 1) for a in range(n_roll)]
+    face = [-FACE / 2 + FACE * m / (n_face - 1) for m in range(n_face)]
+    dz = [FACE / (n_face - 1) * (0.5 if m in (0, n_face - 1) else 1.0) for m in range(n_face)]
+    s = [math.sqrt(0.7 + 0.8 * ((r - roll[0]) / (roll[-1] - roll[0])) ** 2) for r in roll]
+    grid = [(a, m) for a in range(n_roll) for m in range(n_face)]
+    c0 = [c * s[a] * s[b] * math.exp(-abs(roll[a] - roll[b]) / l) * math.exp(-abs(face[m] - face[n]) / l)
+          / (2 * l) * math.sqrt(dz[m] * dz[n]) for (a, m) in grid for (b, n) in grid]
+    out = head + struct.pack("<5I", 1, 1, n_roll, n_face, 2)
+    out += struct.pack(f"<{n_roll}d", *roll) + struct.pack(f"<{n_face}d", *face)
+    for d in range(-2, 3):
+        k = 0.15 ** abs(d)
+        out += struct.pack(f"<{len(c0)}d", *(k * v for v in c0))
+    return out + struct.pack("<I", zlib.crc32(out) & 0xFFFFFFFF)
+
+
 @pytest.fixture(scope="module")
 def databases(tmp_path_factory):
     d = tmp_path_factory.mktemp("gcdb")
-    files = {"g1.gcdb": gcdb(), "g2.gcdb": gcdb(), "z40.gcdb": gcdb(teeth=40)}
+    files = {"g1.gcdb": gcdb(), "g2.gcdb": gcdb(), "z40.gcdb": gcdb(teeth=40),
+             "smooth.gcdb": gcdb(c=1 / 3.5e10, smooth=True)}
     for name, data in files.items():
         (d / name).write_bytes(data)
     return {name: d / name for name in files}
@@ -75,3 +102,23 @@ def test_database_of_another_gear_is_named(new, fmu_path, tmp_path, databases):
     assert_error(inst.slave.exitInitializationMode)
     message = inst.log.messages("logStatusError")[-1]
     assert "gear1.compliance" in message and "z = 40" in message, message
+
+
+# The reference needs converged coupled solves (solver.tolerance 1e-17 m tightens them; the
+# derivative does not use it); quasi-static steps 25x the plain one (test_jacobian.cpp: a lightly
+# loaded coupled slice curves strongly, and the solve's floor is low enough for the small step).
+FE_CASES = [
+    ("level 5 plain", {"model.slices": 5, "solver.tolerance": 1e-17}),
+    ("level 5 friction damping plain", {"model.slices": 5, "model.friction_coefficient": 0.05,
+                                        "model.friction_velocity": 0.05, "model.damping": 2e3,
+                                        "solver.tolerance": 1e-17}),
+    ("level 5 quasi-static", {"model.slices": 3, "model.quasi_static": 1, "solver.tolerance": 1e-17}),
+]
+
+
+@pytest.mark.parametrize("name,params", FE_CASES, ids=[c[0] for c in FE_CASES])
+def test_level_5_directional_derivative_matches_repeated_steps(fmu_path, tmp_path, databases, name, params):
+    scene = {"model.stiffness": 5, "model.coupled_teeth": 2,
+             "gear1.compliance": "smooth.gcdb", "gear2.compliance": "smooth.gcdb"}
+    directory, md = scene_fmu(fmu_path, tmp_path, scene, {"smooth.gcdb": databases["smooth.gcdb"]})
+    check_against_repeated_steps(directory, md, name, params, quasi_step=25.0)

@@ -1,0 +1,402 @@
+#include "fe_compliance.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+#include "model.hpp"
+
+namespace gm {
+namespace {
+
+// Where a slice sits on a gear's flank grid: its lower roll node and weight, its face interval
+// and the face nodes whose strips it touches.
+template <class T>
+struct FeSpot {
+  int roll_node = 0;          // lower roll node a (a + 1 also, unless n_roll = 1)
+  T roll_weight = 1;          // weight of node a; 1 - it for a + 1
+  T lo = 0, hi = 0;           // face interval of the slice, m
+  int face_lo = 0, face_hi = 0;
+};
+
+// Lower roll node and weight of roll distance `roll` (clamped at the grid ends: weight 1 on the
+// first node below the grid, 0 on node n - 2 above it).
+template <class T>
+void roll_spot(const std::vector<double>& R, const T& roll, int& node, T& weight) {
+  const int nr = int(R.size());
+  if (nr == 1 || roll <= R[0]) {
+    node = 0;
+    weight = T(1.0);
+  } else if (roll >= R[nr - 1]) {
+    node = nr - 2;
+    weight = T(0.0);
+  } else {
+    const int a = int(std::upper_bound(R.begin(), R.end(), val(roll)) - R.begin()) - 1;
+    node = a;
+    weight = (R[a + 1] - roll) / (R[a + 1] - R[a]);
+  }
+}
+
+// Face nodes whose tributary strips the interval [lo, hi] touches.
+void face_range(const std::vector<double>& Z, double lo, double hi, int& face_lo, int& face_hi) {
+  const int nf = int(Z.size());
+  face_lo = 0;
+  while (face_lo + 1 < nf && 0.5 * (Z[face_lo] + Z[face_lo + 1]) <= lo) ++face_lo;
+  face_hi = face_lo;
+  while (face_hi + 1 < nf && 0.5 * (Z[face_hi] + Z[face_hi + 1]) < hi) ++face_hi;
+}
+
+// q_m: the share of [lo, hi] inside node m's strip.
+template <class T>
+T face_share(const std::vector<double>& Z, const T& lo, const T& hi, int m) {
+  using std::max;
+  using std::min;
+  const int nf = int(Z.size());
+  const double inf = std::numeric_limits<double>::infinity();
+  const double s_lo = m == 0 ? -inf : 0.5 * (Z[m - 1] + Z[m]);
+  const double s_hi = m == nf - 1 ? inf : 0.5 * (Z[m] + Z[m + 1]);
+  const T top = hi < s_hi ? hi : T(s_hi);
+  const T bottom = lo > s_lo ? lo : T(s_lo);
+  const T overlap = top - bottom;
+  return overlap > 0 ? overlap / (hi - lo) : T(0.0);
+}
+
+// Face position of a slice on gear g: from its mid-face along its axis, m.
+template <class T>
+T face_position(const gm_model& m, int g, const ContactSliceT<T>& s, const T& uz) {
+  return s.point.z() - uz - m.layout.axial_offset[g];
+}
+
+template <class T>
+FeSpot<T> fe_spot(const ComplianceDb& db, const T& roll, const T& face, const T& width) {
+  FeSpot<T> p;
+  roll_spot(db.roll, roll, p.roll_node, p.roll_weight);
+  p.lo = face - 0.5 * width;
+  p.hi = face + 0.5 * width;
+  face_range(db.face, val(p.lo), val(p.hi), p.face_lo, p.face_hi);
+  return p;
+}
+
+// Tooth index modulo z, and the offset d = t_i - t_j wrapped to -z/2..z/2.
+int tooth_mod(int t, int z) { return ((t % z) + z) % z; }
+int tooth_offset(int ti, int tj, int z) {
+  int d = ti - tj;
+  if (d < 0) d += z;
+  if (d > z / 2) d -= z;
+  return d;
+}
+
+// The database block between receiver tooth ti and load tooth tj (both modulo z) on flank
+// `flank` of the load slice, or -1 when they are not coupled.
+int block_of(const gm_model& m, int g, int flank_i, int ti, int flank_j, int tj) {
+  const ComplianceDb& db = m.compliance[g];
+  if (flank_i != flank_j) return -1;
+  int d = tooth_offset(ti, tj, int(db.teeth));
+  if (flank_j < 0 && db.mirror) d = -d;
+  if (std::abs(d) > std::min<int>(m.params.coupled_teeth, int(db.n_coupled))) return -1;
+  const std::size_t t = db.cyclic ? 0 : std::size_t(tj);
+  const std::size_t f = db.mirror ? 0 : (flank_j > 0 ? 0 : 1);
+  return int(db.block_index(t, f, d));
+}
+
+template <class T>
+T fe_entry(const gm_model& m, int g, const ContactSliceT<T>& si, const FeSpot<T>& pi,
+           const ContactSliceT<T>& sj, const FeSpot<T>& pj) {
+  const ComplianceDb& db = m.compliance[g];
+  const int z = int(db.teeth);
+  const int k = block_of(m, g, si.flank, tooth_mod(si.tooth[g], z), sj.flank,
+                         tooth_mod(sj.tooth[g], z));
+  if (k < 0) return T(0.0);
+  const std::vector<double>& C = db.blocks[std::size_t(k)];
+  const std::size_t nf = db.face.size(), ng = db.n_grid();
+  const int nr = int(db.roll.size());
+  T sum = 0;
+  for (int ai = 0; ai < std::min(2, nr); ++ai) {
+    const T ra = ai == 0 ? pi.roll_weight : 1 - pi.roll_weight;
+    if (ra == 0) continue;
+    for (int mi = pi.face_lo; mi <= pi.face_hi; ++mi) {
+      const T qa = ra * face_share(db.face, pi.lo, pi.hi, mi);
+      if (qa == 0) continue;
+      const std::size_t row = (std::size_t(pi.roll_node + ai) * nf + mi) * ng;
+      for (int bj = 0; bj < std::min(2, nr); ++bj) {
+        const T rb = bj == 0 ? pj.roll_weight : 1 - pj.roll_weight;
+        if (rb == 0) continue;
+        for (int nj = pj.face_lo; nj <= pj.face_hi; ++nj) {
+          const T qb = rb * face_share(db.face, pj.lo, pj.hi, nj);
+          if (qb != 0) sum += qa * qb * C[row + std::size_t(pj.roll_node + bj) * nf + nj];
+        }
+      }
+    }
+  }
+  return sum;
+}
+
+}  // namespace
+
+template <class T>
+T fe_pair_compliance(const gm_model& m, const ContactSliceT<T>& si, const ContactSliceT<T>& sj,
+                     const T uz[2]) {
+  T c = 0;
+  for (int g = 0; g < 2; ++g) {
+    const ComplianceDb& db = m.compliance[g];
+    const FeSpot<T> pi = fe_spot(db, si.roll[g], face_position(m, g, si, uz[g]), si.width);
+    const FeSpot<T> pj = fe_spot(db, sj.roll[g], face_position(m, g, sj, uz[g]), sj.width);
+    c += fe_entry(m, g, si, pi, sj, pj);
+  }
+  return c;
+}
+
+template double fe_pair_compliance(const gm_model&, const ContactSlice&, const ContactSlice&,
+                                   const double[2]);
+template Dual fe_pair_compliance(const gm_model&, const ContactSliceT<Dual>&,
+                                 const ContactSliceT<Dual>&, const Dual[2]);
+
+void fe_assemble_reference(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+                           const double uz[2], Eigen::MatrixXd& C) {
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b <= a; ++b)
+      C(a, b) = C(b, a) = fe_pair_compliance(m, slices[index[a]], slices[index[b]], uz);
+}
+
+// ---- FeAssembly ----
+
+void FeAssembly::invalidate() {
+  for (Gear& G : gear_) {
+    G.strips.clear();
+    G.shares.clear();
+    for (Block& B : G.blocks) B.index = -1;
+    clear_chunks(G);
+    G.direct = true;
+  }
+}
+
+void FeAssembly::clear_chunks(Gear& G) {
+  for (Block& B : G.blocks) {
+    std::fill(B.chunk.begin(), B.chunk.end(), -1);
+    B.pool.clear();
+  }
+}
+
+std::size_t FeAssembly::cached_values() const {
+  std::size_t n = 0;
+  for (const Gear& G : gear_)
+    for (const Block& B : G.blocks) n += B.pool.size();
+  return n;
+}
+
+// The strip of face interval [lo, hi] on gear g, added if new (then every chunk of the gear is
+// dropped and this call computes directly); -1 if the table is full (a face interval changed).
+int FeAssembly::strip_of(const gm_model& m, int g, double lo, double hi) {
+  Gear& G = gear_[g];
+  for (std::size_t s = 0; s < G.strips.size(); ++s)
+    if (G.strips[s].lo == lo && G.strips[s].hi == hi) return int(s);
+  if (int(G.strips.size()) >= m.layout.slices) return -1;
+  const std::vector<double>& Z = m.compliance[g].face;
+  Strip S;
+  S.lo = lo;
+  S.hi = hi;
+  face_range(Z, lo, hi, S.face_lo, S.face_hi);
+  S.share_at = int(G.shares.size());
+  for (int k = S.face_lo; k <= S.face_hi; ++k) G.shares.push_back(face_share(Z, lo, hi, k));
+  G.strips.push_back(S);
+  clear_chunks(G);
+  G.direct = true;
+  return int(G.strips.size()) - 1;
+}
+
+// sum_m q_sm (sum_n q_s'n C_d[(a, m)][(b, n)]): the one function both paths use.
+double FeAssembly::strip_value(const gm_model& m, int g, int block, int a, int b, int si,
+                               int sj) const {
+  const ComplianceDb& db = m.compliance[g];
+  const Gear& G = gear_[g];
+  const Strip& Si = G.strips[std::size_t(si)];
+  const Strip& Sj = G.strips[std::size_t(sj)];
+  const std::size_t nf = db.face.size(), ng = db.n_grid();
+  const double* C = db.blocks[std::size_t(block)].data();
+  const double* qi = G.shares.data() + Si.share_at - Si.face_lo;
+  const double* qj = G.shares.data() + Sj.share_at - Sj.face_lo;
+  double sum = 0;
+  for (int mi = Si.face_lo; mi <= Si.face_hi; ++mi) {
+    if (qi[mi] == 0) continue;
+    const double* row = C + (std::size_t(a) * nf + std::size_t(mi)) * ng + std::size_t(b) * nf;
+    double inner = 0;
+    for (int nj = Sj.face_lo; nj <= Sj.face_hi; ++nj)
+      if (qj[nj] != 0) inner += qj[nj] * row[nj];
+    sum += qi[mi] * inner;
+  }
+  return sum;
+}
+
+int FeAssembly::chunk_at(const gm_model& m, int g, Block& B, int a, int b) {
+  const int nr = int(m.compliance[g].roll.size());
+  int& at = B.chunk[std::size_t(a) * std::size_t(nr) + std::size_t(b)];
+  if (at < 0) {
+    const int S = int(gear_[g].strips.size());
+    at = int(B.pool.size());
+    B.pool.resize(B.pool.size() + std::size_t(S) * std::size_t(S));
+    for (int si = 0; si < S; ++si)
+      for (int sj = 0; sj < S; ++sj)
+        B.pool[std::size_t(at + si * S + sj)] = strip_value(m, g, B.index, a, b, si, sj);
+  }
+  return at;
+}
+
+int FeAssembly::slot_of(const gm_model& m, int g, const ContactSlice& si, const Spot& pi,
+                        const ContactSlice& sj, const Spot& pj) {
+  const int k = block_of(m, g, si.flank, pi.tooth, sj.flank, pj.tooth);
+  if (k < 0) return -1;
+  Gear& G = gear_[g];
+  int free_slot = -1;
+  for (std::size_t s = 0; s < G.blocks.size(); ++s) {
+    if (G.blocks[s].index == k) {
+      G.blocks[s].used = true;
+      return int(s);
+    }
+    if (G.blocks[s].index < 0 && free_slot < 0) free_slot = int(s);
+  }
+  if (free_slot < 0) {
+    free_slot = int(G.blocks.size());
+    G.blocks.emplace_back();
+  }
+  Block& B = G.blocks[std::size_t(free_slot)];
+  const std::size_t nr = m.compliance[g].roll.size();
+  B.index = k;
+  B.used = true;
+  B.chunk.assign(nr * nr, -1);
+  B.pool.clear();
+  return free_slot;
+}
+
+void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+                          const double uz[2], Eigen::MatrixXd& C) {
+  // groups: consecutive candidates of the same tooth pair and flank share their blocks
+  group_first_.clear();
+  for (int a = 0; a < n; ++a) {
+    const ContactSlice& s = slices[index[a]];
+    const ContactSlice* prev = a > 0 ? &slices[index[a - 1]] : nullptr;
+    if (!prev || prev->tooth[0] != s.tooth[0] || prev->tooth[1] != s.tooth[1] ||
+        prev->flank != s.flank)
+      group_first_.push_back(a);
+  }
+  const int ng = int(group_first_.size());
+  for (int g = 0; g < 2; ++g) {
+    Gear& G = gear_[g];
+    const ComplianceDb& db = m.compliance[g];
+    if (int(G.spots.size()) < n) G.spots.resize(std::size_t(n));
+    G.direct = false;
+    for (Block& B : G.blocks) B.used = false;
+    for (int pass = 0; pass < 2; ++pass) {
+      bool full = false;
+      for (int a = 0; a < n && !full; ++a) {
+        const ContactSlice& s = slices[index[a]];
+        Spot& p = G.spots[std::size_t(a)];
+        roll_spot(db.roll, s.roll[g], p.roll_node, p.roll_weight);
+        const double face = face_position(m, g, s, uz[g]);
+        p.strip = strip_of(m, g, face - 0.5 * s.width, face + 0.5 * s.width);
+        p.tooth = tooth_mod(s.tooth[g], int(db.teeth));
+        full = p.strip < 0;
+      }
+      if (!full) break;
+      // a face interval changed (axial motion): new strips, this call direct
+      G.strips.clear();
+      G.shares.clear();
+      clear_chunks(G);
+      G.direct = true;
+    }
+  }
+  // a group is uniform on gear g when its candidates share the roll node and weight there (an
+  // aligned spur pair): its entries then share four chunk values' positions and weights
+  group_first_.push_back(n);
+  uniform_.assign(std::size_t(2 * ng), 1);
+  for (int g = 0; g < 2; ++g)
+    for (int q = 0; q < ng; ++q)
+      for (int a = group_first_[std::size_t(q)] + 1; a < group_first_[std::size_t(q) + 1]; ++a) {
+        const Spot& p0 = gear_[g].spots[std::size_t(group_first_[std::size_t(q)])];
+        const Spot& p = gear_[g].spots[std::size_t(a)];
+        if (p.roll_node != p0.roll_node || p.roll_weight != p0.roll_weight)
+          uniform_[std::size_t(g * ng + q)] = 0;
+      }
+  for (int ga = 0; ga < ng; ++ga) {
+    const int a0 = group_first_[std::size_t(ga)], a1 = group_first_[std::size_t(ga) + 1];
+    for (int gb = 0; gb <= ga; ++gb) {
+      const int b0 = group_first_[std::size_t(gb)], b1 = group_first_[std::size_t(gb) + 1];
+      for (int a = a0; a < a1; ++a)
+        for (int b = b0; b < std::min(b1, a + 1); ++b) C(a, b) = 0;
+      for (int g = 0; g < 2; ++g) {
+        Gear& G = gear_[g];
+        const int slot = slot_of(m, g, slices[index[a0]], G.spots[std::size_t(a0)],
+                                 slices[index[b0]], G.spots[std::size_t(b0)]);
+        if (slot < 0) continue;
+        Block& B = G.blocks[std::size_t(slot)];
+        const int S = int(G.strips.size());
+        const int nr = std::min(2, int(m.compliance[g].roll.size()));
+        if (!G.direct && uniform_[std::size_t(g * ng + ga)] && uniform_[std::size_t(g * ng + gb)]) {
+          // the same terms for every entry of the group pair, in the general order below
+          const Spot& pa = G.spots[std::size_t(a0)];
+          const Spot& pb = G.spots[std::size_t(b0)];
+          double w[4];
+          int at[4];
+          const double* v[4];
+          int nt = 0;
+          for (int al = 0; al < nr; ++al) {
+            const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
+            if (ra == 0) continue;
+            for (int be = 0; be < nr; ++be) {
+              const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
+              if (rb == 0) continue;
+              w[nt] = ra * rb;
+              at[nt++] = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
+            }
+          }
+          for (int t = 0; t < nt; ++t) v[t] = B.pool.data() + at[t];  // pool no longer grows
+          for (int a = a0; a < a1; ++a) {
+            const int sa = G.spots[std::size_t(a)].strip * S;
+            for (int b = b0; b < std::min(b1, a + 1); ++b) {
+              const int at = sa + G.spots[std::size_t(b)].strip;
+              double e = 0;
+              for (int t = 0; t < nt; ++t) e += w[t] * v[t][at];
+              C(a, b) += e;
+            }
+          }
+          continue;
+        }
+        for (int a = a0; a < a1; ++a) {
+          const Spot& pa = G.spots[std::size_t(a)];
+          for (int b = b0; b < std::min(b1, a + 1); ++b) {
+            const Spot& pb = G.spots[std::size_t(b)];
+            double e = 0;
+            for (int al = 0; al < nr; ++al) {
+              const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
+              if (ra == 0) continue;
+              for (int be = 0; be < nr; ++be) {
+                const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
+                if (rb == 0) continue;
+                const double x =
+                    G.direct
+                        ? strip_value(m, g, B.index, pa.roll_node + al, pb.roll_node + be,
+                                      pa.strip, pb.strip)
+                        : B.pool[std::size_t(chunk_at(m, g, B, pa.roll_node + al,
+                                                      pb.roll_node + be) +
+                                             pa.strip * S + pb.strip)];
+                e += ra * rb * x;
+              }
+            }
+            C(a, b) += e;
+          }
+        }
+      }
+      for (int a = a0; a < a1; ++a)
+        for (int b = b0; b < std::min(b1, a + 1); ++b) C(b, a) = C(a, b);
+    }
+  }
+  // blocks of teeth that left the candidates: dropped (a cyclic database has few blocks, kept)
+  for (int g = 0; g < 2; ++g)
+    for (Block& B : gear_[g].blocks)
+      if (!m.compliance[g].cyclic && !B.used && B.index >= 0) {
+        B.index = -1;
+        B.pool.clear();
+      }
+}
+
+}  // namespace gm

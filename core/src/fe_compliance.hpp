@@ -1,0 +1,112 @@
+// Level 5 (FE): the coupled compliance C = C^1 + C^2 between candidate slices from the gears'
+// compliance databases (PHYSICS 5, paper 2.2-2.3), as a straightforward reference and as the
+// cached assembly the evaluation uses.
+//
+// C^g[i][j] for slices i (receiver) and j (load) on teeth t_i, t_j of gear g, offset
+// d = t_i - t_j (wrapped to -z/2..z/2; 0 beyond model.coupled_teeth), from the database block
+// C_d of tooth set t_j and the slices' flank (no coupling between flank A and flank B; with a
+// mirrored database flank B uses flank A's set with d -> -d):
+//
+//   C^g[i][j] = sum_{a,m} sum_{b,n} r_ia q_im r_jb q_jn C_d[(a, m)][(b, n)]
+//
+// Roll (on gear g's flank): r_ia are the linear interpolation weights of the slice's roll
+// distance between grid nodes a (clamped at the grid ends). Face (along gear g's axis from its
+// mid-face): q_im = |slice_i n strip_m| / w_i, the share of slice i's width inside node m's
+// tributary strip (strips end half-way between nodes; the end strips are unbounded). SCALING:
+// a database column is the response to a unit POINT load at a node, which the core reads as the
+// node's lumped share of a line load over its strip. A slice force F_j is a uniform line load
+// F_j / w_j over the slice width, so node n receives F_j q_jn; the receiver displacement is the
+// width average of the nodal displacements (weights q_im). The result is symmetric when C_d is
+// (Maxwell-Betti) and reproduces a per-unit-width compliance c'/w exactly when the database is
+// diagonal in face with C = c'/Delta_face and the slices coincide with the strips; with slices
+// narrower than the strips a face-diagonal database cannot resolve them (a real FE database is
+// smooth across the face, where this is a width average of a smooth kernel).
+//
+// DYNAMIC ASSEMBLY (FeAssembly). A slice's face interval is fixed while the axial pose (u_z,
+// the axial offsets) is, so the face sums are cached: per database block C_d in use and per pair
+// of roll nodes (a, b) a "chunk" S x S of strip values
+//   V_ab[s][s'] = sum_m q_sm (sum_n q_s'n C_d[(a, m)][(b, n)])
+// over the S slice strips; an entry is then sum_{alpha, beta} r_alpha r_beta V over the two
+// roll nodes of each slice (four values per gear). Chunks are computed when first needed; the
+// blocks of teeth that left the candidate set are dropped after the call; the strips (and with
+// them every chunk) are rebuilt when a face interval changes, and that call computes the strip
+// values directly with the same function, so the cached and the direct results are the same
+// bits whatever the history (FMU get/set state stays bit for bit).
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "detection.hpp"
+#include "dual.hpp"
+
+struct gm_model;
+
+namespace gm {
+
+// Reference: C^1 + C^2 between receiver si and load sj, straight from the databases (every
+// interpolation weight and face share recomputed), over double or dual numbers (the roll, face
+// position and width carry the derivative). uz: the gears' axial displacements, m.
+template <class T>
+T fe_pair_compliance(const gm_model& m, const ContactSliceT<T>& si, const ContactSliceT<T>& sj,
+                     const T uz[2]);
+
+// The whole matrix by the reference, for candidates index[0..n) (C's top-left n x n).
+void fe_assemble_reference(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+                           const double uz[2], Eigen::MatrixXd& C);
+
+class FeAssembly {
+ public:
+  // Forget every cached value (model or data reset, FMU state restored); results do not
+  // depend on it, only the time of the next call does.
+  void invalidate();
+  // C's top-left n x n for candidates index[0..n); C must be at least n x n.
+  void assemble(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+                const double uz[2], Eigen::MatrixXd& C);
+  // Whether the last assemble used cached strip values for gear g (false: computed directly).
+  bool cached(int g) const { return !gear_[g].direct; }
+  // Cached strip values held, over both gears (memory: 8 bytes each).
+  std::size_t cached_values() const;
+
+ private:
+  struct Strip {
+    double lo = 0, hi = 0;        // face interval on the gear, m
+    int face_lo = 0, face_hi = 0; // face nodes whose strips it touches
+    int share_at = 0;             // its shares q_m in `shares`, from face_lo
+  };
+  struct Block {
+    int index = -1;               // database block, -1: slot free
+    bool used = false;            // used by this call
+    std::vector<int> chunk;       // n_roll^2 offsets into pool (-1: not computed)
+    std::vector<double> pool;     // chunks of strips.size()^2 values
+  };
+  struct Spot {
+    int roll_node = 0;
+    double roll_weight = 1;
+    int strip = 0;
+    int tooth = 0;                // tooth index modulo z
+  };
+  struct Gear {
+    std::vector<Strip> strips;
+    std::vector<double> shares;
+    std::vector<Block> blocks;
+    std::vector<Spot> spots;      // per candidate of the call
+    bool direct = true;           // this call computes strip values directly
+  };
+  int strip_of(const gm_model& m, int g, double lo, double hi);
+  void clear_chunks(Gear& G);
+  int slot_of(const gm_model& m, int g, const ContactSlice& si, const Spot& pi,
+              const ContactSlice& sj, const Spot& pj);
+  // offset of chunk (a, b) in B.pool, computed if new (the pool may grow: no pointers kept)
+  int chunk_at(const gm_model& m, int g, Block& B, int a, int b);
+  double strip_value(const gm_model& m, int g, int block, int a, int b, int si, int sj) const;
+
+  Gear gear_[2];
+  std::vector<int> group_first_;  // groups (consecutive candidates of one tooth pair and
+                                  // flank) -> first candidate, and n after the last
+  std::vector<char> uniform_;     // (gear, group) -> its candidates share roll node and weight
+};
+
+}  // namespace gm
