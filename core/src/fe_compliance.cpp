@@ -62,10 +62,96 @@ T face_share(const std::vector<double>& Z, const T& lo, const T& hi, int m) {
   return overlap > 0 ? overlap / (hi - lo) : T(0.0);
 }
 
-// Face position of a slice on gear g: from its mid-face along its axis, m.
+// ---- How a slice reads a gear's database (the conventions, derived) ----
+//
+// FRAMES. The core poses gear g by R_g = exp([r_x, r_y, 0]^) R_z(phi_g) (PHYSICS 0): the body
+// frame of BOTH gears has its z along the housing's z (gear 2's axis is not reversed; an
+// external gear 2 merely turns the other way, phi_2 < 0 when driven), angles counter-clockwise
+// seen from +z. The database's body frame (compliance_build.hpp, gear_mesh.hpp: z along the
+// axis, z = 0 mid-face, tooth k at 2 pi k/|z| + hand z tan(beta_b)/r_b, angles ccw) is taken to
+// be this very frame, turned about z so that the database's tooth k is the core's tooth k (ring:
+// see below). Then:
+// (1) Tooth index. detect_impl writes sigma (theta_c,0 - gamma - zeta) = n tau + f and puts
+//     tooth m of the enumeration at rho = r_b (f + eta + alpha_w) + m p_bt =
+//     r_b (sigma (theta_c - gamma - zeta) + eta + alpha_w) with theta_c = theta_c,0 +
+//     sigma (m - n) tau and index sigma (m - n): tooth (ring: space) k's centre line lies at
+//     theta0 + phi + k tau + h y tan(beta_b)/r_b on either flank, i.e. the index increases
+//     counter-clockwise in the gear's body frame on gear 1, on gear 2 and on the ring, as the
+//     database's tooth number (and its offset d = receiver - load) does. No sign change.
+// (2) Face. The core turns gear g's section by h_g y tan(beta_b)/r_b with y = z - c_z along +z
+//     and h_2 = -h_1 on an external pair, h_1 on an internal one; the database of gear g turns
+//     it by hand z tan(beta_b)/r_b with hand = sign of ITS helix_angle, which record_gear writes
+//     as -beta for an external gear 2 and +beta for a ring: the same law in the same frame, so
+//     the database's face coordinate is the core's z - c_z - axial_offset with its sign, on both
+//     gears. (Axis reversal would also reverse the tooth order of (1); it does not happen.)
+// (3) Flank side. The pair's flank A carries load when gear 1 turns +phi_1 and drives. Gear 1's
+//     tooth then moves counter-clockwise and pushes with its leading side: its ccw side, the
+//     database's flank A (wherever the mesh lies). External gear 2: at its mesh side (zeta = pi,
+//     e_theta = -e_y) gear 1's tooth moves +y and presses gear 2's tooth on its -y side, the
+//     +theta side: again the ccw side, the database's flank A. (Detection agrees: flank sigma of
+//     a tooth sits at theta_c + sigma (eta - inv alpha), see involute_penetration.) Ring (gear 2
+//     of an internal pair, whose core index counts SPACES): gear 1's tooth, at the ring's -x side
+//     too, moves -y and presses the ring's tooth on its +y side, the -theta side: the CLOCKWISE
+//     side of the ring's tooth, the database's flank B. In detection's terms flank sigma of space
+//     s sits at theta_s + sigma (eta_s - inv alpha): sigma = +1 is the space's ccw wall, the cw
+//     flank of the tooth counter-clockwise of the space; sigma = -1 the ccw flank of the tooth
+//     clockwise of it. Ring tooth numbering: the database's tooth k is the tooth counter-clockwise
+//     of space k (centre line half a pitch ccw of the space's); so flank A of space s is flank B
+//     of tooth s and flank B of space s is flank A of tooth s - 1 (only a non-cyclic database
+//     sees the absolute number; offsets between spaces are offsets between teeth).
+// (4) Flank B through the mirror (mirror = 1). The tool obtains flank B from the body's mirror
+//     symmetry: spur, the reflection y -> -y through tooth 0's centre plane; helical, the half
+//     turn about tooth 0's radial centre line at mid-face (a reflection would turn the hand).
+//     Both send tooth t to tooth -t and reverse the angular order, so flank B of load tooth t,
+//     receiver t + d, is flank A of load tooth -t, receiver -t - d: offset -d, tooth set -t; the
+//     half turn also sends the face coordinate z to -z (roll distances are radii: unchanged).
+//     So a database-flank-B slice reads flank A's set with d -> -d, tooth set -t (cyclic: 0)
+//     and, for a helical gear, face -> -face (receiver and load alike). With mirror = 0 flank B
+//     has its own set, offsets in the same ccw sense, face as it is.
+// Flanks of different sides never couple (the database has no cross-flank blocks).
+struct DbFlank {
+  int side = 1;        // +1 the database's flank A (ccw side of the tooth), -1 flank B
+  bool mirrored = false;   // read through the mirror: flank A's set, d -> -d, tooth set -t
+  bool flip_face = false;  // and the face coordinate reversed (helical)
+};
+
+bool ring_gear(const gm_model& m, int g) { return g == 1 && m.layout.sign < 0; }
+
+DbFlank db_flank(const gm_model& m, int g, int flank) {
+  const ComplianceDb& db = m.compliance[g];
+  DbFlank r;
+  r.side = ring_gear(m, g) ? -flank : flank;
+  r.mirrored = r.side < 0 && db.mirror;
+  r.flip_face = r.mirrored && db.helix_angle != 0;
+  return r;
+}
+
+// Whether some slice on gear g reads its face reversed (the strip table then holds both).
+bool may_flip_face(const gm_model& m, int g) {
+  return m.compliance[g].mirror && m.compliance[g].helix_angle != 0;
+}
+
+// Tooth index modulo z, and the offset d = t_i - t_j wrapped to -z/2..z/2.
+int tooth_mod(int t, int z) { return ((t % z) + z) % z; }
+int tooth_offset(int ti, int tj, int z) {
+  int d = ti - tj;
+  if (d < 0) d += z;
+  if (d > z / 2) d -= z;
+  return d;
+}
+
+// The database's tooth (modulo z) of the slice's tooth (ring: space) index on flank `flank`.
+int db_tooth(const gm_model& m, int g, int flank, int tooth) {
+  const int z = int(m.compliance[g].teeth);
+  return tooth_mod(ring_gear(m, g) && flank < 0 ? tooth - 1 : tooth, z);
+}
+
+// Face position of a slice on gear g as the database reads it: from its mid-face along its
+// axis, m, reversed when read through a helical mirror.
 template <class T>
 T face_position(const gm_model& m, int g, const ContactSliceT<T>& s, const T& uz) {
-  return s.point.z() - uz - m.layout.axial_offset[g];
+  const T y = s.point.z() - uz - m.layout.axial_offset[g];
+  return db_flank(m, g, s.flank).flip_face ? T(-y) : y;
 }
 
 template <class T>
@@ -78,35 +164,31 @@ FeSpot<T> fe_spot(const ComplianceDb& db, const T& roll, const T& face, const T&
   return p;
 }
 
-// Tooth index modulo z, and the offset d = t_i - t_j wrapped to -z/2..z/2.
-int tooth_mod(int t, int z) { return ((t % z) + z) % z; }
-int tooth_offset(int ti, int tj, int z) {
-  int d = ti - tj;
-  if (d < 0) d += z;
-  if (d > z / 2) d -= z;
-  return d;
-}
-
-// The database block between receiver tooth ti and load tooth tj (both modulo z) on flank
-// `flank` of the load slice, or -1 when they are not coupled.
+// The database block between receiver tooth ti and load tooth tj (database teeth, modulo z, of
+// db_tooth) on the slices' flanks, or -1 when they are not coupled.
 int block_of(const gm_model& m, int g, int flank_i, int ti, int flank_j, int tj) {
   const ComplianceDb& db = m.compliance[g];
   if (flank_i != flank_j) return -1;
-  int d = tooth_offset(ti, tj, int(db.teeth));
-  if (flank_j < 0 && db.mirror) d = -d;
+  const int z = int(db.teeth);
+  const DbFlank r = db_flank(m, g, flank_j);
+  int d = tooth_offset(ti, tj, z);
+  int t = tj;
+  if (r.mirrored) {
+    d = -d;
+    t = tooth_mod(-tj, z);
+  }
   if (std::abs(d) > std::min<int>(m.params.coupled_teeth, int(db.n_coupled))) return -1;
-  const std::size_t t = db.cyclic ? 0 : std::size_t(tj);
-  const std::size_t f = db.mirror ? 0 : (flank_j > 0 ? 0 : 1);
-  return int(db.block_index(t, f, d));
+  const std::size_t set = db.cyclic ? 0 : std::size_t(t);
+  const std::size_t f = (db.mirror || r.side > 0) ? 0 : 1;
+  return int(db.block_index(set, f, d));
 }
 
 template <class T>
 T fe_entry(const gm_model& m, int g, const ContactSliceT<T>& si, const FeSpot<T>& pi,
            const ContactSliceT<T>& sj, const FeSpot<T>& pj) {
   const ComplianceDb& db = m.compliance[g];
-  const int z = int(db.teeth);
-  const int k = block_of(m, g, si.flank, tooth_mod(si.tooth[g], z), sj.flank,
-                         tooth_mod(sj.tooth[g], z));
+  const int k = block_of(m, g, si.flank, db_tooth(m, g, si.flank, si.tooth[g]), sj.flank,
+                         db_tooth(m, g, sj.flank, sj.tooth[g]));
   if (k < 0) return T(0.0);
   const std::vector<double>& C = db.blocks[std::size_t(k)];
   const std::size_t nf = db.face.size(), ng = db.n_grid();
@@ -191,7 +273,7 @@ int FeAssembly::strip_of(const gm_model& m, int g, double lo, double hi) {
   Gear& G = gear_[g];
   for (std::size_t s = 0; s < G.strips.size(); ++s)
     if (G.strips[s].lo == lo && G.strips[s].hi == hi) return int(s);
-  if (int(G.strips.size()) >= m.layout.slices) return -1;
+  if (int(G.strips.size()) >= m.layout.slices * (may_flip_face(m, g) ? 2 : 1)) return -1;
   const std::vector<double>& Z = m.compliance[g].face;
   Strip S;
   S.lo = lo;
@@ -294,7 +376,7 @@ void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const i
         roll_spot(db.roll, s.roll[g], p.roll_node, p.roll_weight);
         const double face = face_position(m, g, s, uz[g]);
         p.strip = strip_of(m, g, face - 0.5 * s.width, face + 0.5 * s.width);
-        p.tooth = tooth_mod(s.tooth[g], int(db.teeth));
+        p.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
         full = p.strip < 0;
       }
       if (!full) break;

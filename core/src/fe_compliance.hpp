@@ -4,8 +4,14 @@
 //
 // C^g[i][j] for slices i (receiver) and j (load) on teeth t_i, t_j of gear g, offset
 // d = t_i - t_j (wrapped to -z/2..z/2; 0 beyond model.coupled_teeth), from the database block
-// C_d of tooth set t_j and the slices' flank (no coupling between flank A and flank B; with a
-// mirrored database flank B uses flank A's set with d -> -d):
+// C_d of tooth set t_j and the database flank that carries the slices' flank (no coupling
+// between flank A and flank B). Conventions (derived in fe_compliance.cpp): both gears' body
+// frames have z along the housing's z, tooth indices increase counter-clockwise as the
+// database's do, and the face coordinate z - c_z - axial_offset has the database's sign; the
+// pair's flank A is the database's flank A (ccw side of the tooth) on gear 1 and on an external
+// gear 2, but flank B (cw side) on a ring, whose space s has tooth s (ccw of it) on flank A and
+// tooth s - 1 on flank B. A database flank B read through the mirror (mirror = 1) uses flank A's
+// set with d -> -d, tooth set -t and, for a helical gear, the face coordinate reversed:
 //
 //   C^g[i][j] = sum_{a,m} sum_{b,n} r_ia q_im r_jb q_jn C_d[(a, m)][(b, n)]
 //
@@ -86,7 +92,7 @@ class FeAssembly {
     int roll_node = 0;
     double roll_weight = 1;
     int strip = 0;
-    int tooth = 0;                // tooth index modulo z
+    int tooth = 0;                // the database's tooth (modulo z) of the slice's flank
   };
   struct Gear {
     std::vector<Strip> strips;
