@@ -4,11 +4,13 @@
 // shaped, symmetric positive definite blocks
 //
 //   C_d[(a, m)][(b, n)] = kappa^|d| c_t s(rho_a) s(rho_b) exp(-|rho_a - rho_b| / l_roll)
-//                         exp(-|z_m - z_n| / l_face) / (2 l_face) sqrt(dz_m dz_n)
+//                         exp(-|z_m - z_n| / l_face) / (2 l_face)
 //
-// with dz_n node n's tributary strip width: a uniform line load q over the face then deflects a
-// mid-face node by about c_t s^2 q (the kernel integrates to one), c_t the tooth compliance per
-// unit face width at mid-profile, s^2 rising from 0.7 at the root to 1.5 at the tip (bending);
+// (m/N: the response to a unit point load): a uniform line load q over the face, which loads
+// node n with q dz_n (dz_n its tributary strip width), then deflects a mid-face node by about
+// c_t s^2 q (the face kernel integrates to one; half that at a face end), c_t the tooth
+// compliance per unit face width at mid-profile, s^2 rising from 0.7 at the root to 1.5 at the
+// tip (bending);
 // kappa the share of a neighbour tooth (the AR(1) form keeps the block-Toeplitz matrix over teeth
 // positive definite). Symmetric in (a, m) <-> (b, n) for d = 0 and C_d = C_{-d}^T (Maxwell-Betti).
 #pragma once
@@ -53,9 +55,6 @@ inline gm::ComplianceDb smooth_db(const gm_model_params& p, int gear, const Smoo
     db.roll.push_back(lo - pad + (hi - lo + 2 * pad) * a / (s.n_roll - 1));
   const double b = p.gear[gear].face_width;
   for (int m = 0; m < s.n_face; ++m) db.face.push_back(-0.5 * b + b * m / (s.n_face - 1));
-  std::vector<double> dz(std::size_t(s.n_face), b / (s.n_face - 1));
-  dz.front() *= 0.5;
-  dz.back() *= 0.5;
   const auto shape = [&](double rho) {
     const double u = std::clamp((rho - lo) / (hi - lo), -0.1, 1.1);
     return std::sqrt(0.7 + 0.8 * u * u);
@@ -69,8 +68,7 @@ inline gm::ComplianceDb smooth_db(const gm_model_params& p, int gear, const Smoo
           c0[(std::size_t(a) * s.n_face + m) * ng + std::size_t(bb) * s.n_face + n] =
               s.tooth_compliance * shape(db.roll[a]) * shape(db.roll[bb]) *
               std::exp(-std::fabs(db.roll[a] - db.roll[bb]) / s.l_roll) *
-              std::exp(-std::fabs(db.face[m] - db.face[n]) / s.l_face) / (2 * s.l_face) *
-              std::sqrt(dz[m] * dz[n]);
+              std::exp(-std::fabs(db.face[m] - db.face[n]) / s.l_face) / (2 * s.l_face);
   for (int d = -s.n_coupled; d <= s.n_coupled; ++d) {
     std::vector<double> block(c0);
     const double k = std::pow(s.kappa, std::abs(d));

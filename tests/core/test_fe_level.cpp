@@ -238,7 +238,7 @@ TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
     std::vector<int> index(static_cast<std::size_t>(cap), 0);
     Eigen::MatrixXd Cc(cap, cap), Cf(cap, cap), Cr(cap, cap);
     gm::FeAssembly cached;
-    int events = 0, cached_calls = 0, direct_calls = 0, last_pairs = -1, checked = 0;
+    int events = 0, cached_calls = 0, direct_calls = 0, last_pairs = -1, checked = 0, flank_b = 0;
     double worst = 0;
     const int steps = 150;
     for (int s = 0; s < steps; ++s) {
@@ -251,7 +251,9 @@ TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
       ASSERT_GE(n, 0) << msg;
       int na = 0, pairs = 0, last = -1;
       for (int i = 0; i < n; ++i) {
-        if (slices[std::size_t(i)].approach <= -20e-6) continue;  // near candidates
+        // near candidates, flank B too (its face is read reversed through a helical mirror)
+        if (slices[std::size_t(i)].approach <= -100e-6) continue;
+        flank_b += slices[std::size_t(i)].flank < 0;
         index[std::size_t(na++)] = i;
         if (slices[std::size_t(i)].pair != last) ++pairs, last = slices[std::size_t(i)].pair;
       }
@@ -274,9 +276,9 @@ TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
         }
       ++checked;
     }
-    std::printf("beta %g: %d poses, %d set changes, %d cached / %d direct calls, cached - "
+    std::printf("beta %g: %d poses (%d flank B slices), %d set changes, %d cached / %d direct calls, cached - "
                 "reference up to %.3g of the largest entry, %zu values cached\n",
-                beta, checked, events, cached_calls, direct_calls, worst, cached.cached_values());
+                beta, checked, flank_b, events, cached_calls, direct_calls, worst, cached.cached_values());
     EXPECT_LT(worst, 1e-14);
     EXPECT_GE(events, 4);
     EXPECT_GE(direct_calls, 6);  // the first call and each axial move
