@@ -120,9 +120,9 @@ TEST(GearMesh, SpurVolumeFlanksBore) {
   EXPECT_GT(V, kPi * (m.root_radius * m.root_radius - 0.008 * 0.008) * 0.010);
   EXPECT_LT(V, kPi * (m.tip_radius * m.tip_radius - 0.008 * 0.008) * 0.010);
   // Bore nodes on the bore, spanning the face.
-  ASSERT_FALSE(m.bore_nodes.empty());
+  ASSERT_FALSE(m.clamped_nodes.empty());
   double zmin = 1, zmax = -1;
-  for (int id : m.bore_nodes) {
+  for (int id : m.clamped_nodes) {
     const auto& x = m.nodes[id];
     EXPECT_NEAR(std::hypot(x.x(), x.y()), 0.008, 1e-9);
     zmin = std::min(zmin, x.z());
@@ -247,7 +247,7 @@ TEST(GearMesh, WebHubAndHoles) {
     for (int f = 0; f < 2; ++f)
       for (const auto& fn : m.flanks[k][f]) worst = std::max(worst, involute_error(m, k, f, m.nodes[fn.node]));
   EXPECT_LT(worst, 1e-6);
-  for (int id : m.bore_nodes) EXPECT_NEAR(std::hypot(m.nodes[id].x(), m.nodes[id].y()), 0.004, 1e-9);
+  for (int id : m.clamped_nodes) EXPECT_NEAR(std::hypot(m.nodes[id].x(), m.nodes[id].y()), 0.004, 1e-9);
 }
 
 TEST(GearMesh, RingGearIsNotYetSupported) {
