@@ -345,6 +345,13 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
       loop[6 * k + 5] = arc;
     }
 
+    // A hole's loop runs clockwise: reversed as given, gmsh would reverse it itself and the
+    // lateral surfaces of the extrusion would then come in the reversed curve order.
+    if (ring) {
+      std::reverse(loop.begin(), loop.end());
+      for (int& c : loop) c = -c;
+    }
+
     // Regions.
     std::vector<Region> regions;
     const std::vector<int> clamp_c = B.circle(bore, std::min(h_b, 2.0 * kPi * bore / 24.0));
@@ -414,6 +421,25 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
       geo::remove(d, false);
     }
     geo::synchronize();
+    // Which lateral surface belongs to which section curve: gmsh may start or orient a loop
+    // differently from the order given, so match them by their boundary (the section curve is an
+    // edge of its first-stage lateral; later stages follow in the same order).
+    for (size_t r = 0; r < regions.size(); ++r) {
+      const std::vector<int> curves = regions[r].curves();
+      std::map<int, size_t> owner;  // section curve -> position in laterals[r]
+      for (size_t j = 0; j < laterals[r].size(); ++j) {
+        gmsh::vectorpair bnd;
+        gmsh::model::getBoundary({{2, laterals[r][j][0]}}, bnd, false, false, false);
+        for (const auto& d : bnd) owner[std::abs(d.second)] = j;
+      }
+      std::vector<std::vector<int>> sorted(curves.size());
+      for (size_t c = 0; c < curves.size(); ++c) {
+        const auto it = owner.find(std::abs(curves[c]));
+        if (it == owner.end()) throw std::runtime_error("a section curve has no lateral surface");
+        sorted[c] = laterals[r][it->second];
+      }
+      laterals[r] = std::move(sorted);
+    }
     gmsh::model::mesh::generate(3);
     gmsh::model::mesh::setOrder(2);
 
@@ -464,7 +490,7 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
       const std::vector<int> curves = regions[clamp_region].curves();
       std::vector<int> surf;
       for (size_t c = 0; c < curves.size(); ++c)
-        if (std::find(clamp_c.begin(), clamp_c.end(), curves[c]) != clamp_c.end())
+        if (std::find(clamp_c.begin(), clamp_c.end(), std::abs(curves[c])) != clamp_c.end())
           surf.insert(surf.end(), laterals[clamp_region][c].begin(), laterals[clamp_region][c].end());
       out.clamped_nodes = surface_nodes(surf);
     }
@@ -473,7 +499,7 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
     {
       const std::vector<int> curves = regions[outer_region].curves();
       std::map<int, size_t> curve_pos;
-      for (size_t c = 0; c < curves.size(); ++c) curve_pos[curves[c]] = c;
+      for (size_t c = 0; c < curves.size(); ++c) curve_pos[std::abs(curves[c])] = c;
       for (int k = 0; k < z; ++k)
         for (int f = 0; f < 2; ++f) {
           const std::vector<int> ids =

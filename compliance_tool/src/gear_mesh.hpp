@@ -96,7 +96,7 @@ struct GearBodyOptions {
   // database and its coupled neighbours need them: fine_teeth >= n_c + 1); < 0 = every tooth.
   // The other ("far") teeth carry load only through the body and get the far_* counts.
   int fine_teeth = 3;
-  int far_elements_along_profile = 2;
+  int far_elements_along_profile = 1;
   int far_elements_in_fillet = 1;
   double body_size = 0;            // m, target element size in the body; 0 = 1.5 m_n
   double fine_depth = 0;           // m, band below the root circle at the profile size; 0 = 1 m_n

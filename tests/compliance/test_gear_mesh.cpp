@@ -8,6 +8,8 @@
 #include <tuple>
 
 #include <Eigen/Geometry>
+#include <cstdio>
+#include <string>
 
 #include "gear_mesh.hpp"
 #include "gearmesh/gearmesh.h"
@@ -250,23 +252,139 @@ TEST(GearMesh, WebHubAndHoles) {
   for (int id : m.clamped_nodes) EXPECT_NEAR(std::hypot(m.nodes[id].x(), m.nodes[id].y()), 0.004, 1e-9);
 }
 
-TEST(GearMesh, RingGearIsNotYetSupported) {
-  gm_model_params p;
-  gm_default_params(&p);
-  p.pair.internal = 1;
-  p.pair.normal_module = 0.002;
-  p.gear[0].teeth = 21;
-  p.gear[1].teeth = 62;
-  p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
-  p.gear[0].thickness_allowance = p.gear[1].thickness_allowance = -30e-6;
-  p.pair.center_distance = 0.041;
-  gm_pair_geometry g;
+// Internal pair 21/62, m 2 mm, b 10 mm; gear 2 is the ring.
+Gear ring_pair() {
+  Gear G;
+  gm_default_params(&G.p);
+  G.p.pair.internal = 1;
+  G.p.pair.normal_module = 0.002;
+  G.p.gear[0].teeth = 21;
+  G.p.gear[1].teeth = 62;
+  for (int i = 0; i < 2; ++i) {
+    G.p.gear[i].profile_shift = 0;
+    G.p.gear[i].thickness_allowance = -30e-6;
+    G.p.gear[i].face_width = 0.010;
+    G.p.gear[i].tip_diameter = 0;
+  }
+  G.p.pair.center_distance = 0.041;
   char buf[512];
-  ASSERT_EQ(gm_compute_geometry(&p, &g, buf, sizeof buf), GM_OK) << buf;
+  EXPECT_EQ(gm_compute_geometry(&G.p, &G.g, buf, sizeof buf), GM_OK) << buf;
+  return G;
+}
+
+// Exact area inside the ring's toothed inner outline, from the core's geometry (radii, eta_b of
+// the space) by a dense polygon: per space the involute eta_b - inv(alpha) (both flanks), the
+// fillet circle tangent to the involute at the form circle and to the root circle (found here by
+// bisection on its radius, independently of the mesher's closed form), root and tip arcs.
+double ring_hole_area(const gm_gear_geometry& q, int z) {
+  const double rb = 0.5 * q.d_b, ra = 0.5 * q.d_a, rf = 0.5 * q.d_f, rF = 0.5 * q.d_Ff;
+  auto inv = [](double a) { return std::tan(a) - a; };
+  auto flank = [&](double R) {  // polar angle of flank A at radius R
+    return q.eta_b - inv(std::acos(rb / R));
+  };
+  const int n = 2000;
+  // Fillet: circle centre C = P + rc * n_s, n_s the unit normal into the space at P (form point).
+  const double phF = flank(rF), alF = std::acos(rb / rF);
+  const Eigen::Vector2d P(rF * std::cos(phF), rF * std::sin(phF));
+  const Eigen::Vector2d T(rb * std::cos(phF - alF), rb * std::sin(phF - alF));
+  const Eigen::Vector2d ns = (T - P).normalized();
+  double lo = 0, hi = rf - rF + 1e-3;
+  for (int it = 0; it < 200; ++it) {  // |C| + rc - rf changes sign
+    const double mid = 0.5 * (lo + hi);
+    ((P + mid * ns).norm() + mid < rf ? lo : hi) = mid;
+  }
+  const double rc = 0.5 * (lo + hi);
+  const Eigen::Vector2d C = P + rc * ns;
+  // Half outline of space 0 (flank A, +y), from the root point to the tip.
+  std::vector<Eigen::Vector2d> half;
+  const double a0 = std::atan2(C.y(), C.x());  // root tangency direction from C
+  const double a1 = std::atan2(P.y() - C.y(), P.x() - C.x());
+  const double da = std::remainder(a1 - a0, 2 * kPi);
+  for (int i = 0; i <= n; ++i) {
+    const double a = a0 + da * i / n;
+    half.emplace_back(C.x() + rc * std::cos(a), C.y() + rc * std::sin(a));
+  }
+  for (int i = 1; i <= n; ++i) {
+    const double R = rF + (ra - rF) * i / n;
+    half.emplace_back(R * std::cos(flank(R)), R * std::sin(flank(R)));
+  }
+  std::vector<Eigen::Vector2d> poly;
+  const double th_root = std::atan2(half.front().y(), half.front().x());
+  const double th_tip = std::atan2(half.back().y(), half.back().x());
+  for (int k = 0; k < z; ++k) {
+    const Eigen::Rotation2Dd R(2 * kPi * k / z);
+    for (auto it = half.rbegin(); it != half.rend(); ++it) poly.push_back(R * Eigen::Vector2d(it->x(), -it->y()));
+    for (int i = 1; i < n; ++i) {  // root arc at the bottom of the space
+      const double t = -th_root + 2 * th_root * i / n;
+      poly.push_back(R * Eigen::Vector2d(rf * std::cos(t), rf * std::sin(t)));
+    }
+    for (const auto& q2 : half) poly.push_back(R * q2);
+    for (int i = 1; i < n; ++i) {  // tip arc of the ring tooth
+      const double t = th_tip + (2 * kPi / z - 2 * th_tip) * i / n;
+      poly.push_back(R * Eigen::Vector2d(ra * std::cos(t), ra * std::sin(t)));
+    }
+  }
+  double A = 0;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const auto& p0 = poly[i];
+    const auto& p1 = poly[(i + 1) % poly.size()];
+    A += p0.x() * p1.y() - p1.x() * p0.y();
+  }
+  return 0.5 * A;
+}
+
+TEST(GearMesh, RingVolumeFlanksRim) {
+  const Gear G = ring_pair();
+  gm::mesh::GearBodyOptions o;
+  o.elements_along_profile = 6;
+  o.elements_across_width = 2;
+  const double rf = 0.5 * G.g.gear[1].d_f;
   gm::mesh::GearBodyMesh m;
   std::string msg;
-  EXPECT_EQ(gm::mesh::build_gear_body(p, g, 1, {}, m, msg), GM_ERR_PARAMETER);
-  EXPECT_NE(msg.find("not yet"), std::string::npos) << msg;
+  ASSERT_EQ(gm::mesh::build_gear_body(G.p, G.g, 1, o, m, msg), GM_OK) << msg;
+  EXPECT_TRUE(m.ring);
+  const double Ro = rf + 3 * 0.002;  // the default rim
+  EXPECT_NEAR(m.clamped_radius, Ro, 1e-12);
+  const double Vx = (kPi * Ro * Ro - ring_hole_area(G.g.gear[1], 62)) * 0.010;
+  const double V = gm::mesh::tet10_volume(m.nodes, m.tets);
+  std::printf("[ring] %zu nodes; volume %.6g vs exact %.6g m^3 (%+.4f %%)\n", m.nodes.size(), V, Vx,
+              100 * (V / Vx - 1));
+  EXPECT_NEAR(V / Vx, 1.0, 0.005);
+  // Bounds: between the annuli from the tip and from the root circle to the rim.
+  EXPECT_GT(V, kPi * (Ro * Ro - rf * rf) * 0.010);
+  EXPECT_LT(V, kPi * (Ro * Ro - m.tip_radius * m.tip_radius) * 0.010);
+  ASSERT_FALSE(m.clamped_nodes.empty());
+  for (int id : m.clamped_nodes) EXPECT_NEAR(std::hypot(m.nodes[id].x(), m.nodes[id].y()), Ro, 1e-9);
+  // Flank nodes on the ring's involute (space k centred at 2 pi k / z), within 1 um, between the
+  // tip (inner) and form circles; flank A on the +theta side of the space.
+  ASSERT_EQ(static_cast<int>(m.flanks.size()), 62);
+  double worst = 0;
+  for (int k = 0; k < 62; ++k)
+    for (int f = 0; f < 2; ++f) {
+      ASSERT_FALSE(m.flanks[k][f].empty());
+      for (const auto& fn : m.flanks[k][f]) {
+        const auto& x = m.nodes[fn.node];
+        worst = std::max(worst, involute_error(m, k, f, x));
+        const double R = std::hypot(x.x(), x.y());
+        EXPECT_GE(R, m.tip_radius - 1e-9);
+        EXPECT_LE(R, m.form_radius + 1e-9);
+      }
+    }
+  EXPECT_LT(worst, 1e-6);
+  // Flank A of space 0 lies at +theta: its mid-radius node has a positive polar angle.
+  const auto& fa = m.flanks[0][0];
+  EXPECT_GT(std::atan2(m.nodes[fa[fa.size() / 2].node].y(), m.nodes[fa[fa.size() / 2].node].x()), 0.0);
+  // Tooth 0 flank A (fine tooth): (6 + 1 + 6 mid) along the profile x (2 + 1 + 2) across.
+  EXPECT_EQ(fa.size(), static_cast<size_t>(13 * 5));
+  // Ring options are refused on external gears and vice versa.
+  gm::mesh::GearBodyOptions bad = o;
+  bad.bore_radius = 0.01;
+  EXPECT_EQ(gm::mesh::build_gear_body(G.p, G.g, 1, bad, m, msg), GM_ERR_PARAMETER);
+  EXPECT_NE(msg.find("outer rim"), std::string::npos) << msg;
+  bad = o;
+  bad.outer_radius = 0.5 * G.g.gear[1].d_f - 1e-4;
+  EXPECT_EQ(gm::mesh::build_gear_body(G.p, G.g, 1, bad, m, msg), GM_ERR_PARAMETER);
+  EXPECT_NE(msg.find("outer_radius"), std::string::npos) << msg;
 }
 
 }  // namespace
