@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <string>
 
+#include <gmsh.h>
+
 #include "gear_mesh.hpp"
 #include "gearmesh/gearmesh.h"
 #include "tooth_compliance.hpp"
@@ -385,6 +387,88 @@ TEST(GearMesh, RingVolumeFlanksRim) {
   bad.outer_radius = 0.5 * G.g.gear[1].d_f - 1e-4;
   EXPECT_EQ(gm::mesh::build_gear_body(G.p, G.g, 1, bad, m, msg), GM_ERR_PARAMETER);
   EXPECT_NE(msg.find("outer_radius"), std::string::npos) << msg;
+}
+
+// User-supplied mesh: a generated mesh written with gmsh and read back gives the same nodes,
+// clamped and flank sets and volume; a missing file, a TET4 file and a mesh of another gear are
+// refused with messages naming the file and the problem.
+TEST(GearMesh, MeshFileRoundTripAndRefusals) {
+  const Gear G = small_gear();
+  gm::mesh::GearBodyOptions o;
+  o.bore_radius = 0.008;
+  o.elements_along_profile = 4;
+  o.elements_across_width = 2;
+  const auto m = mesh_of(G, o);
+  const std::string path = ::testing::TempDir() + "gm_gear_mesh_test.msh";
+  std::string msg;
+  ASSERT_EQ(gm::mesh::write_gear_body_msh(m, path, msg), GM_OK) << msg;
+  gm::mesh::GearBodyOptions r;
+  r.mesh_file = path;
+  gm::mesh::GearBodyMesh back;
+  ASSERT_EQ(gm::mesh::build_gear_body(G.p, G.g, 0, r, back, msg), GM_OK) << msg;
+  ASSERT_EQ(back.nodes.size(), m.nodes.size());
+  EXPECT_EQ(back.tets, m.tets);
+  double dx = 0;
+  for (size_t i = 0; i < m.nodes.size(); ++i) dx = std::max(dx, (back.nodes[i] - m.nodes[i]).norm());
+  EXPECT_LT(dx, 1e-12);
+  EXPECT_EQ(back.clamped_nodes, m.clamped_nodes);
+  EXPECT_NEAR(back.clamped_radius, 0.008, 1e-9);
+  EXPECT_NEAR(gm::mesh::tet10_volume(back.nodes, back.tets), gm::mesh::tet10_volume(m.nodes, m.tets), 1e-15);
+  ASSERT_EQ(back.flanks.size(), m.flanks.size());
+  for (size_t k = 0; k < m.flanks.size(); ++k)
+    for (int f = 0; f < 2; ++f) {
+      std::vector<int> a, b;
+      for (const auto& fn : m.flanks[k][f]) a.push_back(fn.node);
+      for (const auto& fn : back.flanks[k][f]) b.push_back(fn.node);
+      std::sort(a.begin(), a.end());
+      std::sort(b.begin(), b.end());
+      EXPECT_EQ(a, b) << "tooth " << k << " flank " << f;
+    }
+  // A mesh of another gear (profile shift 0.3 instead of 0): refused.
+  Gear other = small_gear();
+  other.p.gear[0].profile_shift = 0.3;
+  other.p.pair.center_distance += 0.0006;
+  char buf[512];
+  ASSERT_EQ(gm_compute_geometry(&other.p, &other.g, buf, sizeof buf), GM_OK) << buf;
+  EXPECT_EQ(gm::mesh::build_gear_body(other.p, other.g, 0, r, back, msg), GM_ERR_PARAMETER);
+  std::printf("[mesh file] wrong gear: %s\n", msg.c_str());
+  EXPECT_NE(msg.find(path), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not of this gear"), std::string::npos) << msg;
+  // Missing file.
+  r.mesh_file = path + ".missing.msh";
+  EXPECT_EQ(gm::mesh::build_gear_body(G.p, G.g, 0, r, back, msg), GM_ERR_PARAMETER);
+  EXPECT_NE(msg.find("cannot be opened"), std::string::npos) << msg;
+  // Linear tetrahedra: refused.
+  gm::mesh::GearBodyMesh lin = m;
+  const std::string p4 = ::testing::TempDir() + "gm_gear_mesh_tet4.msh";
+  {
+    gmsh::initialize(0, nullptr, false, false);
+    gmsh::option::setNumber("General.Terminal", 0);
+    gmsh::model::add("tet4");
+    const int v = gmsh::model::addDiscreteEntity(3);
+    std::vector<std::size_t> tags(m.nodes.size());
+    std::vector<double> xyz;
+    for (size_t i = 0; i < m.nodes.size(); ++i) {
+      tags[i] = i + 1;
+      xyz.insert(xyz.end(), {m.nodes[i].x(), m.nodes[i].y(), m.nodes[i].z()});
+    }
+    gmsh::model::mesh::addNodes(3, v, tags, xyz);
+    std::vector<std::size_t> et, nt;
+    for (size_t e = 0; e < m.tets.size(); ++e) {
+      et.push_back(e + 1);
+      for (int a = 0; a < 4; ++a) nt.push_back(m.tets[e][a] + 1);
+    }
+    gmsh::model::mesh::addElementsByType(v, 4, et, nt);
+    gmsh::write(p4);
+    gmsh::finalize();
+  }
+  r.mesh_file = p4;
+  EXPECT_EQ(gm::mesh::build_gear_body(G.p, G.g, 0, r, back, msg), GM_ERR_PARAMETER);
+  std::printf("[mesh file] TET4: %s\n", msg.c_str());
+  EXPECT_NE(msg.find("TET10"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(p4), std::string::npos) << msg;
+  std::remove(path.c_str());
+  std::remove(p4.c_str());
 }
 
 }  // namespace

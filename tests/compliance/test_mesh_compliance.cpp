@@ -128,7 +128,7 @@ gm::ctool::BuildOptions ring_options() {
 // tooth, so their line-load compliances (same rim thickness t = 3 m behind the root circle:
 // external bore r_f - t, ring rim r_f + t) must approach each other.
 TEST(MeshCompliance, RingToothApproachesExternalToothAtLargeZ) {
-  const int ns[2] = {30, 90};
+  const int ns[2] = {45, 135};
   double gap[2] = {0, 0};
   for (int i = 0; i < 2; ++i) {
     const int n = ns[i];
@@ -152,24 +152,33 @@ TEST(MeshCompliance, RingToothApproachesExternalToothAtLargeZ) {
                 "ring/external - 1 = %+.2f %% (nodes %d, %d)\n",
                 n, ring.line, ext.line, 100 * gap[i], ring.stats.nodes, ext.stats.nodes);
   }
-  EXPECT_LT(std::fabs(gap[1]), std::fabs(gap[0]));
-  EXPECT_LT(std::fabs(gap[1]), 0.10);
+  // The finite-|z| difference is of order 1/|z| (curvature of the root circle): tripling |z| must
+  // at least halve it.
+  EXPECT_LT(std::fabs(gap[1]), 0.5 * std::fabs(gap[0]));
 }
 
-// A thin rim (1.5 m behind the root) is more compliant than a thick one (5 m).
-TEST(MeshCompliance, ThinRingRimIsMoreCompliant) {
-  const gm_model_params p = internal_pair(40);
+// The ring is clamped on its outer cylinder, so the rim is the elastic layer between the
+// clamp and the tooth root: the tooth's compliance grows with the rim thickness (1.5, 3, 6 m)
+// and saturates as the clamp moves away (smaller increase for the second step, twice as long).
+// (A thin rim is the more compliant one only when the rim is not clamped all round, e.g. held
+// by a web or a few bolts; that support is not modelled here.)
+TEST(MeshCompliance, RingCompliancePerRimThickness) {
+  const gm_model_params p = internal_pair(60);
   gm_pair_geometry g;
   char buf[512];
   ASSERT_EQ(gm_compute_geometry(&p, &g, buf, sizeof buf), GM_OK) << buf;
-  gm::ctool::BuildOptions o = ring_options();
-  o.mesh.outer_radius = 0.5 * g.gear[1].d_f + 0.003;
-  const Result thin = build(p, 1, o);
-  o.mesh.outer_radius = 0.5 * g.gear[1].d_f + 0.010;
-  const Result thick = build(p, 1, o);
-  std::printf("[ring rim] line-load compliance: rim 1.5 m %.5g, rim 5 m %.5g m^2/N (ratio %.3f)\n",
-              thin.line, thick.line, thin.line / thick.line);
-  EXPECT_GT(thin.line, 1.05 * thick.line);
+  const double t[3] = {0.003, 0.006, 0.012};
+  double c[3];
+  for (int i = 0; i < 3; ++i) {
+    gm::ctool::BuildOptions o = ring_options();
+    o.mesh.outer_radius = 0.5 * g.gear[1].d_f + t[i];
+    c[i] = build(p, 1, o).line;
+  }
+  std::printf("[ring rim] line-load compliance for rims of 1.5, 3, 6 m: %.5g, %.5g, %.5g m^2/N\n",
+              c[0], c[1], c[2]);
+  EXPECT_GT(c[1], c[0]);
+  EXPECT_GT(c[2], c[1]);
+  EXPECT_LT(c[2] - c[1], c[1] - c[0]);
 }
 
 }  // namespace
