@@ -269,12 +269,12 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   stats.dofs = 3 * stats.nodes;
   {
     std::ostringstream s;
-    s << "  " << stats.nodes << " nodes, " << stats.elements << " TET10, " << body.bore_nodes.size()
-      << " bore nodes, " << body.mesh_seconds << " s";
+    s << "  " << stats.nodes << " nodes, " << stats.elements << " TET10, " << body.clamped_nodes.size()
+      << " clamped nodes, " << body.mesh_seconds << " s";
     say(s.str());
   }
-  if (body.flanks.empty() || body.flanks[0][0].empty() || body.bore_nodes.empty()) {
-    msg = "compliance_tool: the mesh has no flank or bore nodes";
+  if (body.flanks.empty() || body.flanks[0][0].empty() || body.clamped_nodes.empty()) {
+    msg = "compliance_tool: the mesh has no flank or clamped nodes";
     return GM_ERR_PARAMETER;
   }
 
@@ -350,7 +350,9 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     const Eigen::Vector3d helix = body.hand * tan_bb / rb * R * e_theta + Eigen::Vector3d::UnitZ();
     Eigen::Vector3d n = tau.cross(helix).normalized();
     if (n.dot(nt) < 0) n = -n;
-    normal[k] = -n;  // inward
+    // Inward, into the tooth material: n points out of the external tooth, and out of the ring's
+    // space, i.e. into the ring's tooth (gear_mesh.hpp: a ring's "tooth" k is space k).
+    normal[k] = body.ring ? n : -n;
   }
 
   // 3. Symmetry and the tooth sets to load.
@@ -495,7 +497,7 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     stats.assembly_seconds = seconds_since(t0);
     say("factorizing (CHOLMOD, " + std::to_string(stats.dofs) + " dofs) ...");
     t0 = Clock::now();
-    fe::Solver solver(K, fe::dofs_of_nodes(body.bore_nodes));
+    fe::Solver solver(K, fe::dofs_of_nodes(body.clamped_nodes));
     stats.factor_seconds = seconds_since(t0);
     {
       std::ostringstream s;
@@ -619,7 +621,7 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
 
   // 6. Header.
   record_gear(out, p, g, gear);
-  out.bore_radius = body.bore_radius;
+  out.bore_radius = body.clamped_radius;
   const int nprof = std::max(1, o.mesh.elements_along_profile);
   out.mesh_size = (roll.back() - roll.front()) / nprof;  // roll length per element along the profile
   out.mesh_order = 2;
@@ -629,7 +631,8 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     std::ostringstream s;
     s << "compliance_tool 1: gear " << gear + 1 << ", gmsh TET10 " << stats.nodes << " nodes "
       << stats.elements << " elements, profile x width elements " << o.mesh.elements_along_profile
-      << " x " << o.mesh.elements_across_width << ", bore clamped r = " << body.bore_radius
+      << " x " << o.mesh.elements_across_width << (body.ring ? ", outer rim" : ", bore")
+      << " clamped r = " << body.clamped_radius
       << " m, E " << gp.youngs_modulus << " Pa nu " << gp.poisson_ratio;
     if (!o.note.empty()) s << "; " << o.note;
     out.note = s.str();

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <stdexcept>
 #include <unordered_map>
@@ -12,6 +13,7 @@
 #include <Eigen/Dense>
 #include <gmsh.h>
 
+#include "geometry.hpp"
 #include "tooth_outline.hpp"
 
 namespace gm::mesh {
@@ -88,6 +90,66 @@ struct Region {
 
 }  // namespace
 
+namespace {
+
+// Geometry shared by the mesher and the mesh-file reader.
+struct BodyGeometry {
+  int z = 0, hand = 0;
+  bool ring = false;
+  double b = 0, m_n = 0, twist_rate = 0;
+  double clamped = 0;  // bore radius (external) or outer rim radius (ring)
+};
+
+gm_status body_geometry(const gm_model_params& p, const gm_pair_geometry& g, int gear,
+                        const GearBodyOptions& o, const ToothOutline& to, BodyGeometry& bg,
+                        GearBodyMesh& out, std::string& msg) {
+  auto fail = [&msg](const std::string& text) {
+    msg = "gear mesher: " + text;
+    return GM_ERR_PARAMETER;
+  };
+  bg.z = p.gear[gear].teeth;
+  bg.ring = to.ring;
+  bg.b = p.gear[gear].face_width;
+  bg.m_n = p.pair.normal_module;
+  const int hand1 = p.pair.helix_angle > 0 ? 1 : (p.pair.helix_angle < 0 ? -1 : 0);
+  bg.hand = gear == 0 ? hand1 : (p.pair.internal ? hand1 : -hand1);
+  bg.twist_rate = std::tan(g.beta_b) / to.base_radius;
+  const double r_f = to.root_radius;
+  if (bg.ring) {
+    if (o.bore_radius > 0 || o.rim_inner_radius > 0 || o.hub_radius > 0 || o.holes > 0 ||
+        o.web_thickness > 0)
+      return fail("bore_radius, rim_inner_radius, hub_radius, web_thickness and holes apply to "
+                  "external gears; an internal ring is clamped on its outer rim (outer_radius)");
+    bg.clamped = o.outer_radius > 0 ? o.outer_radius : r_f + 3.0 * bg.m_n;
+    if (!(bg.clamped > r_f))
+      return fail(fmt("outer_radius %g m of the ring must exceed its root radius %g m", bg.clamped, r_f));
+  } else {
+    if (o.outer_radius > 0)
+      return fail("outer_radius applies to internal rings only; an external gear is clamped on its "
+                  "bore (bore_radius)");
+    bg.clamped = o.bore_radius > 0 ? o.bore_radius : 0.4 * r_f;
+    if (!(bg.clamped < r_f))
+      return fail(fmt("bore_radius %g m must be below the root radius %g m", bg.clamped, r_f));
+  }
+  out.teeth = bg.z;
+  out.ring = bg.ring;
+  out.hand = bg.hand;
+  out.face_width = bg.b;
+  out.base_radius = to.base_radius;
+  out.root_radius = r_f;
+  out.form_radius = to.form_radius;
+  out.tip_radius = to.tip_radius;
+  out.clamped_radius = bg.clamped;
+  out.eta_b = to.eta_b;
+  out.twist_rate = bg.twist_rate;
+  return GM_OK;
+}
+
+gm_status read_mesh_file(const GearBodyOptions& o, const BodyGeometry& bg, GearBodyMesh& out,
+                         std::string& msg);
+
+}  // namespace
+
 gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, int gear,
                           const GearBodyOptions& o, GearBodyMesh& out, std::string& msg) {
   out = GearBodyMesh{};
@@ -101,21 +163,28 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
   if (o.elements_along_profile < 1 || o.elements_across_width < 1 || o.elements_in_fillet < 1 ||
       o.elements_on_tip < 0)
     return fail("element counts must be >= 1");
+  if (!(o.size_growth > 0) || !std::isfinite(o.size_growth))
+    return fail(fmt("size_growth %g must be > 0", o.size_growth));
+  if (o.body_size < 0 || o.fine_depth < 0 || o.mesh_tolerance < 0)
+    return fail("body_size, fine_depth and mesh_tolerance must be >= 0 (0 = default)");
 
   ToothOutline to;
   const int samples = std::max(8, o.samples_per_piece);
   if (build_tooth_outline(p, g, gear, samples, samples, to, msg) != GM_OK) return GM_ERR_PARAMETER;
-  const ToothSection& s = to.section;
-  const int z = p.gear[gear].teeth;
-  const double b = p.gear[gear].face_width, m_n = p.pair.normal_module;
-  const int hand1 = p.pair.helix_angle > 0 ? 1 : (p.pair.helix_angle < 0 ? -1 : 0);
-  const int hand = gear == 0 ? hand1 : (p.pair.internal ? hand1 : -hand1);
-  const double twist_rate = std::tan(g.beta_b) / s.base_radius;
-
-  const double r_f = s.root_radius;
-  const double bore = o.bore_radius > 0 ? o.bore_radius : 0.4 * r_f;
-  const bool has_web = o.rim_inner_radius > 0;
-  if (!(bore < r_f)) return fail(fmt("bore_radius %g m must be below the root radius %g m", bore, r_f));
+  BodyGeometry bg;
+  if (body_geometry(p, g, gear, o, to, bg, out, msg) != GM_OK) return GM_ERR_PARAMETER;
+  if (!o.mesh_file.empty()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const gm_status st = read_mesh_file(o, bg, out, msg);
+    out.mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return st;
+  }
+  const int z = bg.z, hand = bg.hand;
+  const bool ring = bg.ring;
+  const double b = bg.b, m_n = bg.m_n, twist_rate = bg.twist_rate;
+  const double r_f = to.root_radius;
+  const double bore = bg.clamped;  // external gears
+  const bool has_web = !ring && o.rim_inner_radius > 0;
   if (has_web && !(bore < o.hub_radius && o.hub_radius < o.rim_inner_radius && o.rim_inner_radius < r_f))
     return fail(fmt("rim and web need bore_radius < hub_radius < rim_inner_radius < root radius "
                     "(%g, %g, root %g m)",
@@ -147,16 +216,16 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
   }
   const int stages = static_cast<int>(zs.size()) - 1;
 
-  out.teeth = z;
-  out.hand = hand;
-  out.face_width = b;
-  out.base_radius = s.base_radius;
-  out.root_radius = r_f;
-  out.form_radius = s.form_radius;
-  out.tip_radius = s.tip_radius;
-  out.bore_radius = bore;
-  out.eta_b = s.eta_b;
-  out.twist_rate = twist_rate;
+  if (o.far_elements_along_profile < 1 || o.far_elements_in_fillet < 1)
+    return fail("far_elements_along_profile and far_elements_in_fillet must be >= 1");
+  const bool all_fine = o.fine_teeth < 0 || 2 * o.fine_teeth + 1 >= z;
+  auto is_fine = [&](int k) { return all_fine || std::min(k, z - k) <= o.fine_teeth; };
+  const double h_t = polyline_length(to.involute) / o.elements_along_profile;
+  const double h_c = all_fine ? h_t : polyline_length(to.involute) / o.far_elements_along_profile;
+  const double sector = all_fine ? kPi : (o.fine_teeth + 0.5) * 2.0 * kPi / z;
+  const double h_b = o.body_size > 0 ? o.body_size : 2.0 * m_n;
+  const double fine = o.fine_depth > 0 ? o.fine_depth : 1.0 * m_n;
+  out.profile_size = h_t;
 
   const auto t_start = std::chrono::steady_clock::now();
   try {
@@ -164,13 +233,38 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
     gmsh::model::add("gear_body");
     gmsh::option::setNumber("General.NumThreads", std::max(1, o.threads));
     gmsh::option::setNumber("Mesh.Algorithm", 6);
+    // Quadratic elements whose curved edges (on the fillets, where big elements meet the curved
+    // outline) would invert are repaired by gmsh's high-order optimization (it moves interior
+    // high-order nodes of the invalid elements' neighbourhood only).
+    gmsh::option::setNumber("Mesh.HighOrderOptimize", 1);
     gmsh::option::setNumber("Mesh.MeshSizeFromCurvature", 0);
-    gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 1);
+    gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 0);
     gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 1);
     gmsh::option::setNumber("Mesh.ElementOrder", 2);
     gmsh::option::setNumber("Mesh.SecondOrderLinear", 0);
-    gmsh::option::setNumber("Mesh.HighOrderOptimize", 0);
     gmsh::option::setNumber("Mesh.RandomSeed", 1);
+    // Size field (see the header): radial, fine on the teeth and a band below the root circle.
+    const double growth = o.size_growth;
+    const double rot_sec = -hand * twist_rate * 0.5 * b;  // the section is meshed at z = -b/2
+    gmsh::model::mesh::setSizeCallback(
+        [=](int, int, double x, double y, double, double lc) {
+          const double R = std::hypot(x, y);
+          const double below = std::max(0.0, ring ? R - (r_f + fine) : (r_f - fine) - R);
+          // Distance to the fine region F (see the header).
+          const double th = std::remainder(std::atan2(y, x) - rot_sec, 2.0 * kPi);
+          double d = below;
+          if (std::fabs(th) > sector) {
+            const Eigen::Vector2d e(std::cos(rot_sec + std::copysign(sector, th)),
+                                    std::sin(rot_sec + std::copysign(sector, th)));
+            const Eigen::Vector2d X(x, y);
+            const double t = ring ? std::clamp(X.dot(e), 0.0, r_f + fine) : std::max(X.dot(e), r_f - fine);
+            d = (X - t * e).norm();
+          }
+          auto ramp = [&](double h0, double dist) {
+            return h_b >= h0 ? std::min(h_b, h0 + growth * dist) : std::max(h_b, h0 - growth * dist);
+          };
+          return std::min(lc, std::min(ramp(h_t, d), ramp(h_c, below)));
+        });
 
     namespace geo = gmsh::model::geo;
     Builder B;
@@ -178,85 +272,110 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
     B.centre = geo::addPoint(0, 0, B.z0);
     const double rot0 = -hand * twist_rate * 0.5 * b;  // section at z = -b/2
 
-    const double h_t = polyline_length(to.involute) / o.elements_along_profile;
-    const double h_b = o.body_size > 0 ? o.body_size : 1.5 * m_n;
-
-    // The tooth outline, all teeth, counter-clockwise.
-    std::vector<int> outline;
+    // The outline, all teeth (ring: spaces), counter-clockwise. Per tooth five curves, then the
+    // arc to the next tooth: external [fillet B, involute B, tip arc, involute A, fillet A] +
+    // root arc; ring [involute B, fillet B, root arc, fillet A, involute A] + tip arc.
+    std::vector<int> loop;
     std::vector<std::array<int, 2>> involute_curve(z);  // [A, B] per tooth
     auto place = [&](const Eigen::Vector2d& v, double a, bool flank_b) {
       return rot(flank_b ? Eigen::Vector2d(v.x(), -v.y()) : v, a);
     };
-    std::vector<int> root_b(z), root_a(z);
-    std::vector<int> first_root_b(1);
-    const double tip_land = 2.0 * to.tip_half_angle * s.tip_radius;
-    const int n_tip = o.elements_on_tip > 0 ? o.elements_on_tip
-                                            : std::max(1, static_cast<int>(std::lround(tip_land / h_t)));
+    const double tip_land = 2.0 * (ring ? kPi / z - to.tip_half_angle : to.tip_half_angle) * to.tip_radius;
+    const double root_land = 2.0 * (ring ? to.root_half_angle : kPi / z - to.root_half_angle) * r_f;
+    auto n_tip = [&](double h) {
+      return o.elements_on_tip > 0 ? o.elements_on_tip
+                                   : std::max(1, static_cast<int>(std::lround(tip_land / h)));
+    };
+    auto n_root = [&](double h) { return std::max(1, static_cast<int>(std::lround(root_land / h))); };
+    std::vector<int> first_pt(z), last_pt(z);
     for (int k = 0; k < z; ++k) {
       const double a = rot0 + 2.0 * kPi * k / z;
-      auto spline = [&](const std::vector<Eigen::Vector2d>& pts, bool flank_b, bool reverse,
-                        int first, int last) {
+      const bool fk = is_fine(k);
+      const int n_prof = fk ? o.elements_along_profile : o.far_elements_along_profile;
+      const int n_fil = fk ? o.elements_in_fillet : o.far_elements_in_fillet;
+      const double hk = fk ? h_t : h_c;
+      // A spline through pts (reversed if asked), reusing the point tag `first` as its start.
+      auto spline = [&](const std::vector<Eigen::Vector2d>& pts, bool flank_b, bool reverse, int first) {
         std::vector<int> tags;
         const int n = static_cast<int>(pts.size());
         for (int i = 0; i < n; ++i) {
           const int j = reverse ? n - 1 - i : i;
           if (i == 0 && first) tags.push_back(first);
-          else if (i == n - 1 && last) tags.push_back(last);
           else tags.push_back(B.point(place(pts[j], a, flank_b), h_t));
         }
         return std::make_pair(geo::addSpline(tags), tags);
       };
-      // Flank B: fillet (root -> form), involute (form -> tip).
-      auto fb = spline(to.fillet, true, false, 0, 0);
-      auto ib = spline(to.involute, true, false, fb.second.back(), 0);
-      // Flank A: involute (tip -> form), fillet (form -> root).
-      auto ia = spline(to.involute, false, true, 0, 0);
-      auto fa = spline(to.fillet, false, true, ia.second.back(), 0);
-      const int tip = geo::addCircleArc(ib.second.back(), B.centre, ia.second.front());
-      root_b[k] = fb.second.front();
-      root_a[k] = fa.second.back();
-      outline.insert(outline.end(), {fb.first, ib.first, tip, ia.first, fa.first});
-      involute_curve[k] = {ia.first, ib.first};
-      geo::mesh::setTransfiniteCurve(fb.first, o.elements_in_fillet + 1);
-      geo::mesh::setTransfiniteCurve(fa.first, o.elements_in_fillet + 1);
-      geo::mesh::setTransfiniteCurve(ib.first, o.elements_along_profile + 1);
-      geo::mesh::setTransfiniteCurve(ia.first, o.elements_along_profile + 1);
-      geo::mesh::setTransfiniteCurve(tip, n_tip + 1);
+      if (!ring) {
+        auto fb = spline(to.fillet, true, false, 0);                   // root -> form
+        auto ib = spline(to.involute, true, false, fb.second.back());  // form -> tip
+        auto ia = spline(to.involute, false, true, 0);                 // tip -> form
+        auto fa = spline(to.fillet, false, true, ia.second.back());    // form -> root
+        const int tip = geo::addCircleArc(ib.second.back(), B.centre, ia.second.front());
+        loop.insert(loop.end(), {fb.first, ib.first, tip, ia.first, fa.first, 0});
+        involute_curve[k] = {ia.first, ib.first};
+        first_pt[k] = fb.second.front();
+        last_pt[k] = fa.second.back();
+        geo::mesh::setTransfiniteCurve(fb.first, n_fil + 1);
+        geo::mesh::setTransfiniteCurve(fa.first, n_fil + 1);
+        geo::mesh::setTransfiniteCurve(ib.first, n_prof + 1);
+        geo::mesh::setTransfiniteCurve(ia.first, n_prof + 1);
+        geo::mesh::setTransfiniteCurve(tip, n_tip(hk) + 1);
+      } else {
+        auto ib = spline(to.involute, true, true, 0);                  // tip -> form
+        auto fb = spline(to.fillet, true, true, ib.second.back());     // form -> root
+        auto fa = spline(to.fillet, false, false, 0);                  // root -> form
+        auto ia = spline(to.involute, false, false, fa.second.back()); // form -> tip
+        const int root = geo::addCircleArc(fb.second.back(), B.centre, fa.second.front());
+        loop.insert(loop.end(), {ib.first, fb.first, root, fa.first, ia.first, 0});
+        involute_curve[k] = {ia.first, ib.first};
+        first_pt[k] = ib.second.front();
+        last_pt[k] = ia.second.back();
+        geo::mesh::setTransfiniteCurve(fb.first, n_fil + 1);
+        geo::mesh::setTransfiniteCurve(fa.first, n_fil + 1);
+        geo::mesh::setTransfiniteCurve(ib.first, n_prof + 1);
+        geo::mesh::setTransfiniteCurve(ia.first, n_prof + 1);
+        geo::mesh::setTransfiniteCurve(root, n_root(hk) + 1);
+      }
     }
-    // Root arcs from flank A's root of tooth k to flank B's root of tooth k+1, inserted after
-    // tooth k's five curves.
-    std::vector<int> loop;
-    const double root_land = (2.0 * kPi / z - 2.0 * to.root_half_angle) * r_f;
-    const int n_root = std::max(1, static_cast<int>(std::lround(root_land / h_t)));
+    // The arcs between neighbouring teeth (external: root arcs; ring: tip arcs).
     for (int k = 0; k < z; ++k) {
-      loop.insert(loop.end(), outline.begin() + 5 * k, outline.begin() + 5 * k + 5);
-      const int arc = geo::addCircleArc(root_a[k], B.centre, root_b[(k + 1) % z]);
-      geo::mesh::setTransfiniteCurve(arc, n_root + 1);
-      loop.push_back(arc);
+      const int arc = geo::addCircleArc(last_pt[k], B.centre, first_pt[(k + 1) % z]);
+      const double h = is_fine(k) || is_fine((k + 1) % z) ? h_t : h_c;
+      geo::mesh::setTransfiniteCurve(arc, (ring ? n_tip(h) : n_root(h)) + 1);
+      loop[6 * k + 5] = arc;
+    }
+
+    // A hole's loop runs clockwise: reversed as given, gmsh would reverse it itself and the
+    // lateral surfaces of the extrusion would then come in the reversed curve order.
+    if (ring) {
+      std::reverse(loop.begin(), loop.end());
+      for (int& c : loop) c = -c;
     }
 
     // Regions.
     std::vector<Region> regions;
-    const std::vector<int> bore_c = B.circle(bore, std::min(h_b, 2.0 * kPi * bore / 24.0));
+    const std::vector<int> clamp_c = B.circle(bore, std::min(h_b, 2.0 * kPi * bore / 24.0));
     std::vector<std::vector<int>> holes;
     for (int h = 0; h < o.holes; ++h) {
       const double ah = rot0 + 2.0 * kPi * h / o.holes;
       holes.push_back(B.circle_at({o.hole_circle_radius * std::cos(ah), o.hole_circle_radius * std::sin(ah)},
                                   o.hole_radius, std::min(h_b, 2.0 * kPi * o.hole_radius / 12.0)));
     }
-    int web_region = -1, outer_region = 0, bore_region = 0;
-    if (has_web) {
+    int web_region = -1, outer_region = 0, clamp_region = 0;
+    if (ring) {
+      regions.push_back({{clamp_c, loop}, 0});
+    } else if (has_web) {
       const std::vector<int> rim_c = B.circle(o.rim_inner_radius, std::min(h_b, 2.0 * kPi * o.rim_inner_radius / 24.0));
       const std::vector<int> hub_c = B.circle(o.hub_radius, std::min(h_b, 2.0 * kPi * o.hub_radius / 24.0));
       regions.push_back({{loop, rim_c}, 0});
       Region web{{rim_c, hub_c}, 0};
       for (const auto& hl : holes) web.loops.push_back(hl);
       regions.push_back(web);
-      regions.push_back({{hub_c, bore_c}, 0});
+      regions.push_back({{hub_c, clamp_c}, 0});
       web_region = 1;
-      bore_region = 2;
+      clamp_region = 2;
     } else {
-      Region disc{{loop, bore_c}, 0};
+      Region disc{{loop, clamp_c}, 0};
       for (const auto& hl : holes) disc.loops.push_back(hl);
       regions.push_back(disc);
     }
@@ -302,6 +421,25 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
       geo::remove(d, false);
     }
     geo::synchronize();
+    // Which lateral surface belongs to which section curve: gmsh may start or orient a loop
+    // differently from the order given, so match them by their boundary (the section curve is an
+    // edge of its first-stage lateral; later stages follow in the same order).
+    for (size_t r = 0; r < regions.size(); ++r) {
+      const std::vector<int> curves = regions[r].curves();
+      std::map<int, size_t> owner;  // section curve -> position in laterals[r]
+      for (size_t j = 0; j < laterals[r].size(); ++j) {
+        gmsh::vectorpair bnd;
+        gmsh::model::getBoundary({{2, laterals[r][j][0]}}, bnd, false, false, false);
+        for (const auto& d : bnd) owner[std::abs(d.second)] = j;
+      }
+      std::vector<std::vector<int>> sorted(curves.size());
+      for (size_t c = 0; c < curves.size(); ++c) {
+        const auto it = owner.find(std::abs(curves[c]));
+        if (it == owner.end()) throw std::runtime_error("a section curve has no lateral surface");
+        sorted[c] = laterals[r][it->second];
+      }
+      laterals[r] = std::move(sorted);
+    }
     gmsh::model::mesh::generate(3);
     gmsh::model::mesh::setOrder(2);
 
@@ -347,21 +485,21 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
       ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
       return ids;
     };
-    // Bore: the laterals of the bore circle's arcs (the last loop of its region before holes).
+    // Clamped surface: the laterals of the bore (ring: rim) circle's arcs.
     {
-      const std::vector<int> curves = regions[bore_region].curves();
+      const std::vector<int> curves = regions[clamp_region].curves();
       std::vector<int> surf;
       for (size_t c = 0; c < curves.size(); ++c)
-        if (std::find(bore_c.begin(), bore_c.end(), curves[c]) != bore_c.end())
-          surf.insert(surf.end(), laterals[bore_region][c].begin(), laterals[bore_region][c].end());
-      out.bore_nodes = surface_nodes(surf);
+        if (std::find(clamp_c.begin(), clamp_c.end(), std::abs(curves[c])) != clamp_c.end())
+          surf.insert(surf.end(), laterals[clamp_region][c].begin(), laterals[clamp_region][c].end());
+      out.clamped_nodes = surface_nodes(surf);
     }
     // Flanks.
     out.flanks.resize(z);
     {
       const std::vector<int> curves = regions[outer_region].curves();
       std::map<int, size_t> curve_pos;
-      for (size_t c = 0; c < curves.size(); ++c) curve_pos[curves[c]] = c;
+      for (size_t c = 0; c < curves.size(); ++c) curve_pos[std::abs(curves[c])] = c;
       for (int k = 0; k < z; ++k)
         for (int f = 0; f < 2; ++f) {
           const std::vector<int> ids =
@@ -371,7 +509,7 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
             const double R = std::hypot(x.x(), x.y());
             FlankNode fn;
             fn.node = id;
-            fn.roll = std::sqrt(std::max(0.0, R * R - s.base_radius * s.base_radius));
+            fn.roll = std::sqrt(std::max(0.0, R * R - to.base_radius * to.base_radius));
             fn.face = x.z();
             out.flanks[k][f].push_back(fn);
           }
@@ -412,6 +550,212 @@ double tet10_volume(const std::vector<Eigen::Vector3d>& nodes,
       V += q.w * J.determinant();
     }
   return V;
+}
+
+namespace {
+
+// Nodes and TET10 elements of the current gmsh model (all entities), nodes in tag order.
+void collect_tet10(GearBodyMesh& out) {
+  std::vector<std::size_t> ntags;
+  std::vector<double> coord, param;
+  gmsh::model::mesh::getNodes(ntags, coord, param, -1, -1, true, false);
+  std::unordered_map<std::size_t, size_t> where;
+  for (size_t i = 0; i < ntags.size(); ++i) where[ntags[i]] = i;
+  std::vector<std::size_t> et, conn;
+  gmsh::model::mesh::getElementsByType(kTet10, et, conn, -1);
+  std::vector<std::size_t> used(conn);
+  std::sort(used.begin(), used.end());
+  used.erase(std::unique(used.begin(), used.end()), used.end());
+  std::unordered_map<std::size_t, int> index;
+  for (size_t i = 0; i < used.size(); ++i) {
+    index[used[i]] = static_cast<int>(i);
+    const size_t j = where.at(used[i]);
+    out.nodes.emplace_back(coord[3 * j], coord[3 * j + 1], coord[3 * j + 2]);
+  }
+  out.tets.resize(conn.size() / 10);
+  for (size_t e = 0; e < out.tets.size(); ++e)
+    for (int a = 0; a < 10; ++a) out.tets[e][a] = index.at(conn[10 * e + a]);
+}
+
+// Nodes on faces that belong to one tetrahedron only (corner and mid-edge nodes).
+std::vector<char> boundary_nodes(const GearBodyMesh& m) {
+  // Faces of a TET10 in gmsh order: corners and the mid-edge nodes of their edges.
+  static const int face[4][6] = {{0, 1, 2, 4, 5, 6}, {0, 1, 3, 4, 9, 7}, {0, 2, 3, 6, 8, 7},
+                                 {1, 2, 3, 5, 8, 9}};
+  std::vector<std::array<int, 5>> f;  // sorted corners, tet, face
+  f.reserve(4 * m.tets.size());
+  for (size_t e = 0; e < m.tets.size(); ++e)
+    for (int k = 0; k < 4; ++k) {
+      std::array<int, 3> c = {m.tets[e][face[k][0]], m.tets[e][face[k][1]], m.tets[e][face[k][2]]};
+      std::sort(c.begin(), c.end());
+      f.push_back({c[0], c[1], c[2], static_cast<int>(e), k});
+    }
+  std::sort(f.begin(), f.end());
+  std::vector<char> on(m.nodes.size(), 0);
+  for (size_t i = 0; i < f.size();) {
+    size_t j = i + 1;
+    while (j < f.size() && f[j][0] == f[i][0] && f[j][1] == f[i][1] && f[j][2] == f[i][2]) ++j;
+    if (j - i == 1)
+      for (int a = 0; a < 6; ++a) on[m.tets[f[i][3]][face[f[i][4]][a]]] = 1;
+    i = j;
+  }
+  return on;
+}
+
+gm_status read_mesh_file(const GearBodyOptions& o, const BodyGeometry& bg, GearBodyMesh& out,
+                         std::string& msg) {
+  const std::string& path = o.mesh_file;
+  auto fail = [&](const std::string& text) {
+    msg = "gear mesher: mesh file '" + path + "': " + text;
+    out.nodes.clear();
+    out.tets.clear();
+    out.clamped_nodes.clear();
+    out.flanks.clear();
+    return GM_ERR_PARAMETER;
+  };
+  if (!std::ifstream(path).good()) return fail("cannot be opened (missing or unreadable)");
+  try {
+    GmshSession session;
+    gmsh::open(path);
+    std::vector<int> types;
+    gmsh::model::mesh::getElementTypes(types, 3);
+    if (types.empty()) return fail("holds no volume elements; TET10 (gmsh element type 11) expected");
+    for (int t : types)
+      if (t != kTet10) {
+        std::string name;
+        int dim = 0, order = 0, nn = 0, np = 0;
+        std::vector<double> lc;
+        gmsh::model::mesh::getElementProperties(t, name, dim, order, nn, lc, np);
+        return fail("holds volume elements of type '" + name +
+                    "'; only quadratic tetrahedra TET10 (gmsh element type 11) are accepted");
+      }
+    collect_tet10(out);
+  } catch (const std::exception& e) {
+    return fail(std::string("gmsh cannot read it: ") + e.what());
+  }
+  if (out.tets.empty()) return fail("holds no TET10 elements");
+  const double tol = o.mesh_tolerance > 0 ? o.mesh_tolerance : 1e-3 * bg.m_n;
+  const double b = bg.b;
+  double zmin = 1e300, zmax = -1e300, rmin = 1e300, rmax = 0;
+  for (const auto& x : out.nodes) {
+    zmin = std::min(zmin, x.z());
+    zmax = std::max(zmax, x.z());
+    const double R = std::hypot(x.x(), x.y());
+    rmin = std::min(rmin, R);
+    rmax = std::max(rmax, R);
+  }
+  if (std::fabs(zmin + 0.5 * b) > tol || std::fabs(zmax - 0.5 * b) > tol)
+    return fail(fmt("spans z = %g .. %g m; the body frame puts the face width at -b/2 .. +b/2 = "
+                    "+-%g m (mesh in metres, z = 0 at mid-face)",
+                    zmin, zmax, 0.5 * b));
+  // Clamped surface: the innermost (bore) or, for a ring, the outermost cylinder.
+  const double rc = bg.ring ? rmax : rmin;
+  const double given = bg.ring ? o.outer_radius : o.bore_radius;
+  if (given > 0 && std::fabs(given - rc) > tol)
+    return fail(fmt(bg.ring ? "its outer rim has radius %g m, not the outer_radius %g m given"
+                            : "its bore has radius %g m, not the bore_radius %g m given",
+                    rc, given));
+  if (bg.ring ? !(rc > out.root_radius) : !(rc < out.root_radius))
+    return fail(fmt(bg.ring ? "its outermost cylinder (radius %g m) is not outside the ring's root "
+                              "circle (radius %g m)"
+                            : "its innermost cylinder (radius %g m) is not inside the root circle "
+                              "(radius %g m)",
+                    rc, out.root_radius));
+  out.clamped_radius = rc;
+  for (size_t i = 0; i < out.nodes.size(); ++i)
+    if (std::fabs(std::hypot(out.nodes[i].x(), out.nodes[i].y()) - rc) <= tol)
+      out.clamped_nodes.push_back(static_cast<int>(i));
+
+  // Flank nodes: boundary nodes on the involute helicoids (see the header).
+  const std::vector<char> on = boundary_nodes(out);
+  const int z = bg.z;
+  const double rb = out.base_radius, pitch = 2.0 * kPi / z;
+  const double r_lo = std::min(out.form_radius, out.tip_radius), r_hi = std::max(out.form_radius, out.tip_radius);
+  const double margin = 0.02 * bg.m_n;
+  out.flanks.assign(z, {});
+  int off = 0, worst_node = -1;
+  double worst = 0;
+  for (size_t i = 0; i < out.nodes.size(); ++i) {
+    if (!on[i]) continue;
+    const Eigen::Vector3d& x = out.nodes[i];
+    const double R = std::hypot(x.x(), x.y());
+    if (R < r_lo - tol || R > r_hi + tol || R <= rb) continue;
+    const double e = out.eta_b - involute(std::acos(rb / R));
+    const double psi = std::atan2(x.y(), x.x()) - bg.hand * bg.twist_rate * x.z();
+    double best = 1e300;
+    int best_k = 0, best_f = 0;
+    for (int f = 0; f < 2; ++f) {
+      const double u = psi - (f == 0 ? e : -e);  // tooth centre angle if on flank f
+      const double d = std::remainder(u, pitch);
+      if (std::fabs(d) * R < best) {
+        best = std::fabs(d) * R;
+        best_f = f;
+        best_k = static_cast<int>(std::lround((u - d) / pitch)) % z;
+        if (best_k < 0) best_k += z;
+      }
+    }
+    if (best <= tol) {
+      FlankNode fn;
+      fn.node = static_cast<int>(i);
+      fn.roll = std::sqrt(std::max(0.0, R * R - rb * rb));
+      fn.face = x.z();
+      out.flanks[best_k][best_f].push_back(fn);
+    } else if (R > r_lo + margin && R < r_hi - margin && std::fabs(x.z()) < 0.5 * b - tol) {
+      ++off;
+      if (best > worst) worst = best, worst_node = static_cast<int>(i);
+    }
+  }
+  if (off > 0) {
+    const Eigen::Vector3d& x = out.nodes[worst_node];
+    return fail(std::to_string(off) + fmt(" surface node(s) between the form and tip circles lie off "
+                "this gear's involutes (worst %.3g m away, at (%g, %g", worst, x.x(), x.y()) +
+                fmt(", %g) m; tolerance %g m): the mesh is not of this gear (teeth, module, "
+                    "profile shift, helix, or frame differ)", x.z(), tol));
+  }
+  for (int k = 0; k < z; ++k)
+    for (int f = 0; f < 2; ++f)
+      if (out.flanks[k][f].empty())
+        return fail("tooth " + std::to_string(k) + " flank " + (f == 0 ? "A" : "B") +
+                    " has no surface nodes on its involute: the mesh is not of this gear");
+  return GM_OK;
+}
+
+}  // namespace
+
+gm_status write_gear_body_msh(const GearBodyMesh& m, const std::string& path, std::string& msg) {
+  msg.clear();
+  if (path.size() < 4 || path.compare(path.size() - 4, 4, ".msh") != 0) {
+    msg = "gear mesher: '" + path + "': the mesh file name must end in .msh";
+    return GM_ERR_ARGUMENT;
+  }
+  try {
+    GmshSession session;
+    gmsh::model::add("gear_body");
+    const int v = gmsh::model::addDiscreteEntity(3);
+    std::vector<std::size_t> tags(m.nodes.size());
+    std::vector<double> xyz(3 * m.nodes.size());
+    for (size_t i = 0; i < m.nodes.size(); ++i) {
+      tags[i] = i + 1;
+      for (int c = 0; c < 3; ++c) xyz[3 * i + c] = m.nodes[i](c);
+    }
+    gmsh::model::mesh::addNodes(3, v, tags, xyz);
+    std::vector<std::size_t> et(m.tets.size()), nt(10 * m.tets.size());
+    for (size_t e = 0; e < m.tets.size(); ++e) {
+      et[e] = e + 1;
+      for (int a = 0; a < 10; ++a) nt[10 * e + a] = static_cast<std::size_t>(m.tets[e][a]) + 1;
+    }
+    gmsh::model::mesh::addElementsByType(v, kTet10, et, nt);
+    gmsh::option::setNumber("Mesh.MshFileVersion", 4.1);
+    gmsh::write(path);
+  } catch (const std::exception& e) {
+    msg = "gear mesher: writing '" + path + "' failed: " + e.what();
+    return GM_ERR_ARGUMENT;
+  }
+  if (!std::ifstream(path).good()) {
+    msg = "gear mesher: writing '" + path + "' failed";
+    return GM_ERR_ARGUMENT;
+  }
+  return GM_OK;
 }
 
 }  // namespace gm::mesh
