@@ -91,8 +91,11 @@ class Locator {
     for (std::size_t e = 0; e < ne; ++e) {
       Eigen::Vector3d a = m.nodes[m.tets[e][0]], b = a;
       for (int n : m.tets[e]) a = a.cwiseMin(m.nodes[n]), b = b.cwiseMax(m.nodes[n]);
-      lo_[e] = a;
-      hi_[e] = b;
+      // a curved (quadratic) element bulges out of its nodes' bounding box by up to its edges'
+      // sagitta: the box is widened by 5 % of its size
+      const Eigen::Vector3d pad = Eigen::Vector3d::Constant(0.05 * (b - a).maxCoeff());
+      lo_[e] = a - pad;
+      hi_[e] = b + pad;
       glo = glo.cwiseMin(a);
       ghi = ghi.cwiseMax(b);
       mean_size += (b - a).maxCoeff();
@@ -258,10 +261,25 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     return GM_ERR_PARAMETER;
   }
 
+  // Symmetry (decided before meshing: it sets which teeth the mesh must resolve). A body is
+  // cyclic per tooth unless lightening holes break it (symmetry order gcd(z, holes)), a user mesh
+  // (never assumed cyclic) or --every-tooth.
+  const bool user_mesh = !o.mesh.mesh_file.empty();
+  const int sym = user_mesh ? 1 : (o.mesh.holes > 0 ? std::gcd(z, o.mesh.holes) : z);
+  stats.symmetry = sym;
+  const bool cyclic = sym == z && !o.every_tooth;
+  // The mesher resolves the loaded tooth and fine_teeth neighbours each side at the full
+  // element counts (gear_mesh.hpp): a cyclic body loads tooth 0 and reads teeth up to +-n_c, so
+  // it needs fine_teeth >= n_c + 1 (the read teeth and one beyond, so that no read tooth borders
+  // a coarse one); a non-cyclic body loads every distinct tooth, so every tooth is fine.
+  mesh::GearBodyOptions mesh_options = o.mesh;
+  if (!cyclic) mesh_options.fine_teeth = -1;
+  else if (mesh_options.fine_teeth >= 0) mesh_options.fine_teeth = std::max(mesh_options.fine_teeth, nc + 1);
+
   // 1. Mesh.
   say("meshing gear " + std::to_string(gear + 1) + " (z = " + std::to_string(z) + ") with gmsh ...");
   mesh::GearBodyMesh body;
-  gm_status st = mesh::build_gear_body(p, g, gear, o.mesh, body, msg);
+  gm_status st = mesh::build_gear_body(p, g, gear, mesh_options, body, msg);
   if (st != GM_OK) return st;
   stats.mesh_seconds = body.mesh_seconds;
   stats.nodes = int(body.nodes.size());
@@ -356,10 +374,6 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   }
 
   // 3. Symmetry and the tooth sets to load.
-  const bool user_mesh = !mesh_file_of(o.mesh).empty();
-  const int sym = user_mesh ? 1 : (o.mesh.holes > 0 ? std::gcd(z, o.mesh.holes) : z);
-  stats.symmetry = sym;
-  const bool cyclic = sym == z && !o.every_tooth;
   // Distinct teeth 0 .. classes-1 (tooth t ~ t mod classes); every tooth when forced.
   const int classes = cyclic ? 1 : (o.every_tooth ? z : z / sym);
   const bool helical = body.hand != 0;

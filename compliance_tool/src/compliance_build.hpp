@@ -98,37 +98,6 @@ struct BuildStats {
 // (even indices both ways) first, then greedily the point farthest from every loaded one.
 std::vector<int> select_loaded(int n_roll, int n_face, double fraction);
 
-// GearBodyOptions fields that the mesher may or may not have yet (internal ring gears' outer
-// radius, a user-supplied mesh): set them if they exist; false if this build's mesher lacks them.
-template <class T, class = void> struct HasOuterRadius : std::false_type {};
-template <class T>
-struct HasOuterRadius<T, std::void_t<decltype(std::declval<T&>().outer_radius)>> : std::true_type {};
-template <class T, class = void> struct HasMeshFile : std::false_type {};
-template <class T>
-struct HasMeshFile<T, std::void_t<decltype(std::declval<T&>().mesh_file)>> : std::true_type {};
-template <class T> bool set_outer_radius(T& o, double r) {
-  if constexpr (HasOuterRadius<T>::value) {
-    o.outer_radius = r;
-    return true;
-  } else {
-    (void)o, (void)r;
-    return false;
-  }
-}
-template <class T> bool set_mesh_file(T& o, const std::string& f) {
-  if constexpr (HasMeshFile<T>::value) {
-    o.mesh_file = f;
-    return true;
-  } else {
-    (void)o, (void)f;
-    return false;
-  }
-}
-template <class T> std::string mesh_file_of(const T& o) {
-  if constexpr (HasMeshFile<T>::value) return std::string(o.mesh_file);
-  else return (void)o, std::string();
-}
-
 // Compute the database of gear `gear` (0 = gear 1, 1 = gear 2) of p (validated here).
 gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOptions& options,
                               ComplianceDb& out, BuildStats& stats, std::string& msg);

@@ -311,10 +311,8 @@ int main(int argc, char** argv) {
   }
   if (ring && ring_d > 0 && !(ring_d > d_f))
     return misfit("--ring-outer-diameter-mm " + mm(ring_d) + ": allowed above the ring's root diameter " + mm(d_f));
-  if (ring_d > 0 && !gm::ctool::set_outer_radius(o.mesh, 0.5e-3 * ring_d))
-    return misfit("--ring-outer-diameter-mm: this build's gear mesher has no internal ring gears yet");
-  if (!mesh_file.empty() && !gm::ctool::set_mesh_file(o.mesh, mesh_file))
-    return misfit("--mesh: this build's gear mesher cannot read a user-supplied mesh yet");
+  if (ring_d > 0) o.mesh.outer_radius = 0.5e-3 * ring_d;
+  o.mesh.mesh_file = mesh_file;
 
   o.coupled = coupled >= 0 ? coupled : (p.coupled_teeth > 0 ? p.coupled_teeth : 1);
   if (bore_d > 0) o.mesh.bore_radius = 0.5e-3 * bore_d;

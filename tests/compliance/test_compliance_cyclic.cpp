@@ -46,6 +46,9 @@ Pair small12() {
   s.o.mesh.elements_along_profile = 2;
   s.o.mesh.elements_across_width = 2;
   s.o.mesh.elements_in_fillet = 2;
+  // Every tooth at the full element counts in both builds (the every-tooth build needs it and
+  // sets it itself), so that both use the same mesh.
+  s.o.mesh.fine_teeth = -1;
   s.o.depth = 0.5e-3;
   s.o.coupled = 1;
   return s;
@@ -74,11 +77,12 @@ TEST(ComplianceCyclic, EveryToothEqualsTheCyclicShortcut) {
   double cmax = 0;
   for (const auto& B : cyc.blocks)
     for (double v : B) cmax = std::max(cmax, std::fabs(v));
-  // Tooth 0's flank-A set is the cyclic database itself (same mesh, loads and readings).
+  // Tooth 0's flank-A set is the cyclic database itself (same mesh, loads and readings; the
+  // solves run in other right-hand-side batches, so equal to round-off, 1e-9 of the largest).
   for (int d = -nc; d <= nc; ++d)
     for (std::size_t i = 0; i < cyc.blocks[0].size(); ++i)
       ASSERT_NEAR(every.blocks[every.block_index(0, 0, d)][i], cyc.blocks[cyc.block_index(0, 0, d)][i],
-                  1e-12 * cmax);
+                  1e-9 * cmax);
   // Every tooth, both flanks, against the cyclic set (flank B read as the core reads a mirrored
   // cyclic database: flank A's set with d -> -d).
   double worst = 0;
