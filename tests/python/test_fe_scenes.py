@@ -372,8 +372,8 @@ def test_ring_share_against_level_4(ring):
     test: line-load compliance 38 % lower at |z| = 45, the gap shrinking as 1/|z|: about -28 % at
     62), and internal contact is more conformal (smaller local approach). Band [0.35, 0.85]
     (the tooth models agree within 8 %, below). Measured: ring share 2.07 um, external 3.61 um,
-    ratio 0.572. A ring read as rigid (only its Hertz half left), a doubled ring compliance (1.14)
-    or a sign error fall outside. The pinion's part (pinion + its Hertz half): FE 3.40 um against
+    ratio 0.572. A doubled ring compliance (about 1.14) or a sign error (a negative share) falls
+    outside. The pinion's part (pinion + its Hertz half): FE 3.40 um against
     level 4 3.80 um (0.894: FE tooth / level 4 0.923 in the spur test, and a smaller Hertz half
     in conformal contact)."""
     fmus, _ = ring
@@ -470,7 +470,7 @@ def test_helical_against_level_4(helical):
 def test_helical_flank_b_and_axial_force(helical):
     """Reverse torque loads flank B, read through each database's mirror with the face
     reversed: for this symmetric pair its deflection equals flank A's (measured 0.13 % apart;
-    the unreversed face would differ by about 12 %, test_fmu_fe_level). The mesh force's axial
+    on test_fmu_fe_level's synthetic helical database the unreversed face differs by 12.5 %). The mesh force's axial
     part is the helix closed form F_a = F_n sin beta_b with F_n = T / (r_b2 cos beta_b) (moments
     about gear 2's axis, no friction), within 1 % (measured +0.05 %), with the sign of the
     torque, equal and opposite on the two gears."""
