@@ -307,21 +307,28 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   const auto& flank = body.flanks[0][0];
   std::vector<double> rolls;
   for (const auto& f : flank) rolls.push_back(f.roll);
-  // Roll values from the nodes of the first face level (the profile's vertices and mid-edge
-  // nodes); nodes of the mid levels that are midpoints of the layers' diagonals may sit slightly
-  // off these (the quadratic node on a curved surface), they are assigned to the nearest value
-  // and the largest offset is checked below.
-  // Face values likewise from the nodes on the form-circle edge (smallest roll), whose mid-layer
-  // nodes are true mid-edge nodes (a twisted layer's diagonal midpoints are off the mid-plane).
-  const double roll_min = *std::min_element(rolls.begin(), rolls.end());
-  std::vector<double> faces0;
-  for (const auto& f : flank)
-    if (f.roll - roll_min < 1e-6) faces0.push_back(f.face);
-  const std::vector<double> face = cluster(faces0, 1e-6);
+  // Roll values from the nodes of the first face level, the end face z = -b/2: the section
+  // itself, so its profile nodes (vertices and mid-edge nodes) lie exactly on the involute.
+  // Face values from the nodes on the form-circle edge (smallest roll): along a twisted
+  // (helical) layer that edge is a helix whose mid-layer nodes sit on the chord, a little
+  // inside the helix (radial sag R dtheta^2 / 8, about 2 um for 2.5 mm layers at beta 15 deg),
+  // which moves their roll distance by R/rho times that near the form circle: they are taken
+  // within a quarter of the roll spacing. Nodes of the mid levels that are midpoints of the
+  // layers' diagonals likewise sit slightly off the lattice values; every node is assigned to
+  // the nearest value and the largest offset is checked below.
+  const double face_min = std::min_element(flank.begin(), flank.end(), [](const auto& a, const auto& b) {
+                            return a.face < b.face;
+                          })->face;
   std::vector<double> rolls0;
   for (const auto& f : flank)
-    if (std::fabs(f.face - face.front()) < 1e-6) rolls0.push_back(f.roll);
+    if (std::fabs(f.face - face_min) < 1e-6) rolls0.push_back(f.roll);
   const std::vector<double> roll = cluster(rolls0, 1e-6);
+  double roll_step = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 1; i < roll.size(); ++i) roll_step = std::min(roll_step, roll[i] - roll[i - 1]);
+  std::vector<double> faces0;
+  for (const auto& f : flank)
+    if (f.roll - roll.front() < 0.25 * roll_step) faces0.push_back(f.face);
+  const std::vector<double> face = cluster(faces0, 1e-6);
   const int n_roll = int(roll.size()), n_face = int(face.size()), n_grid = n_roll * n_face;
   stats.grid = n_grid;
   if (int(flank.size()) != n_grid || n_grid > int(kComplianceDbMaxGrid)) {

@@ -378,3 +378,24 @@ TEST(ComplianceBuild, LightweightBodyIsMoreCompliantAndCouplesMore) {
 }
 
 }  // namespace
+
+// A helical body with many layers across the face: the form-circle edge is a helix whose
+// mid-layer nodes sit on its chords, off the helix by a few um in roll near the form circle
+// (beta 15 deg, 6 layers over 10 mm); the flank grid must still be recognized as the full
+// n_roll x n_face lattice (it was refused as "not a lattice" with a 1 um tolerance).
+TEST(ComplianceBuild, HelicalFlankGridWithManyLayers) {
+  const Built helical = variant([](Built& b) {
+    b.p.pair.helix_angle = 15 * std::acos(-1.0) / 180;
+    b.p.pair.center_distance = 0.0622;  // a = m_n (z1 + z2) / (2 cos beta) = 62.12 mm, x = 0
+    b.o.mesh.elements_along_profile = 2;
+    b.o.mesh.elements_in_fillet = 1;
+    b.o.mesh.elements_across_width = 6;
+    b.o.coupled = 0;
+  }, "helical 2 x 6");
+  ASSERT_FALSE(helical.db.blocks.empty());
+  EXPECT_EQ(helical.db.roll.size(), 5u);
+  EXPECT_EQ(helical.db.face.size(), 13u);
+  EXPECT_LT(helical.stats.max_roll_offset, 0.25);
+  EXPECT_NEAR(helical.db.face.front(), -0.005, 1e-9);
+  EXPECT_NEAR(helical.db.face.back(), 0.005, 1e-9);
+}
