@@ -73,32 +73,79 @@ const char* local_law_error(const LocalLaw& law) {
 // give A/2 + (r-1)^2 (r+2)/(6 q^4) and (r-1)^2 (2r+1)/(3 q^4), i.e. the forms above. The
 // large-x limit a w^2 [ln(2x)/2 + 1/8 - k/4] matches integrating Weber-Banaschek's form term by
 // term; tests compare f' with finite differences and P with adaptive quadrature of f.
-LocalLawValue evaluate_local_law(const LocalLaw& law, double force) {
-  LocalLawValue v;
-  if (!has_local_law(law)) return v;
-  const double w = force / law.width;
+// and, differentiating once more (dq/dw = q/(2w), dA/dw = -1/(2 w r), dr/dw = q^2/(2 w r)),
+//   d delta/dw = a [A - (1 + k)/(2r)],   d^2 delta/dw^2 = -a (2 + (1 - k) q^2)/(4 w r^3).
+LocalLawKernel local_law_kernel(const LocalLaw& law) {
+  LocalLawKernel kern;
+  if (!has_local_law(law)) return kern;
+  kern.width = law.width;
+  kern.inv_width = 1.0 / law.width;
   const double E_star = reduced_modulus(law.body[0], law.body[1]);
-  const double b = hertz_half_width(w, law.reduced_radius, E_star);
+  kern.b2_per_load = 4.0 * law.reduced_radius / (kPi * E_star);  // b_H^2 = 4 w R'/(pi E*)
+  const HertzBody& b0 = law.body[0];
+  const HertzBody& b1 = law.body[1];
+  const bool same = b0.youngs_modulus == b1.youngs_modulus &&
+                    b0.poisson_ratio == b1.poisson_ratio && b0.depth == b1.depth;
+  kern.terms = same ? 1 : 2;
+  for (int t = 0; t < kern.terms; ++t) {
+    const HertzBody& body = law.body[t];
+    kern.a[t] = (same ? 2.0 : 1.0) * body_compliance(body);
+    kern.k[t] = body.poisson_ratio / (1.0 - body.poisson_ratio);
+    kern.inv_depth[t] = 1.0 / body.depth;
+  }
+  return kern;
+}
+
+LocalLawJet local_law_jet(const LocalLawKernel& kern, double force) {
+  LocalLawJet v;
+  if (kern.terms == 0) return v;
+  const double w = force * kern.inv_width;
+  const double b = std::sqrt(w * kern.b2_per_load);
   if (!(b > 0)) {  // F = 0, or so small that b_H underflows
     v.slope = std::numeric_limits<double>::infinity();
+    v.curvature = -v.slope;
     return v;
   }
-  double slope_w = 0, energy_w = 0;
-  for (const HertzBody& body : law.body) {
-    const double a = body_compliance(body);
-    const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
-    const double q = b / body.depth;
+  double approach_w = 0, slope_w = 0, curvature_ww = 0, energy_ww = 0;
+  for (int t = 0; t < kern.terms; ++t) {
+    const double a = kern.a[t], k = kern.k[t];
+    const double q = b * kern.inv_depth[t];
     const double r = std::sqrt(1.0 + q * q);
     const double r1 = r + 1.0;
-    const double A = std::asinh(1.0 / q);
-    const double bracket = A - k / r1;
-    v.approach += a * w * bracket;
-    slope_w += a * (bracket - (1.0 - k * q * q / (r1 * r1)) / (2.0 * r));
-    energy_w += a * w * w *
-                (0.5 * A + (r + 2.0) / (6.0 * r1 * r1) - k * (2.0 * r + 1.0) / (3.0 * r1 * r1));
+    // asinh(1/q) = ln((1 + r)/q); for q >= 1 (argument <= 1 + sqrt 2) as log1p of
+    // (1 + r)/q - 1 = (1 + r - q)/q with r - q = 1/(r + q), free of cancellation
+    const double A = q < 1.0 ? std::log(r1 / q) : std::log1p((1.0 + 1.0 / (r + q)) / q);
+    const double inv_r1_sq = 1.0 / (r1 * r1);
+    approach_w += a * (A - k / r1);
+    slope_w += a * (A - (1.0 + k) / (2.0 * r));
+    curvature_ww -= a * (2.0 + (1.0 - k) * q * q) / (4.0 * r * r * r);
+    energy_ww += a * (0.5 * A + ((r + 2.0) / 6.0 - k * (2.0 * r + 1.0) / 3.0) * inv_r1_sq);
   }
-  v.slope = slope_w / law.width;    // d/dF = (1/L) d/dw
-  v.energy = energy_w * law.width;  // int dF = L int dw
+  v.approach = approach_w * w;
+  v.slope = slope_w * kern.inv_width;                              // d/dF = (1/L) d/dw
+  v.curvature = curvature_ww / w * kern.inv_width * kern.inv_width;
+  v.energy = energy_ww * w * w * kern.width;                       // int dF = L int dw
+  return v;
+}
+
+double local_law_energy_change(const LocalLawKernel& kern, double force, double step,
+                               const LocalLawJet& at_force, const LocalLawJet& at_end) {
+  if (kern.terms == 0 || step == 0) return 0;
+  // (a force so small that b_H underflows has infinite slopes: closed form, both energies 0)
+  if (std::abs(step) <= 0.125 * force && std::isfinite(at_force.curvature) &&
+      std::isfinite(at_end.curvature))
+    return step * (0.5 * (at_force.approach + at_end.approach) +
+                   step * ((at_force.slope - at_end.slope) / 10.0 +
+                           step * (at_force.curvature + at_end.curvature) / 120.0));
+  return at_end.energy - at_force.energy;
+}
+
+LocalLawValue evaluate_local_law(const LocalLaw& law, double force) {
+  const LocalLawJet j = local_law_jet(local_law_kernel(law), force);
+  LocalLawValue v;
+  v.approach = j.approach;
+  v.slope = j.slope;
+  v.energy = j.energy;
   return v;
 }
 

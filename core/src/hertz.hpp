@@ -65,8 +65,43 @@ const char* local_law_error(const LocalLaw& law);
 inline bool has_local_law(const LocalLaw& law) { return law.width > 0; }
 
 // f, f' and P at force F >= 0 (N). Zero for "no local law". At F = 0 (or F so small that b_H
-// underflows): approach = energy = 0, slope = +inf. Cost: 3 sqrt and 2 asinh.
+// underflows): approach = energy = 0, slope = +inf. Through local_law_jet.
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force);
+
+// The same law prepared for many evaluations (the coupled solver's inner loop): its constants
+// worked out once, and both bodies merged into one term when they are identical (same E, nu and
+// h, the usual case of two steel gears read at the same depth).
+struct LocalLawKernel {
+  double width = 0;         // L, m; 0: no local law
+  double inv_width = 0;     // 1/L, 1/m
+  double b2_per_load = 0;   // b_H^2/w = 4 R'/(pi E*), m^2/(N/m)
+  int terms = 0;            // 0 (no law), 1 (identical bodies, weight 2) or 2
+  double a[2] = {0, 0};     // 2 (1 - nu^2)/(pi E) per term (times 2 for merged bodies), m^2/N
+  double k[2] = {0, 0};     // nu/(1 - nu)
+  double inv_depth[2] = {0, 0};  // 1/h, 1/m
+};
+
+// f, f', f'' and P at one force: what the solver needs from an iterate.
+struct LocalLawJet {
+  double approach = 0;   // f(F), m
+  double slope = 0;      // f'(F), m/N; +inf at F = 0
+  double curvature = 0;  // f''(F), m/N^2 (< 0: f is concave); -inf at F = 0
+  double energy = 0;     // P(F), J
+};
+
+LocalLawKernel local_law_kernel(const LocalLaw& law);
+
+// f, f', f'' and P at F >= 0: the closed forms of evaluate_local_law (which calls this), with
+// asinh(1/q) = ln((1 + r)/q) (log1p of the same where q >= 1, to keep full relative accuracy
+// for b_H >= h). Cost per distinct body: 1 sqrt and 1 log; plus 1 sqrt.
+LocalLawJet local_law_jet(const LocalLawKernel& kernel, double force);
+
+// P(F + s) - P(F) from the jets at both ends (F >= 0, F + s >= 0): the two-point Hermite
+// quadrature with f, f', f'' at both ends (exact for quintics; error s^7 |f^(6)|/100800) when
+// |s| <= F/8, where its relative error is below ~1e-9 and falls like (s/F)^6; the closed-form
+// difference otherwise (its cancellation costs at most ~16 ulps there). No new law evaluation.
+double local_law_energy_change(const LocalLawKernel& kernel, double force, double step,
+                               const LocalLawJet& at_force, const LocalLawJet& at_end);
 
 // f and f' of evaluate_local_law over a scalar type T (the Jacobian: dual numbers carry the
 // derivatives along the law's geometry and the force). F > 0 and a local law required.

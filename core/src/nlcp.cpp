@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Cholesky>
 
 namespace gm {
 
@@ -18,10 +17,6 @@ constexpr double kMinPivotRatio = 1e-12; // L_jj^2/H_jj below this: row j numeri
 constexpr double kSingularPivot = 1e-8;  // |L_jj^2| below this H_jj: singular, not indefinite
 constexpr double kSymmetryTol = 1e-9;    // |C_ij - C_ji| <= this sqrt(C_ii C_jj)
 
-const LocalLaw kNoLaw{};
-
-const LocalLaw& law_of(const LocalLaw* laws, int i) { return laws ? laws[i] : kNoLaw; }
-
 
 }  // namespace
 
@@ -31,7 +26,10 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
       newton_(capacity_, capacity_),
       cf_(capacity_),
       g_(capacity_),
-      f_(capacity_),
+      kernel_(capacity_),
+      jet_(capacity_),
+      trial_jet_(capacity_),
+      floor_(capacity_),
       slope_(capacity_),
       step_(capacity_),
       trial_(capacity_),
@@ -42,7 +40,7 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
       free_(capacity_) {}
 
 const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
-                                Eigen::Ref<Eigen::VectorXd> F, int& index) const {
+                                Eigen::Ref<Eigen::VectorXd> F, int& index) {
   const Eigen::Index n = delta.size();
   index = -1;
   if (n > capacity_) return "more unknowns than the solver's capacity";
@@ -54,7 +52,8 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
     if (!C.col(i).allFinite()) return "compliance matrix C is not finite";
     if (!(C(i, i) > 0))
       return "compliance matrix C: diagonal entry <= 0 (C must be positive definite)";
-    if (const char* err = local_law_error(law_of(laws, i))) return err;
+    if (laws)
+      if (const char* err = local_law_error(laws[i])) return err;
   }
   for (int i = 0; i < n; ++i) {
     index = i;
@@ -67,63 +66,98 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
   index = -1;
   for (int i = 0; i < n; ++i)  // the warm start: anything but a finite F >= 0 counts as 0
     if (!(F[i] > 0) || !std::isfinite(F[i])) F[i] = 0;
+  for (int i = 0; i < n; ++i) kernel_[i] = laws ? local_law_kernel(laws[i]) : LocalLawKernel{};
+  floor_.head(n).setConstant(std::numeric_limits<double>::quiet_NaN());
   return nullptr;
 }
 
-// Fills f_, slope_ (floored), C F, g and phi_ = Phi(F) for F; returns the KKT residual
-// ||min(diag(C) F, g)||_inf.
-double NlcpSolver::evaluate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+// f'(F) for the Newton matrix: at F >= min_line_load L the law's own slope (in jet_[i]), below
+// it the slope at that floor (finite; worked out once per solve).
+double NlcpSolver::newton_slope(int i, double force) {
+  const LocalLawKernel& kern = kernel_[i];
+  if (force >= options_.min_line_load * kern.width) return jet_[i].slope;
+  if (std::isnan(floor_[i])) floor_[i] = local_law_jet(kern, options_.min_line_load * kern.width).slope;
+  return floor_[i];
+}
+
+// Fills jet_ (the laws at F), slope_ (floored), C F, g and phi_ = Phi(F) for F; returns the KKT
+// residual ||min(diag(C) F, g)||_inf.
+double NlcpSolver::evaluate(const ConstMat& C, const ConstVec& delta,
                             const Eigen::Ref<const Eigen::VectorXd>& F) {
   const Eigen::Index n = delta.size();
   cf_.head(n).noalias() = C * F;
   double residual = 0, energy = 0;
   for (int i = 0; i < n; ++i) {
-    const LocalLaw& law = law_of(laws, i);
-    const LocalLawValue v = evaluate_local_law(law, F[i]);
-    f_[i] = v.approach;
-    energy += v.energy;
-    slope_[i] = F[i] >= options_.min_line_load * law.width
-                    ? v.slope
-                    : local_law_newton_slope(law, F[i], options_.min_line_load);
-    g_[i] = cf_[i] + f_[i] - delta[i];  // paper eq. 1
+    jet_[i] = local_law_jet(kernel_[i], F[i]);
+    energy += jet_[i].energy;
+    slope_[i] = newton_slope(i, F[i]);
+    g_[i] = cf_[i] + jet_[i].approach - delta[i];  // paper eq. 1
     residual = std::max(residual, std::abs(std::min(C(i, i) * F[i], g_[i])));
   }
   phi_ = 0.5 * F.dot(cf_.head(n)) + energy - delta.dot(F);  // PHYSICS.md section 6
   return residual;
 }
 
-// LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in newton_ (the decomposition
-// object is a view on the preallocated storage, so nothing is allocated), then rhs_[0..m) <-
-// H_JJ^-1 rhs_[0..m). A pivot with L_jj^2 < kMinPivotRatio H_jj counts as singular.
+// After F += trial_ (the accepted step): the same as evaluate, from what the line search
+// computed at that point (trial_jet_, C trial_), without evaluating a law or C F again. phi_ is
+// left as it was (it is only needed for the warm start test).
+double NlcpSolver::accept_trial(const ConstMat& C, const ConstVec& delta,
+                                const Eigen::Ref<const Eigen::VectorXd>& F) {
+  const Eigen::Index n = delta.size();
+  cf_.head(n) += c_trial_.head(n);
+  double residual = 0;
+  for (int i = 0; i < n; ++i) {
+    if (trial_[i] != 0) jet_[i] = trial_jet_[i];
+    slope_[i] = newton_slope(i, F[i]);
+    g_[i] = cf_[i] + jet_[i].approach - delta[i];  // paper eq. 1
+    residual = std::max(residual, std::abs(std::min(C(i, i) * F[i], g_[i])));
+  }
+  return residual;
+}
+
+// LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in the lower triangle of
+// newton_, then rhs_[0..m) <- H_JJ^-1 rhs_[0..m). Plain loops over the contiguous columns: at
+// the sizes of a mesh (m ~ 10..100) Eigen's LLT on a dynamic block spends most of its time in
+// per-column dispatch (measured: ~5x the instructions at m = 19). The pivot of column k is the
+// Schur complement of the unknowns before it; one below kMinPivotRatio H_kk stops the
+// factorization and names unknown k: ~0 (a dependent row) or negative (H not positive definite).
 NlcpSolver::Fault NlcpSolver::factor_and_solve(const ConstMat& C, int m) {
+  const Eigen::Index ld = newton_.outerStride();
+  double* H = newton_.data();
   for (int b = 0; b < m; ++b) {
-    for (int a = b; a < m; ++a) newton_(a, b) = C(free_[a], free_[b]);
-    newton_(b, b) += slope_[free_[b]];
-  }
-  Eigen::Ref<Eigen::MatrixXd> H = newton_.topLeftCorner(m, m);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(H);
-  bool ok = llt.info() == Eigen::Success;
-  for (int j = 0; j < m && ok; ++j)
-    ok = H(j, j) * H(j, j) >= kMinPivotRatio * (C(free_[j], free_[j]) + slope_[free_[j]]);
-  if (ok) {
-    llt.solveInPlace(rhs_.head(m));
-    return Fault{};
-  }
-  // Failure (rare): redo the factorization column by column to name the first unknown whose
-  // pivot, the Schur complement of the ones before it, is ~0 (a dependent row) or negative.
-  for (int b = 0; b < m; ++b) {
-    for (int a = b; a < m; ++a) H(a, b) = C(free_[a], free_[b]);
-    H(b, b) += slope_[free_[b]];
+    const double* Cb = C.data() + free_[b] * C.outerStride();
+    double* Hb = H + b * ld;
+    for (int a = b; a < m; ++a) Hb[a] = Cb[free_[a]];
+    Hb[b] += slope_[free_[b]];
   }
   for (int k = 0; k < m; ++k) {
-    const double Hkk = H(k, k);
-    const double pivot = Hkk - H.row(k).head(k).squaredNorm();
-    if (pivot < kMinPivotRatio * Hkk) return Fault{k, pivot > -kSingularPivot * Hkk};
-    H(k, k) = std::sqrt(pivot);
-    for (int i = k + 1; i < m; ++i)
-      H(i, k) = (H(i, k) - H.row(i).head(k).dot(H.row(k).head(k))) / H(k, k);
+    double* Hk = H + k * ld;
+    const double Hkk = C(free_[k], free_[k]) + slope_[free_[k]];
+    const double pivot = Hk[k];
+    if (!(pivot >= kMinPivotRatio * Hkk)) return Fault{k, pivot > -kSingularPivot * Hkk};
+    const double d = std::sqrt(pivot), inv = 1.0 / d;
+    Hk[k] = d;
+    for (int i = k + 1; i < m; ++i) Hk[i] *= inv;
+    for (int j = k + 1; j < m; ++j) {  // trailing update, column j: H_ij -= L_ik L_jk, i >= j
+      double* Hj = H + j * ld;
+      const double l = Hk[j];
+      for (int i = j; i < m; ++i) Hj[i] -= l * Hk[i];
+    }
   }
-  return Fault{m - 1, true};  // LLT failed on rounding at the threshold
+  double* x = rhs_.data();
+  for (int k = 0; k < m; ++k) {  // L y = b
+    const double* Hk = H + k * ld;
+    const double y = x[k] / Hk[k];
+    x[k] = y;
+    for (int i = k + 1; i < m; ++i) x[i] -= Hk[i] * y;
+  }
+  for (int k = m - 1; k >= 0; --k) {  // L^T x = y
+    const double* Hk = H + k * ld;
+    double sum = x[k];
+    for (int i = k + 1; i < m; ++i) sum -= Hk[i] * x[i];
+    x[k] = sum / Hk[k];
+  }
+  return Fault{};
 }
 
 const char* NlcpSolver::fault_message(const Fault& fault) {
@@ -132,17 +166,17 @@ const char* NlcpSolver::fault_message(const Fault& fault) {
                         : "C + diag(f') is not positive definite on the loaded unknowns";
 }
 
-NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
                                Eigen::Ref<Eigen::VectorXd> F) {
   const int n = static_cast<int>(delta.size());
   NlcpResult res;
   res.status = NlcpStatus::iteration_cap;
   res.tolerance = options_.tolerance +
                   options_.relative_tolerance * (n ? delta.cwiseAbs().maxCoeff() : 0.0);
-  double r = evaluate(C, delta, laws, F);
+  double r = evaluate(C, delta, F);
   if (phi_ > 0) {  // a stale warm start, worse than F = 0 (Phi(0) = 0 >= min Phi): drop it
     F.setZero();
-    r = evaluate(C, delta, laws, F);
+    r = evaluate(C, delta, F);
   }
   double best_r = r;
   best_.head(n) = F;
@@ -185,7 +219,9 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
     }
     // Armijo rule on Phi along the projection arc F(alpha) = [F + alpha d]^+ (Bertsekas 1982,
     // eq. 34). Phi(F + s) - Phi(F) = (C F - Delta)^T s + s^T C s/2 + sum dP_i, each term computed
-    // from s itself so that short steps near the solution are not lost to cancellation.
+    // from s itself so that short steps near the solution are not lost to cancellation; dP_i
+    // from the laws at both ends (local_law_energy_change), those at F + s kept for the next
+    // iterate.
     bool accepted = false;
     double alpha = 1;
     for (int k = 0; k < kMaxBacktracks && !accepted; ++k, alpha *= 0.5) {
@@ -193,7 +229,11 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
       for (int i = 0; i < n; ++i) {
         const double s = std::max(0.0, F[i] + alpha * step_[i]) - F[i];
         trial_[i] = s;
-        const double dP = local_law_energy_change(law_of(laws, i), F[i], s);
+        double dP = 0;
+        if (s != 0) {  // the law at exactly the F[i] + s that F += trial_ will give
+          trial_jet_[i] = local_law_jet(kernel_[i], F[i] + s);
+          dP = local_law_energy_change(kernel_[i], F[i], s, jet_[i], trial_jet_[i]);
+        }
         change += (cf_[i] - delta[i]) * s + dP;
         size += std::abs((cf_[i] - delta[i]) * s) + std::abs(dP);
         if (F[i] <= eps && g_[i] > 0) decrease_active -= g_[i] * s;
@@ -211,7 +251,7 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
     }
     F += trial_.head(n);
     ++res.iterations;
-    r = evaluate(C, delta, laws, F);
+    r = options_.reuse_evaluations ? accept_trial(C, delta, F) : evaluate(C, delta, F);
     if (r < best_r) {
       best_r = r;
       best_.head(n) = F;
@@ -219,7 +259,7 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
   }
   if (res.status != NlcpStatus::converged && best_r < r) {
     F = best_.head(n);
-    r = evaluate(C, delta, laws, F);
+    r = evaluate(C, delta, F);
   }
   res.residual = r;
   return res;
@@ -234,7 +274,7 @@ NlcpResult NlcpSolver::solve(const ConstMat& C, const ConstVec& delta, const Loc
     res.residual = kInf;
     return res;
   }
-  return iterate(C, delta, laws, force);
+  return iterate(C, delta, force);
 }
 
 // Slope of w^T F(lambda): w_J^T H_JJ^-1 w_J over J = loaded unknowns and the unknowns with
@@ -299,7 +339,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   double lo = -kInf, hi = kInf, last_step = kInf;
   for (;;) {
     delta_.head(n) = delta0 + lambda * weights;
-    const NlcpResult inner = iterate(C, delta_.head(n), laws, force);
+    const NlcpResult inner = iterate(C, delta_.head(n), force);
     res.iterations += inner.iterations;
     res.tolerance = inner.tolerance;
     res.status = inner.status;

@@ -21,6 +21,8 @@
 // (~n eps |Delta|).
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "hertz.hpp"
@@ -39,6 +41,11 @@ struct NlcpOptions {
   int max_iterations = 50;            // Newton iterations per solve (quasi-static: per lambda)
   int max_approach_updates = 60;      // quasi-static: updates of lambda
   double min_line_load = 1.0;         // N/m: the Newton matrix takes f' at no less than this w
+  // Carry the law values (f, f', f'', P) and C s of the accepted trial point of the line search
+  // over to the next iterate instead of evaluating them there again (C F then accumulates the
+  // accepted C s; the difference is rounding, ~1e-16 of |C F| per iteration). false: evaluate
+  // every iterate from scratch (the reference the tests compare with).
+  bool reuse_evaluations = true;
 };
 
 struct NlcpResult {
@@ -92,18 +99,21 @@ class NlcpSolver {
   using ConstMat = Eigen::Ref<const Eigen::MatrixXd>;
   using ConstVec = Eigen::Ref<const Eigen::VectorXd>;
 
+  // Checks the input and prepares the laws' kernels (kernel_, floor_).
   const char* prepare(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
-                      Eigen::Ref<Eigen::VectorXd> F, int& index) const;
-  double evaluate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                      Eigen::Ref<Eigen::VectorXd> F, int& index);
+  double newton_slope(int i, double force);
+  double evaluate(const ConstMat& C, const ConstVec& delta,
                   const Eigen::Ref<const Eigen::VectorXd>& F);
+  double accept_trial(const ConstMat& C, const ConstVec& delta,
+                      const Eigen::Ref<const Eigen::VectorXd>& F);
   struct Fault {
     int position = -1;      // in the free set; -1: factorized
     bool singular = false;  // pivot ~0 (dependent rows) rather than negative
   };
   Fault factor_and_solve(const ConstMat& C, int m);
   static const char* fault_message(const Fault& fault);
-  NlcpResult iterate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
-                     Eigen::Ref<Eigen::VectorXd> F);
+  NlcpResult iterate(const ConstMat& C, const ConstVec& delta, Eigen::Ref<Eigen::VectorXd> F);
   double total_force_slope(const ConstMat& C, const ConstVec& weights,
                            const Eigen::Ref<const Eigen::VectorXd>& F, double tol, int& m,
                            Fault& fault);
@@ -113,7 +123,10 @@ class NlcpSolver {
   Eigen::MatrixXd newton_;    // H_II = C_II + diag(f'_I), free unknowns packed; its LLT in place
   Eigen::VectorXd cf_;        // C F, m
   Eigen::VectorXd g_;         // g(F), m
-  Eigen::VectorXd f_;         // f(F), m
+  std::vector<LocalLawKernel> kernel_;  // the laws of the current solve
+  std::vector<LocalLawJet> jet_;        // f, f', f'', P at F
+  std::vector<LocalLawJet> trial_jet_;  // the same at F + trial_
+  Eigen::VectorXd floor_;     // f' at the floor line load min_line_load (NaN: not yet known)
   Eigen::VectorXd slope_;     // f'(F) floored for the Newton matrix, m/N
   Eigen::VectorXd step_;      // search direction d, N
   Eigen::VectorXd trial_;     // projected step s = max(0, F + alpha d) - F, N
