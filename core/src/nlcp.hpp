@@ -46,6 +46,13 @@ struct NlcpOptions {
   // accepted C s; the difference is rounding, ~1e-16 of |C F| per iteration). false: evaluate
   // every iterate from scratch (the reference the tests compare with).
   bool reuse_evaluations = true;
+  // solve() warm-started from exactly the answer whose tangent loaded_row_sums() factorized
+  // (the caller's previous step): take the first Newton step with that factorization when the
+  // free set is the same loaded set (a quasi-Newton step: the matrix is that of the previous
+  // C and laws; any symmetric positive definite matrix gives a descent direction, and the
+  // Armijo search and the following exact Newton steps keep the method and its stopping test
+  // as they are). Saves one factorization per call. false: factorize at every iteration.
+  bool reuse_tangent = true;
 };
 
 struct NlcpResult {
@@ -95,6 +102,17 @@ class NlcpSolver {
                          const Eigen::Ref<const Eigen::VectorXd>& weights, double total_force,
                          Eigen::Ref<Eigen::VectorXd> force, double& lambda);
 
+  // The tangent of the last answer of solve() or solve_total() (force: that answer, unchanged;
+  // C: the same matrix): on the loaded unknowns A = {i : F_i > 0}, K = dF_A/dDelta_A =
+  // (C_AA + diag f'_A)^-1 with the laws' own slopes at F (no floor), from the law values the
+  // solve already holds. Writes the row sums K 1 (N/m: each loaded slice's stiffness under a
+  // uniform approach; their sum is the mesh stiffness) to row_sums[i], i in A, and 0 elsewhere.
+  // Returns false (row_sums all 0) if C_AA + diag f'_A is not numerically positive definite.
+  // Keeps the factorization for the next solve (see NlcpOptions::reuse_tangent).
+  bool loaded_row_sums(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
+                       const Eigen::Ref<const Eigen::VectorXd>& force,
+                       Eigen::Ref<Eigen::VectorXd> row_sums);
+
  private:
   using ConstMat = Eigen::Ref<const Eigen::MatrixXd>;
   using ConstVec = Eigen::Ref<const Eigen::VectorXd>;
@@ -111,7 +129,10 @@ class NlcpSolver {
     int position = -1;      // in the free set; -1: factorized
     bool singular = false;  // pivot ~0 (dependent rows) rather than negative
   };
-  Fault factor_and_solve(const ConstMat& C, int m);
+  Fault factor(const ConstMat& C, int m, const Eigen::VectorXd& slope);
+  void solve_factored(const Eigen::MatrixXd& L, int m);
+  Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
+  bool same_as_tangent(int m) const;
   static const char* fault_message(const Fault& fault);
   NlcpResult iterate(const ConstMat& C, const ConstVec& delta, Eigen::Ref<Eigen::VectorXd> F);
   double total_force_slope(const ConstMat& C, const ConstVec& weights,
@@ -135,6 +156,13 @@ class NlcpSolver {
   Eigen::VectorXd best_;      // best iterate so far, N
   Eigen::VectorXd delta_;     // quasi-static: Delta0 + lambda w, m
   Eigen::VectorXi free_;      // indices of the free unknowns
+  // The factorization kept by loaded_row_sums for the next solve (reuse_tangent).
+  Eigen::MatrixXd tangent_;        // its LLT (lower), packed on tangent_index_[0..tangent_m_)
+  Eigen::VectorXi tangent_index_;
+  Eigen::VectorXd tangent_force_;  // the answer it was made at
+  int tangent_n_ = -1;             // its number of unknowns; -1: none
+  int tangent_m_ = 0;
+  bool tangent_usable_ = false;    // this solve started from tangent_force_
   double phi_ = 0;            // Phi at the last evaluated F, J
 };
 
