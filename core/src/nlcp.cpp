@@ -36,6 +36,7 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
       c_trial_(capacity_),
       rhs_(capacity_),
       best_(capacity_),
+      answer_(capacity_),
       delta_(capacity_),
       free_(capacity_),
       tangent_(capacity_, capacity_),
@@ -169,11 +170,18 @@ void NlcpSolver::solve_factored(const Eigen::MatrixXd& L, int m) {
     x[k] = y;
     for (int i = k + 1; i < m; ++i) x[i] -= Hk[i] * y;
   }
-  for (int k = m - 1; k >= 0; --k) {  // L^T x = y
+  for (int k = m - 1; k >= 0; --k) {  // L^T x = y; four partial sums break the add chain
     const double* Hk = H + k * ld;
-    double sum = x[k];
-    for (int i = k + 1; i < m; ++i) sum -= Hk[i] * x[i];
-    x[k] = sum / Hk[k];
+    double s0 = x[k], s1 = 0, s2 = 0, s3 = 0;
+    int i = k + 1;
+    for (; i + 3 < m; i += 4) {
+      s0 -= Hk[i] * x[i];
+      s1 -= Hk[i + 1] * x[i + 1];
+      s2 -= Hk[i + 2] * x[i + 2];
+      s3 -= Hk[i + 3] * x[i + 3];
+    }
+    for (; i < m; ++i) s0 -= Hk[i] * x[i];
+    x[k] = ((s0 + s1) + (s2 + s3)) / Hk[k];
   }
 }
 
@@ -240,7 +248,7 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
       if (res.iterations == 0 && same_as_tangent(m))
         solve_factored(tangent_, m);  // the previous answer's tangent (reuse_tangent)
       else
-        fault = factor_and_solve(C, m, slope_);
+        fault = factor_and_solve(C, m, slope_), ++res.factorizations;
       if (fault.position >= 0) {
         res.status = NlcpStatus::bad_input;
         res.index = free_[fault.position];
@@ -297,12 +305,15 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
     r = evaluate(C, delta, F);
   }
   res.residual = r;
+  answer_.head(n) = F;
+  answer_n_ = n;
   return res;
 }
 
 NlcpResult NlcpSolver::solve(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
                              Eigen::Ref<Eigen::VectorXd> force) {
   NlcpResult res;
+  answer_n_ = -1;
   if (const char* err = prepare(C, delta, laws, force, res.index)) {
     if (force.size() == delta.size()) force.setZero();
     res.message = err;
@@ -320,16 +331,17 @@ NlcpResult NlcpSolver::solve(const ConstMat& C, const ConstVec& delta, const Loc
 bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
                                  Eigen::Ref<Eigen::VectorXd> row_sums) {
   const int n = static_cast<int>(F.size());
+  row_sums.setZero();
+  tangent_n_ = -1;
+  if (n != answer_n_ || F != answer_.head(n)) return false;
   int m = 0;
   for (int i = 0; i < n; ++i) {
-    row_sums[i] = 0;
     if (F[i] > 0) {
       trial_[i] = jet_[i].slope;  // (trial_ is free scratch between solves)
       rhs_[m] = 1;
       free_[m++] = i;
     }
   }
-  tangent_n_ = -1;
   if (m == 0) return true;
   if (factor(C, m, trial_).position >= 0) return false;
   newton_.swap(tangent_);  // keep it for the next solve (reuse_tangent); swaps storage only
@@ -345,7 +357,7 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
 // Slope of w^T F(lambda): w_J^T H_JJ^-1 w_J over J = loaded unknowns and the unknowns with
 // w_i > 0 at their threshold (g_i <= tol; raising lambda closes them), so that the right
 // derivative is found at a kink. Leaves J in free_[0..m) and H_JJ^-1 w_J in rhs_[0..m).
-// Returns 0 if no weighted unknown is in J; fault as from factor_and_solve.
+// Returns 0 (and m = 0) if no weighted unknown is in J; fault as from factor_and_solve.
 double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
                                      const Eigen::Ref<const Eigen::VectorXd>& F, double tol,
                                      int& m, Fault& fault) {
@@ -360,7 +372,10 @@ double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
     }
   }
   fault = Fault{};
-  if (!weighted) return 0;
+  if (!weighted) {
+    m = 0;
+    return 0;
+  }
   fault = factor_and_solve(C, m, slope_);
   double slope = 0;
   for (int a = 0; a < m; ++a) slope += weights[free_[a]] * rhs_[a];
@@ -373,6 +388,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   const int n = static_cast<int>(delta0.size());
   NlcpResult res;
   tangent_n_ = -1;
+  answer_n_ = -1;
   const char* err = prepare(C, delta0, laws, force, res.index);
   if (!err && weights.size() != n) err = "weights must have n entries";
   if (!err) {
@@ -407,6 +423,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
     delta_.head(n) = delta0 + lambda * weights;
     const NlcpResult inner = iterate(C, delta_.head(n), force);
     res.iterations += inner.iterations;
+    res.factorizations += inner.factorizations;
     res.tolerance = inner.tolerance;
     res.status = inner.status;
     res.message = inner.message;
@@ -416,6 +433,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
     int m = 0;
     Fault fault;
     const double slope = total_force_slope(C, weights, force, inner.tolerance, m, fault);
+    res.factorizations += m > 0;
     if (fault.position >= 0) {
       res.status = NlcpStatus::bad_input;
       res.index = free_[fault.position];

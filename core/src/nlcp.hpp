@@ -59,6 +59,7 @@ struct NlcpResult {
   NlcpStatus status = NlcpStatus::bad_input;
   int iterations = 0;         // Newton iterations (quasi-static: summed over all lambda updates)
   int approach_updates = 0;   // quasi-static only: Newton/bisection updates of lambda
+  int factorizations = 0;     // of a Newton matrix (a first step on the kept tangent has none)
   double residual = 0;        // m: ||min(diag(C) F, g)||_inf; quasi-static: max with |lambda error|
   double tolerance = 0;       // m, tol used
   int index = -1;             // bad_input: the unknown at fault, if one is
@@ -107,7 +108,8 @@ class NlcpSolver {
   // (C_AA + diag f'_A)^-1 with the laws' own slopes at F (no floor), from the law values the
   // solve already holds. Writes the row sums K 1 (N/m: each loaded slice's stiffness under a
   // uniform approach; their sum is the mesh stiffness) to row_sums[i], i in A, and 0 elsewhere.
-  // Returns false (row_sums all 0) if C_AA + diag f'_A is not numerically positive definite.
+  // Returns false (row_sums all 0) if force is not this solver's last answer or C_AA + diag f'_A
+  // is not numerically positive definite.
   // Keeps the factorization for the next solve (see NlcpOptions::reuse_tangent).
   bool loaded_row_sums(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
                        const Eigen::Ref<const Eigen::VectorXd>& force,
@@ -154,6 +156,8 @@ class NlcpSolver {
   Eigen::VectorXd c_trial_;   // C s, m
   Eigen::VectorXd rhs_;       // packed right-hand side / solution on the free set
   Eigen::VectorXd best_;      // best iterate so far, N
+  Eigen::VectorXd answer_;    // the last answer (jet_ holds the laws there), N
+  int answer_n_ = -1;         // its size; -1: none
   Eigen::VectorXd delta_;     // quasi-static: Delta0 + lambda w, m
   Eigen::VectorXi free_;      // indices of the free unknowns
   // The factorization kept by loaded_row_sums for the next solve (reuse_tangent).
