@@ -78,6 +78,7 @@ struct LocalLawKernel {
   int terms = 0;            // 0 (no law), 1 (identical bodies, weight 2) or 2
   double a[2] = {0, 0};     // 2 (1 - nu^2)/(pi E) per term (times 2 for merged bodies), m^2/N
   double k[2] = {0, 0};     // nu/(1 - nu)
+  double depth[2] = {0, 0};      // h, m
   double inv_depth[2] = {0, 0};  // 1/h, 1/m
 };
 
@@ -93,7 +94,8 @@ LocalLawKernel local_law_kernel(const LocalLaw& law);
 
 // f, f', f'' and P at F >= 0: the closed forms of evaluate_local_law (which calls this), with
 // asinh(1/q) = ln((1 + r)/q) (log1p of the same where q >= 1, to keep full relative accuracy
-// for b_H >= h). Cost per distinct body: 1 sqrt and 1 log; plus 1 sqrt.
+// for b_H >= h). Cost per distinct body: 1 sqrt, 1 log and 2 divisions; plus 1 sqrt and 1
+// division.
 LocalLawJet local_law_jet(const LocalLawKernel& kernel, double force);
 
 // P(F + s) - P(F) from the jets at both ends (F >= 0, F + s >= 0): the two-point Hermite

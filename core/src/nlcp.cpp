@@ -24,6 +24,7 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
     : capacity_(std::max(capacity, 0)),
       options_(options),
       newton_(capacity_, capacity_),
+      newton_inv_(capacity_),
       cf_(capacity_),
       g_(capacity_),
       kernel_(capacity_),
@@ -40,6 +41,7 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
       delta_(capacity_),
       free_(capacity_),
       tangent_(capacity_, capacity_),
+      tangent_inv_(capacity_),
       tangent_index_(capacity_),
       tangent_force_(capacity_) {}
 
@@ -53,18 +55,39 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
   for (int i = 0; i < n; ++i) {
     index = i;
     if (!std::isfinite(delta[i])) return "approach Delta is not finite";
-    if (!C.col(i).allFinite()) return "compliance matrix C is not finite";
-    if (!(C(i, i) > 0))
-      return "compliance matrix C: diagonal entry <= 0 (C must be positive definite)";
     if (laws)
       if (const char* err = local_law_error(laws[i])) return err;
   }
+  // One pass over C: |C_ij - C_ji| <= kSymmetryTol sqrt(C_ii C_jj), which also fails on any
+  // non-finite entry; only if it fails do the loops below look for the fault to name.
+  bool ok = true;
+  double* root = c_trial_.data();  // sqrt(C_ii) (c_trial_ is free scratch here)
   for (int i = 0; i < n; ++i) {
-    index = i;
-    for (int j = 0; j < i; ++j) {
-      const double d = C(i, j) - C(j, i);
-      if (d * d > kSymmetryTol * kSymmetryTol * C(i, i) * C(j, j))
-        return "compliance matrix C is not symmetric";
+    const double c = C(i, i);
+    ok = ok && c > 0 && c < kInf;
+    root[i] = ok ? std::sqrt(c) : 0;
+  }
+  for (int j = 0; j < n && ok; ++j) {
+    const double* Cj = C.data() + j * C.outerStride();
+    const double tol_j = kSymmetryTol * root[j];
+    bool column_ok = true;
+    for (int i = j + 1; i < n; ++i) column_ok &= std::abs(Cj[i] - C(j, i)) <= tol_j * root[i];
+    ok = column_ok;
+  }
+  if (!ok) {
+    for (int i = 0; i < n; ++i) {
+      index = i;
+      if (!C.col(i).allFinite()) return "compliance matrix C is not finite";
+      if (!(C(i, i) > 0))
+        return "compliance matrix C: diagonal entry <= 0 (C must be positive definite)";
+    }
+    for (int i = 0; i < n; ++i) {
+      index = i;
+      for (int j = 0; j < i; ++j) {
+        const double d = C(i, j) - C(j, i);
+        if (d * d > kSymmetryTol * kSymmetryTol * C(i, i) * C(j, j))
+          return "compliance matrix C is not symmetric";
+      }
     }
   }
   index = -1;
@@ -129,10 +152,14 @@ double NlcpSolver::accept_trial(const ConstMat& C, const ConstVec& delta,
 NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::VectorXd& slope) {
   const Eigen::Index ld = newton_.outerStride();
   double* H = newton_.data();
+  const bool leading = m == 0 || free_[m - 1] == m - 1;  // free_ ascending: J = 0..m-1
   for (int b = 0; b < m; ++b) {
     const double* Cb = C.data() + free_[b] * C.outerStride();
     double* Hb = H + b * ld;
-    for (int a = b; a < m; ++a) Hb[a] = Cb[free_[a]];
+    if (leading)
+      for (int a = b; a < m; ++a) Hb[a] = Cb[a];
+    else
+      for (int a = b; a < m; ++a) Hb[a] = Cb[free_[a]];
     Hb[b] += slope[free_[b]];
   }
   for (int j = 0; j < m; ++j) {  // left-looking: column j minus L_jk times column k, k < j
@@ -154,19 +181,21 @@ NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::Vect
     if (!(pivot >= kMinPivotRatio * Hjj)) return Fault{j, pivot > -kSingularPivot * Hjj};
     const double d = std::sqrt(pivot), inv = 1.0 / d;
     Hj[j] = d;
+    newton_inv_[j] = inv;
     for (int i = j + 1; i < m; ++i) Hj[i] *= inv;
   }
   return Fault{};
 }
 
-// rhs_[0..m) <- (L L^T)^-1 rhs_[0..m), L the lower triangle of L's top-left m x m.
-void NlcpSolver::solve_factored(const Eigen::MatrixXd& L, int m) {
+// rhs_[0..m) <- (L L^T)^-1 rhs_[0..m), L the lower triangle of L's top-left m x m, inv its
+// diagonal's reciprocals (no division on the substitutions' critical path).
+void NlcpSolver::solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv, int m) {
   const Eigen::Index ld = L.outerStride();
   const double* H = L.data();
   double* x = rhs_.data();
   for (int k = 0; k < m; ++k) {  // L y = b
     const double* Hk = H + k * ld;
-    const double y = x[k] / Hk[k];
+    const double y = x[k] * inv[k];
     x[k] = y;
     for (int i = k + 1; i < m; ++i) x[i] -= Hk[i] * y;
   }
@@ -181,14 +210,14 @@ void NlcpSolver::solve_factored(const Eigen::MatrixXd& L, int m) {
       s3 -= Hk[i + 3] * x[i + 3];
     }
     for (; i < m; ++i) s0 -= Hk[i] * x[i];
-    x[k] = ((s0 + s1) + (s2 + s3)) / Hk[k];
+    x[k] = ((s0 + s1) + (s2 + s3)) * inv[k];
   }
 }
 
 NlcpSolver::Fault NlcpSolver::factor_and_solve(const ConstMat& C, int m,
                                                const Eigen::VectorXd& slope) {
   const Fault fault = factor(C, m, slope);
-  if (fault.position < 0) solve_factored(newton_, m);
+  if (fault.position < 0) solve_factored(newton_, newton_inv_, m);
   return fault;
 }
 
@@ -246,7 +275,7 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
       for (int a = 0; a < m; ++a) rhs_[a] = -g_[free_[a]];
       Fault fault;
       if (res.iterations == 0 && same_as_tangent(m))
-        solve_factored(tangent_, m);  // the previous answer's tangent (reuse_tangent)
+        solve_factored(tangent_, tangent_inv_, m);  // the previous answer's tangent
       else
         fault = factor_and_solve(C, m, slope_), ++res.factorizations;
       if (fault.position >= 0) {
@@ -345,11 +374,12 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
   if (m == 0) return true;
   if (factor(C, m, trial_).position >= 0) return false;
   newton_.swap(tangent_);  // keep it for the next solve (reuse_tangent); swaps storage only
+  newton_inv_.swap(tangent_inv_);
   tangent_index_.head(m) = free_.head(m);
   tangent_force_.head(n) = F;
   tangent_n_ = n;
   tangent_m_ = m;
-  solve_factored(tangent_, m);
+  solve_factored(tangent_, tangent_inv_, m);
   for (int a = 0; a < m; ++a) row_sums[free_[a]] = rhs_[a];
   return true;
 }

@@ -132,7 +132,7 @@ class NlcpSolver {
     bool singular = false;  // pivot ~0 (dependent rows) rather than negative
   };
   Fault factor(const ConstMat& C, int m, const Eigen::VectorXd& slope);
-  void solve_factored(const Eigen::MatrixXd& L, int m);
+  void solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv_diagonal, int m);
   Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
   bool same_as_tangent(int m) const;
   static const char* fault_message(const Fault& fault);
@@ -144,6 +144,7 @@ class NlcpSolver {
   int capacity_;
   NlcpOptions options_;
   Eigen::MatrixXd newton_;    // H_II = C_II + diag(f'_I), free unknowns packed; its LLT in place
+  Eigen::VectorXd newton_inv_;  // 1/L_jj of newton_ (multiplies in the substitutions)
   Eigen::VectorXd cf_;        // C F, m
   Eigen::VectorXd g_;         // g(F), m
   std::vector<LocalLawKernel> kernel_;  // the laws of the current solve
@@ -162,6 +163,7 @@ class NlcpSolver {
   Eigen::VectorXi free_;      // indices of the free unknowns
   // The factorization kept by loaded_row_sums for the next solve (reuse_tangent).
   Eigen::MatrixXd tangent_;        // its LLT (lower), packed on tangent_index_[0..tangent_m_)
+  Eigen::VectorXd tangent_inv_;    // 1/L_jj of tangent_
   Eigen::VectorXi tangent_index_;
   Eigen::VectorXd tangent_force_;  // the answer it was made at
   int tangent_n_ = -1;             // its number of unknowns; -1: none
