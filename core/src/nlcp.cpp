@@ -142,15 +142,15 @@ double NlcpSolver::accept_trial(const ConstMat& C, const ConstVec& delta,
   return residual;
 }
 
-// LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in the lower triangle of
-// newton_, then rhs_[0..m) <- H_JJ^-1 rhs_[0..m). Plain loops over the contiguous columns: at
+// LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in the lower triangle of an
+// m x m matrix packed at the start of newton_'s storage, then rhs_[0..m) <- H_JJ^-1 rhs_[0..m). Plain loops over the contiguous columns: at
 // the sizes of a mesh (m ~ 10..100) Eigen's LLT on a dynamic block spends most of its time in
 // per-column dispatch; two columns per update pass take ~25 % off at m = 20..60 (measured). The
 // pivot of column j is the Schur complement of the unknowns before it; one below
 // kMinPivotRatio H_jj stops the factorization and names unknown j: ~0 (a dependent row) or
 // negative (H not positive definite).
 NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::VectorXd& slope) {
-  const Eigen::Index ld = newton_.outerStride();
+  const Eigen::Index ld = m;  // packed: the m x m block is contiguous whatever the capacity
   double* H = newton_.data();
   const bool leading = m == 0 || free_[m - 1] == m - 1;  // free_ ascending: J = 0..m-1
   for (int b = 0; b < m; ++b) {
@@ -187,10 +187,10 @@ NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::Vect
   return Fault{};
 }
 
-// rhs_[0..m) <- (L L^T)^-1 rhs_[0..m), L the lower triangle of L's top-left m x m, inv its
-// diagonal's reciprocals (no division on the substitutions' critical path).
+// rhs_[0..m) <- (L L^T)^-1 rhs_[0..m), L the lower triangle of the m x m matrix packed at the
+// start of L's storage, inv its diagonal's reciprocals (no division on the critical path).
 void NlcpSolver::solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv, int m) {
-  const Eigen::Index ld = L.outerStride();
+  const Eigen::Index ld = m;
   const double* H = L.data();
   double* x = rhs_.data();
   for (int k = 0; k < m; ++k) {  // L y = b

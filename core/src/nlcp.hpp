@@ -143,7 +143,8 @@ class NlcpSolver {
 
   int capacity_;
   NlcpOptions options_;
-  Eigen::MatrixXd newton_;    // H_II = C_II + diag(f'_I), free unknowns packed; its LLT in place
+  Eigen::MatrixXd newton_;    // storage of H_II = C_II + diag(f'_I) (m x m packed with leading
+                              // dimension m, the free unknowns' order); its LLT in place
   Eigen::VectorXd newton_inv_;  // 1/L_jj of newton_ (multiplies in the substitutions)
   Eigen::VectorXd cf_;        // C F, m
   Eigen::VectorXd g_;         // g(F), m
