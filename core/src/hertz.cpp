@@ -80,20 +80,23 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
   if (!has_local_law(law)) return kern;
   kern.width = law.width;
   kern.inv_width = 1.0 / law.width;
-  const double E_star = reduced_modulus(law.body[0], law.body[1]);
-  kern.b2_per_load = 4.0 * law.reduced_radius / (kPi * E_star);  // b_H^2 = 4 w R'/(pi E*)
   const HertzBody& b0 = law.body[0];
   const HertzBody& b1 = law.body[1];
   const bool same = b0.youngs_modulus == b1.youngs_modulus &&
                     b0.poisson_ratio == b1.poisson_ratio && b0.depth == b1.depth;
   kern.terms = same ? 1 : 2;
+  double inv_E_star = 0;  // 1/E* = sum (1 - nu_i^2)/E_i (PHYSICS.md section 4)
   for (int t = 0; t < kern.terms; ++t) {
     const HertzBody& body = law.body[t];
-    kern.a[t] = (same ? 2.0 : 1.0) * body_compliance(body);
+    const double weight = same ? 2.0 : 1.0;
+    const double term = (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
+    inv_E_star += weight * term;
+    kern.a[t] = weight * (2.0 / kPi) * term;  // body_compliance
     kern.k[t] = body.poisson_ratio / (1.0 - body.poisson_ratio);
     kern.depth[t] = body.depth;
     kern.inv_depth[t] = 1.0 / body.depth;
   }
+  kern.b2_per_load = (4.0 / kPi) * law.reduced_radius * inv_E_star;  // b_H^2 = 4 w R'/(pi E*)
   return kern;
 }
 
