@@ -412,12 +412,45 @@ double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
   return slope;
 }
 
+// The last lambda correction dlambda = -mismatch/slope of a converged solve_total, applied with
+// its first-order force update F_J += H_JJ^-1 w_J dlambda (rhs_, from total_force_slope): w^T F
+// then meets total_force to rounding instead of to slope * tol, which a caller balancing a
+// moment to a relative 1e-12 would otherwise chase with repeated solves. Kept only if the KKT
+// residual at the new point is still within tol (no force hits 0), else everything is restored.
+void NlcpSolver::polish_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                              double total_force, double slope, int m,
+                              Eigen::Ref<Eigen::VectorXd> force, double& lambda, NlcpResult& res) {
+  const int n = static_cast<int>(delta0.size());
+  const double mismatch = weights.dot(force) - total_force;
+  const double dl = -mismatch / slope;
+  bool clamped = false;
+  best_.head(n) = force;
+  for (int a = 0; a < m; ++a) {
+    const double next = force[free_[a]] + rhs_[a] * dl;
+    clamped = clamped || !(next > 0);
+    force[free_[a]] = next;
+  }
+  if (!clamped) {
+    delta_.head(n) = delta0 + (lambda + dl) * weights;
+    const double r = evaluate(C, delta_.head(n), force);
+    const double after = std::abs(weights.dot(force) - total_force);
+    if (r <= res.tolerance && after <= std::abs(mismatch)) {
+      lambda += dl;
+      answer_.head(n) = force;
+      res.residual = std::max(r, after / slope);
+      return;
+    }
+  }
+  force = best_.head(n);
+  delta_.head(n) = delta0 + lambda * weights;
+  evaluate(C, delta_.head(n), force);  // the laws at the restored answer, for loaded_row_sums
+}
+
 NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, const LocalLaw* laws,
                                    const ConstVec& weights, double total_force,
                                    Eigen::Ref<Eigen::VectorXd> force, double& lambda) {
   const int n = static_cast<int>(delta0.size());
   NlcpResult res;
-  tangent_n_ = -1;
   answer_n_ = -1;
   const char* err = prepare(C, delta0, laws, force, res.index);
   if (!err && weights.size() != n) err = "weights must have n entries";
@@ -435,12 +468,16 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   if (!err && !(total_force > 0 && std::isfinite(total_force)))
     err = "total force must be finite and > 0";
   if (err) {
+    tangent_n_ = -1;
     if (force.size() == n) force.setZero();
     res.message = err;
     res.residual = kInf;
     return res;
   }
   if (!std::isfinite(lambda)) lambda = 0;
+  // the first inner solve may take its first step on the kept tangent, as in solve()
+  tangent_usable_ = options_.reuse_tangent && tangent_n_ == n && force == tangent_force_.head(n);
+  tangent_n_ = -1;
 
   // Safeguarded Newton on s(lambda) = w^T F(lambda) = total_force: s is continuous and
   // non-decreasing for weights of any sign (it is total_force minus the derivative of the
@@ -452,6 +489,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   for (;;) {
     delta_.head(n) = delta0 + lambda * weights;
     const NlcpResult inner = iterate(C, delta_.head(n), force);
+    tangent_usable_ = false;
     res.iterations += inner.iterations;
     res.factorizations += inner.factorizations;
     res.tolerance = inner.tolerance;
@@ -473,7 +511,11 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
     const double correction = slope > 0 ? std::abs(mismatch) / slope : kInf;  // lambda error, m
     const double lambda_error = std::min(correction, hi - lo);
     res.residual = std::max(inner.residual, lambda_error);
-    if (inner.status == NlcpStatus::converged && lambda_error <= inner.tolerance) return res;
+    if (inner.status == NlcpStatus::converged && lambda_error <= inner.tolerance) {
+      if (slope > 0 && mismatch != 0 && correction <= inner.tolerance)
+        polish_total(C, delta0, weights, total_force, slope, m, force, lambda, res);
+      return res;
+    }
     if (res.approach_updates >= options_.max_approach_updates) {
       res.status = NlcpStatus::iteration_cap;
       res.message = "cap on updates of the rigid approach reached";

@@ -46,7 +46,8 @@ struct NlcpOptions {
   // accepted C s; the difference is rounding, ~1e-16 of |C F| per iteration). false: evaluate
   // every iterate from scratch (the reference the tests compare with).
   bool reuse_evaluations = true;
-  // solve() warm-started from exactly the answer whose tangent loaded_row_sums() factorized
+  // solve() or solve_total() warm-started from exactly the answer whose tangent
+  // loaded_row_sums() factorized
   // (the caller's previous step): take the first Newton step with that factorization when the
   // free set is the same loaded set (a quasi-Newton step: the matrix is that of the previous
   // C and laws; any symmetric positive definite matrix gives a descent direction, and the
@@ -97,7 +98,9 @@ class NlcpSolver {
   // w^T F(lambda) = total_force, whose slope w_J^T H_JJ^-1 w_J is the lambda row of the KKT
   // system of the active set (J: loaded unknowns, H = C + diag f'); each F(lambda) is a warm
   // projected-Newton solve as above, started from the first-order predictor H_JJ^-1 w_J dlambda.
-  // Stops when the plain residual and the lambda correction are both below tol.
+  // Stops when the plain residual and the lambda correction are both below tol, and then applies
+  // that last correction with its first-order force update when the residual stays below tol
+  // (so that w^T F = total_force to rounding).
   NlcpResult solve_total(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
                          const Eigen::Ref<const Eigen::VectorXd>& delta0, const LocalLaw* laws,
                          const Eigen::Ref<const Eigen::VectorXd>& weights, double total_force,
@@ -137,6 +140,9 @@ class NlcpSolver {
   bool same_as_tangent(int m) const;
   static const char* fault_message(const Fault& fault);
   NlcpResult iterate(const ConstMat& C, const ConstVec& delta, Eigen::Ref<Eigen::VectorXd> F);
+  void polish_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                    double total_force, double slope, int m, Eigen::Ref<Eigen::VectorXd> force,
+                    double& lambda, NlcpResult& res);
   double total_force_slope(const ConstMat& C, const ConstVec& weights,
                            const Eigen::Ref<const Eigen::VectorXd>& F, double tol, int& m,
                            Fault& fault);

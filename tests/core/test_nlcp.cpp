@@ -710,6 +710,51 @@ TEST(Nlcp, FirstStepOnThePreviousTangent) {
   }
 }
 
+TEST(Nlcp, TotalForceMetToRounding) {
+  // solve_total applies its last lambda correction: w^T F = total_force to ~1e-12 relative (the
+  // stopping test alone leaves slope * tol, ~1e-10 of it here), the KKT residual of
+  // Delta0 + lambda w still within tol. Then a time step: the tangent kept, the problem moved by
+  // ~1e-3, a warm solve_total (first step on the kept tangent) agrees with a solver that
+  // factorizes every step.
+  std::mt19937_64 rng(67);
+  gm::NlcpOptions plain_options;
+  plain_options.reuse_tangent = false;
+  gm::NlcpSolver solver(30), plain(30, plain_options);
+  int reused = 0;
+  for (int k = 0; k < 100; ++k) {
+    const int n = 2 + k % 29;
+    Problem p = random_problem(rng, n, true);
+    VectorXd w(n);
+    for (int i = 0; i < n; ++i) w[i] = uniform(rng, 0.5, 1.0);
+    const double total = uniform(rng, 1e2, 1e4);
+    VectorXd F = VectorXd::Zero(n), sums(n);
+    double lambda = 0;
+    const gm::NlcpResult res = solver.solve_total(p.C, p.delta, p.laws(), w, total, F, lambda);
+    ASSERT_EQ(res.status, gm::NlcpStatus::converged) << k << ": " << res.message;
+    EXPECT_NEAR(w.dot(F), total, 1e-12 * total) << k;
+    const VectorXd delta = p.delta + lambda * w;
+    EXPECT_LE(kkt_residual(p, F, delta), res.tolerance * (1 + 1e-6)) << k;
+    ASSERT_TRUE(solver.loaded_row_sums(p.C, F, sums)) << k;
+    const VectorXd y = VectorXd::Random(n);
+    p.C += 1e-3 * p.C.diagonal().mean() * (y * y.transpose()) / n;
+    for (gm::LocalLaw& law : p.law) law.reduced_radius *= 1.001;
+    for (int i = 0; i < n; ++i) p.delta[i] += 1e-3 * uniform(rng, -1e-5, 1e-5);
+    VectorXd Fp = F;
+    double lambda_p = lambda;
+    const gm::NlcpResult rr = solver.solve_total(p.C, p.delta, p.laws(), w, total, F, lambda);
+    const gm::NlcpResult rp = plain.solve_total(p.C, p.delta, p.laws(), w, total, Fp, lambda_p);
+    ASSERT_EQ(rr.status, gm::NlcpStatus::converged) << k << ": " << rr.message;
+    ASSERT_EQ(rp.status, gm::NlcpStatus::converged) << k << ": " << rp.message;
+    EXPECT_LE((F - Fp).cwiseAbs().maxCoeff(), 1e-7 * force_scale(p)) << k;
+    EXPECT_NEAR(lambda, lambda_p, 1e-7 * p.delta.cwiseAbs().maxCoeff()) << k;
+    EXPECT_NEAR(w.dot(F), total, 1e-12 * total) << k;
+    reused += rr.factorizations < rp.factorizations;
+  }
+  std::printf("quasi-static time steps: %d of 100 saved a factorization on the kept tangent\n",
+              reused);
+  EXPECT_GE(reused, 50);
+}
+
 TEST(Nlcp, SolveDoesNotAllocate) {
   // (e) n up to the capacity of 200, cold and warm, the quasi-static variant and bad input.
 #ifndef GM_TEST_COUNTS_MALLOC
