@@ -100,52 +100,6 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
   return kern;
 }
 
-LocalLawJet local_law_jet(const LocalLawKernel& kern, double force) {
-  LocalLawJet v;
-  if (kern.terms == 0) return v;
-  const double w = force * kern.inv_width;
-  const double b = std::sqrt(w * kern.b2_per_load);
-  if (!(b > 0)) {  // F = 0, or so small that b_H underflows
-    v.slope = std::numeric_limits<double>::infinity();
-    v.curvature = -v.slope;
-    return v;
-  }
-  const double inv_b = 1.0 / b;
-  const double inv_w = kern.b2_per_load * inv_b * inv_b;  // 1/w = (b_H^2/w)/b_H^2
-  double approach_w = 0, slope_w = 0, curvature_ww = 0, energy_ww = 0;
-  for (int t = 0; t < kern.terms; ++t) {
-    const double a = kern.a[t], k = kern.k[t];
-    const double q = b * kern.inv_depth[t], inv_q = kern.depth[t] * inv_b;
-    const double r = std::sqrt(1.0 + q * q);
-    const double r1 = r + 1.0;
-    const double inv_r = 1.0 / r, inv_r1 = 1.0 / r1;
-    // asinh(1/q) = ln((1 + r)/q); for q >= 1 (argument <= 1 + sqrt 2) as log1p of
-    // (1 + r)/q - 1 = (1 + r - q)/q with r - q = 1/(r + q), free of cancellation
-    const double A = q < 1.0 ? std::log(r1 * inv_q) : std::log1p((1.0 + 1.0 / (r + q)) * inv_q);
-    approach_w += a * (A - k * inv_r1);
-    slope_w += a * (A - 0.5 * (1.0 + k) * inv_r);
-    curvature_ww -= a * (2.0 + (1.0 - k) * q * q) * 0.25 * (inv_r * inv_r * inv_r);
-    energy_ww += a * (0.5 * A + ((r + 2.0) / 6.0 - k * (2.0 * r + 1.0) / 3.0) * (inv_r1 * inv_r1));
-  }
-  v.approach = approach_w * w;
-  v.slope = slope_w * kern.inv_width;                                   // d/dF = (1/L) d/dw
-  v.curvature = curvature_ww * inv_w * (kern.inv_width * kern.inv_width);
-  v.energy = energy_ww * w * w * kern.width;                            // int dF = L int dw
-  return v;
-}
-
-double local_law_energy_change(const LocalLawKernel& kern, double force, double step,
-                               const LocalLawJet& at_force, const LocalLawJet& at_end) {
-  if (kern.terms == 0 || step == 0) return 0;
-  // (a force so small that b_H underflows has infinite slopes: closed form, both energies 0)
-  if (std::abs(step) <= 0.125 * force && std::isfinite(at_force.curvature) &&
-      std::isfinite(at_end.curvature))
-    return step * (0.5 * (at_force.approach + at_end.approach) +
-                   step * ((at_force.slope - at_end.slope) / 10.0 +
-                           step * (at_force.curvature + at_end.curvature) / 120.0));
-  return at_end.energy - at_force.energy;
-}
-
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force) {
   const LocalLawJet j = local_law_jet(local_law_kernel(law), force);
   LocalLawValue v;
