@@ -16,6 +16,7 @@ constexpr int kMaxBacktracks = 60;       // alpha down to ~1e-18
 constexpr double kMinPivotRatio = 1e-12; // L_jj^2/H_jj below this: row j numerically dependent
 constexpr double kSingularPivot = 1e-8;  // |L_jj^2| below this H_jj: singular, not indefinite
 constexpr double kSymmetryTol = 1e-9;    // |C_ij - C_ji| <= this sqrt(C_ii C_jj)
+constexpr double kChordRate = 1e-2;      // a kept-tangent step is repeated only below this rate
 
 
 }  // namespace
@@ -248,6 +249,8 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
   }
   double best_r = r;
   best_.head(n) = F;
+  bool on_tangent = false;  // the last step was taken on the kept tangent
+  double rate = 1;          // residual after / before the last step
   for (;;) {
     if (r <= res.tolerance) {
       res.status = NlcpStatus::converged;
@@ -271,11 +274,18 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
         free_[m++] = i;
     }
     double decrease_free = 0;  // -g_I^T d_I = g_I^T H_II^-1 g_I
+    if (m == 0) on_tangent = false;
     if (m > 0) {
       for (int a = 0; a < m; ++a) rhs_[a] = -g_[free_[a]];
       Fault fault;
-      if (res.iterations == 0 && same_as_tangent(m))
-        solve_factored(tangent_, tangent_inv_, m);  // the previous answer's tangent
+      // The previous answer's tangent for the first step, and again for a step that the
+      // contraction it showed (rate, the residual ratio of its last step) predicts to end the
+      // solve; else a Newton factorization.
+      on_tangent = same_as_tangent(m) &&
+                   (res.iterations == 0 ||
+                    (on_tangent && rate <= kChordRate && r * rate <= 0.5 * res.tolerance));
+      if (on_tangent)
+        solve_factored(tangent_, tangent_inv_, m);
       else
         fault = factor_and_solve(C, m, slope_), ++res.factorizations;
       if (fault.position >= 0) {
@@ -323,7 +333,9 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
     }
     F += trial_.head(n);
     ++res.iterations;
+    const double r_before = r;
     r = options_.reuse_evaluations ? accept_trial(C, delta, F) : evaluate(C, delta, F);
+    rate = r / r_before;
     if (r < best_r) {
       best_r = r;
       best_.head(n) = F;

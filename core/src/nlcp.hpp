@@ -52,7 +52,9 @@ struct NlcpOptions {
   // free set is the same loaded set (a quasi-Newton step: the matrix is that of the previous
   // C and laws; any symmetric positive definite matrix gives a descent direction, and the
   // Armijo search and the following exact Newton steps keep the method and its stopping test
-  // as they are). Saves one factorization per call. false: factorize at every iteration.
+  // as they are). A further step is taken on it too when its last step contracted the residual
+  // by 100 or more and that rate predicts the next one to meet the tolerance (a chord step).
+  // Saves one or two factorizations per call. false: factorize at every iteration.
   bool reuse_tangent = true;
 };
 
