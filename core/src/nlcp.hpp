@@ -12,7 +12,11 @@
 // optimization problems with simple constraints", SIAM J. Control Optim. 20(2)): Newton on the
 // free unknowns, scaled gradient on the eps-active ones, Armijo search on Phi along the
 // projection arc. Globally convergent from any start, quadratic once the active set is found;
-// warm-started from the caller's previous forces.
+// warm-started from the caller's previous forces. Per iterate each law is evaluated once (at
+// the line search's trial point, carried over when it is accepted); the Newton matrix is
+// factorized in place by a plain-loop Cholesky of the free set; a caller that asks for the
+// tangent of each answer (loaded_row_sums) has its factorization reused for the next solve's
+// first step (NlcpOptions::reuse_tangent).
 //
 // Stopping: r = ||min(diag(C) F, g)||_inf <= tol, both terms in metres (the force is scaled by
 // the slice's own compliance), tol = tolerance + relative_tolerance * max_i |Delta_i|. A gap
@@ -47,9 +51,8 @@ struct NlcpOptions {
   // every iterate from scratch (the reference the tests compare with).
   bool reuse_evaluations = true;
   // solve() or solve_total() warm-started from exactly the answer whose tangent
-  // loaded_row_sums() factorized
-  // (the caller's previous step): take the first Newton step with that factorization when the
-  // free set is the same loaded set (a quasi-Newton step: the matrix is that of the previous
+  // loaded_row_sums() factorized (the caller's previous step): take the first Newton step with
+  // that factorization when the free set is the same loaded set (a quasi-Newton step: the matrix is that of the previous
   // C and laws; any symmetric positive definite matrix gives a descent direction, and the
   // Armijo search and the following exact Newton steps keep the method and its stopping test
   // as they are). A further step is taken on it too when its last step contracted the residual
