@@ -20,8 +20,9 @@ double solve_slice(const SliceLaw& law, double delta, double tol, int max_iterat
     return delta / law.compliance;
   }
   double F = delta / law.compliance;
+  const LocalLawKernel kernel = local_law_kernel(law.local);
   for (int i = 0; i < max_iterations; ++i) {
-    const LocalLawValue v = evaluate_local_law(law.local, F);
+    const LocalLawJet v = local_law_jet(kernel, F);
     const double g = law.compliance * F + v.approach - delta;
     const double slope = law.compliance + v.slope;
     ++iterations;

@@ -374,32 +374,10 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
   }
   // forces, and each loaded slice's tangent stiffness: row sums of (C_AA + diag f'_A)^-1, so
   // that their sum is the mesh stiffness under a uniform approach
-  int nl = 0;
+  d.nlcp->loaded_row_sums(Cn, d.fe_force.head(na), d.fe_work.head(na));
   for (int a = 0; a < na; ++a) {
-    if (d.fe_force[a] > 0) d.fe_index[nl++] = d.fe_index[a], d.fe_work[nl - 1] = d.fe_force[a];
-  }
-  // fe_index now holds the loaded candidates first (their a-order is kept; C rows are remapped)
-  // rebuild the loaded block from C: find each loaded one's position a again
-  int k = 0;
-  for (int a = 0; a < na && k < nl; ++a) {
-    if (d.fe_force[a] > 0) d.fe_weights[k++] = a;  // position of the k-th loaded in C
-  }
-  auto H = d.fe_tangent.topLeftCorner(nl, nl);
-  for (int p = 0; p < nl; ++p) {
-    const int ap = int(d.fe_weights[p]);
-    for (int q = 0; q < nl; ++q) H(p, q) = C(ap, int(d.fe_weights[q]));
-    const LocalLaw& law = d.fe_laws[ap];
-    if (has_local_law(law)) H(p, p) += evaluate_local_law(law, d.fe_work[p]).slope;
-  }
-  for (int p = 0; p < nl; ++p) d.forces[d.fe_index[p]] = d.fe_work[p];
-  if (nl > 0) {
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(H);
-    if (llt.info() == Eigen::Success) {
-      auto x = d.fe_delta.head(nl);  // the approaches are no longer needed
-      x.setOnes();
-      llt.solveInPlace(x);
-      for (int p = 0; p < nl; ++p) d.slice_stiffness[d.fe_index[p]] = x[p];
-    }
+    d.forces[d.fe_index[a]] = d.fe_force[a];
+    d.slice_stiffness[d.fe_index[a]] = d.fe_work[a];
   }
   return out;
 }

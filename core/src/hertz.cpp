@@ -73,32 +73,39 @@ const char* local_law_error(const LocalLaw& law) {
 // give A/2 + (r-1)^2 (r+2)/(6 q^4) and (r-1)^2 (2r+1)/(3 q^4), i.e. the forms above. The
 // large-x limit a w^2 [ln(2x)/2 + 1/8 - k/4] matches integrating Weber-Banaschek's form term by
 // term; tests compare f' with finite differences and P with adaptive quadrature of f.
+// and, differentiating once more (dq/dw = q/(2w), dA/dw = -1/(2 w r), dr/dw = q^2/(2 w r)),
+//   d delta/dw = a [A - (1 + k)/(2r)],   d^2 delta/dw^2 = -a (2 + (1 - k) q^2)/(4 w r^3).
+LocalLawKernel local_law_kernel(const LocalLaw& law) {
+  LocalLawKernel kern;
+  if (!has_local_law(law)) return kern;
+  kern.width = law.width;
+  kern.inv_width = 1.0 / law.width;
+  const HertzBody& b0 = law.body[0];
+  const HertzBody& b1 = law.body[1];
+  const bool same = b0.youngs_modulus == b1.youngs_modulus &&
+                    b0.poisson_ratio == b1.poisson_ratio && b0.depth == b1.depth;
+  kern.terms = same ? 1 : 2;
+  double inv_E_star = 0;  // 1/E* = sum (1 - nu_i^2)/E_i (PHYSICS.md section 4)
+  for (int t = 0; t < kern.terms; ++t) {
+    const HertzBody& body = law.body[t];
+    const double weight = same ? 2.0 : 1.0;
+    const double term = (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
+    inv_E_star += weight * term;
+    kern.a[t] = weight * (2.0 / kPi) * term;  // body_compliance
+    kern.k[t] = body.poisson_ratio / (1.0 - body.poisson_ratio);
+    kern.depth[t] = body.depth;
+    kern.inv_depth[t] = 1.0 / body.depth;
+  }
+  kern.b2_per_load = (4.0 / kPi) * law.reduced_radius * inv_E_star;  // b_H^2 = 4 w R'/(pi E*)
+  return kern;
+}
+
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force) {
+  const LocalLawJet j = local_law_jet(local_law_kernel(law), force);
   LocalLawValue v;
-  if (!has_local_law(law)) return v;
-  const double w = force / law.width;
-  const double E_star = reduced_modulus(law.body[0], law.body[1]);
-  const double b = hertz_half_width(w, law.reduced_radius, E_star);
-  if (!(b > 0)) {  // F = 0, or so small that b_H underflows
-    v.slope = std::numeric_limits<double>::infinity();
-    return v;
-  }
-  double slope_w = 0, energy_w = 0;
-  for (const HertzBody& body : law.body) {
-    const double a = body_compliance(body);
-    const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
-    const double q = b / body.depth;
-    const double r = std::sqrt(1.0 + q * q);
-    const double r1 = r + 1.0;
-    const double A = std::asinh(1.0 / q);
-    const double bracket = A - k / r1;
-    v.approach += a * w * bracket;
-    slope_w += a * (bracket - (1.0 - k * q * q / (r1 * r1)) / (2.0 * r));
-    energy_w += a * w * w *
-                (0.5 * A + (r + 2.0) / (6.0 * r1 * r1) - k * (2.0 * r + 1.0) / (3.0 * r1 * r1));
-  }
-  v.slope = slope_w / law.width;    // d/dF = (1/L) d/dw
-  v.energy = energy_w * law.width;  // int dF = L int dw
+  v.approach = j.approach;
+  v.slope = j.slope;
+  v.energy = j.energy;
   return v;
 }
 

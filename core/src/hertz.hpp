@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cmath>
+#include <limits>
 
 namespace gm {
 
@@ -65,8 +66,89 @@ const char* local_law_error(const LocalLaw& law);
 inline bool has_local_law(const LocalLaw& law) { return law.width > 0; }
 
 // f, f' and P at force F >= 0 (N). Zero for "no local law". At F = 0 (or F so small that b_H
-// underflows): approach = energy = 0, slope = +inf. Cost: 3 sqrt and 2 asinh.
+// underflows): approach = energy = 0, slope = +inf. Through local_law_jet.
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force);
+
+// The same law prepared for many evaluations (the coupled solver's inner loop): its constants
+// worked out once, and both bodies merged into one term when they are identical (same E, nu and
+// h, the usual case of two steel gears read at the same depth).
+struct LocalLawKernel {
+  double width = 0;         // L, m; 0: no local law
+  double inv_width = 0;     // 1/L, 1/m
+  double b2_per_load = 0;   // b_H^2/w = 4 R'/(pi E*), m^2/(N/m)
+  int terms = 0;            // 0 (no law), 1 (identical bodies, weight 2) or 2
+  double a[2] = {0, 0};     // 2 (1 - nu^2)/(pi E) per term (times 2 for merged bodies), m^2/N
+  double k[2] = {0, 0};     // nu/(1 - nu)
+  double depth[2] = {0, 0};      // h, m
+  double inv_depth[2] = {0, 0};  // 1/h, 1/m
+};
+
+// f, f', f'' and P at one force: what the solver needs from an iterate.
+struct LocalLawJet {
+  double approach = 0;   // f(F), m
+  double slope = 0;      // f'(F), m/N; +inf at F = 0
+  double curvature = 0;  // f''(F), m/N^2 (< 0: f is concave); -inf at F = 0
+  double energy = 0;     // P(F), J
+};
+
+LocalLawKernel local_law_kernel(const LocalLaw& law);
+
+// f, f', f'' and P at F >= 0: the closed forms of evaluate_local_law (which calls this), with
+// asinh(1/q) = ln((1 + r)/q) (log1p of the same where q >= 1, to keep full relative accuracy
+// for b_H >= h). Cost per distinct body: 1 sqrt, 1 log and 2 divisions; plus 1 sqrt and 1
+// division. The closed forms are derived in hertz.cpp. Inline, as is the energy change below:
+// both sit in the coupled solver's innermost loops.
+inline LocalLawJet local_law_jet(const LocalLawKernel& kern, double force) {
+  LocalLawJet v;
+  if (kern.terms == 0) return v;
+  const double w = force * kern.inv_width;
+  const double b = std::sqrt(w * kern.b2_per_load);
+  if (!(b > 0)) {  // F = 0, or so small that b_H underflows
+    v.slope = std::numeric_limits<double>::infinity();
+    v.curvature = -v.slope;
+    return v;
+  }
+  const double inv_b = 1.0 / b;
+  const double inv_w = kern.b2_per_load * inv_b * inv_b;  // 1/w = (b_H^2/w)/b_H^2
+  double approach_w = 0, slope_w = 0, curvature_ww = 0, energy_ww = 0;
+  for (int t = 0; t < kern.terms; ++t) {
+    const double a = kern.a[t], k = kern.k[t];
+    const double q = b * kern.inv_depth[t], inv_q = kern.depth[t] * inv_b;
+    const double r = std::sqrt(1.0 + q * q);
+    const double r1 = r + 1.0;
+    const double inv_r = 1.0 / r, inv_r1 = 1.0 / r1;
+    // asinh(1/q) = ln((1 + r)/q); for q >= 1 (argument <= 1 + sqrt 2) as log1p of
+    // (1 + r)/q - 1 = (1 + r - q)/q with r - q = 1/(r + q), free of cancellation
+    const double A = q < 1.0 ? std::log(r1 * inv_q) : std::log1p((1.0 + 1.0 / (r + q)) * inv_q);
+    approach_w += a * (A - k * inv_r1);
+    slope_w += a * (A - 0.5 * (1.0 + k) * inv_r);
+    curvature_ww -= a * (2.0 + (1.0 - k) * q * q) * 0.25 * (inv_r * inv_r * inv_r);
+    energy_ww += a * (0.5 * A + ((r + 2.0) / 6.0 - k * (2.0 * r + 1.0) / 3.0) * (inv_r1 * inv_r1));
+  }
+  v.approach = approach_w * w;
+  v.slope = slope_w * kern.inv_width;                                   // d/dF = (1/L) d/dw
+  v.curvature = curvature_ww * inv_w * (kern.inv_width * kern.inv_width);
+  v.energy = energy_ww * w * w * kern.width;                            // int dF = L int dw
+  return v;
+}
+
+
+// P(F + s) - P(F) from the jets at both ends (F >= 0, F + s >= 0): the two-point Hermite
+// quadrature with f, f', f'' at both ends (exact for quintics; error s^7 |f^(6)|/100800) when
+// |s| <= F/8, where its relative error is below ~1e-9 and falls like (s/F)^6; the closed-form
+// difference otherwise (its cancellation costs at most ~16 ulps there). No new law evaluation.
+inline double local_law_energy_change(const LocalLawKernel& kern, double force, double step,
+                                      const LocalLawJet& at_force, const LocalLawJet& at_end) {
+  if (kern.terms == 0 || step == 0) return 0;
+  // (a force so small that b_H underflows has infinite slopes: closed form, both energies 0)
+  if (std::abs(step) <= 0.125 * force && std::isfinite(at_force.curvature) &&
+      std::isfinite(at_end.curvature))
+    return step * (0.5 * (at_force.approach + at_end.approach) +
+                   step * ((at_force.slope - at_end.slope) / 10.0 +
+                           step * (at_force.curvature + at_end.curvature) / 120.0));
+  return at_end.energy - at_force.energy;
+}
+
 
 // f and f' of evaluate_local_law over a scalar type T (the Jacobian: dual numbers carry the
 // derivatives along the law's geometry and the force). F > 0 and a local law required.

@@ -4,7 +4,13 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Cholesky>
+
+// Keeps GCC from vectorizing a function's loops (see solve_factored).
+#if defined(__GNUC__) && !defined(__clang__)
+#define GM_SCALAR_LOOPS __attribute__((optimize("no-tree-vectorize")))
+#else
+#define GM_SCALAR_LOOPS
+#endif
 
 namespace gm {
 
@@ -17,10 +23,7 @@ constexpr int kMaxBacktracks = 60;       // alpha down to ~1e-18
 constexpr double kMinPivotRatio = 1e-12; // L_jj^2/H_jj below this: row j numerically dependent
 constexpr double kSingularPivot = 1e-8;  // |L_jj^2| below this H_jj: singular, not indefinite
 constexpr double kSymmetryTol = 1e-9;    // |C_ij - C_ji| <= this sqrt(C_ii C_jj)
-
-const LocalLaw kNoLaw{};
-
-const LocalLaw& law_of(const LocalLaw* laws, int i) { return laws ? laws[i] : kNoLaw; }
+constexpr double kChordRate = 1e-2;      // a kept-tangent step is repeated only below this rate
 
 
 }  // namespace
@@ -29,20 +32,29 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
     : capacity_(std::max(capacity, 0)),
       options_(options),
       newton_(capacity_, capacity_),
+      newton_inv_(capacity_),
       cf_(capacity_),
       g_(capacity_),
-      f_(capacity_),
+      kernel_(capacity_),
+      jet_(capacity_),
+      trial_jet_(capacity_),
+      floor_(capacity_),
       slope_(capacity_),
       step_(capacity_),
       trial_(capacity_),
       c_trial_(capacity_),
       rhs_(capacity_),
       best_(capacity_),
+      answer_(capacity_),
       delta_(capacity_),
-      free_(capacity_) {}
+      free_(capacity_),
+      tangent_(capacity_, capacity_),
+      tangent_inv_(capacity_),
+      tangent_index_(capacity_),
+      tangent_force_(capacity_) {}
 
 const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
-                                Eigen::Ref<Eigen::VectorXd> F, int& index) const {
+                                Eigen::Ref<Eigen::VectorXd> F, int& index) {
   const Eigen::Index n = delta.size();
   index = -1;
   if (n > capacity_) return "more unknowns than the solver's capacity";
@@ -51,79 +63,174 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
   for (int i = 0; i < n; ++i) {
     index = i;
     if (!std::isfinite(delta[i])) return "approach Delta is not finite";
-    if (!C.col(i).allFinite()) return "compliance matrix C is not finite";
-    if (!(C(i, i) > 0))
-      return "compliance matrix C: diagonal entry <= 0 (C must be positive definite)";
-    if (const char* err = local_law_error(law_of(laws, i))) return err;
+    if (laws)
+      if (const char* err = local_law_error(laws[i])) return err;
   }
+  // One pass over C: |C_ij - C_ji| <= kSymmetryTol sqrt(C_ii C_jj), which also fails on any
+  // non-finite entry; only if it fails do the loops below look for the fault to name.
+  bool ok = true;
+  double* root = c_trial_.data();  // sqrt(C_ii) (c_trial_ is free scratch here)
   for (int i = 0; i < n; ++i) {
-    index = i;
-    for (int j = 0; j < i; ++j) {
-      const double d = C(i, j) - C(j, i);
-      if (d * d > kSymmetryTol * kSymmetryTol * C(i, i) * C(j, j))
-        return "compliance matrix C is not symmetric";
+    const double c = C(i, i);
+    ok = ok && c > 0 && c < kInf;
+    root[i] = ok ? std::sqrt(c) : 0;
+  }
+  for (int j = 0; j < n && ok; ++j) {
+    const double* Cj = C.data() + j * C.outerStride();
+    const double tol_j = kSymmetryTol * root[j];
+    bool column_ok = true;
+    for (int i = j + 1; i < n; ++i) column_ok &= std::abs(Cj[i] - C(j, i)) <= tol_j * root[i];
+    ok = column_ok;
+  }
+  if (!ok) {
+    for (int i = 0; i < n; ++i) {
+      index = i;
+      if (!C.col(i).allFinite()) return "compliance matrix C is not finite";
+      if (!(C(i, i) > 0))
+        return "compliance matrix C: diagonal entry <= 0 (C must be positive definite)";
+    }
+    for (int i = 0; i < n; ++i) {
+      index = i;
+      for (int j = 0; j < i; ++j) {
+        const double d = C(i, j) - C(j, i);
+        if (d * d > kSymmetryTol * kSymmetryTol * C(i, i) * C(j, j))
+          return "compliance matrix C is not symmetric";
+      }
     }
   }
   index = -1;
   for (int i = 0; i < n; ++i)  // the warm start: anything but a finite F >= 0 counts as 0
     if (!(F[i] > 0) || !std::isfinite(F[i])) F[i] = 0;
+  for (int i = 0; i < n; ++i) kernel_[i] = laws ? local_law_kernel(laws[i]) : LocalLawKernel{};
+  floor_.head(n).setConstant(std::numeric_limits<double>::quiet_NaN());
   return nullptr;
 }
 
-// Fills f_, slope_ (floored), C F, g and phi_ = Phi(F) for F; returns the KKT residual
-// ||min(diag(C) F, g)||_inf.
-double NlcpSolver::evaluate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+// f'(F) for the Newton matrix: at F >= min_line_load L the law's own slope (in jet_[i]), below
+// it the slope at that floor (finite; worked out once per solve).
+double NlcpSolver::newton_slope(int i, double force) {
+  const LocalLawKernel& kern = kernel_[i];
+  if (force >= options_.min_line_load * kern.width) return jet_[i].slope;
+  if (std::isnan(floor_[i])) floor_[i] = local_law_jet(kern, options_.min_line_load * kern.width).slope;
+  return floor_[i];
+}
+
+// Fills jet_ (the laws at F), slope_ (floored), C F, g and phi_ = Phi(F) for F; returns the KKT
+// residual ||min(diag(C) F, g)||_inf.
+double NlcpSolver::evaluate(const ConstMat& C, const ConstVec& delta,
                             const Eigen::Ref<const Eigen::VectorXd>& F) {
   const Eigen::Index n = delta.size();
   cf_.head(n).noalias() = C * F;
   double residual = 0, energy = 0;
   for (int i = 0; i < n; ++i) {
-    const LocalLaw& law = law_of(laws, i);
-    const LocalLawValue v = evaluate_local_law(law, F[i]);
-    f_[i] = v.approach;
-    energy += v.energy;
-    slope_[i] = F[i] >= options_.min_line_load * law.width
-                    ? v.slope
-                    : local_law_newton_slope(law, F[i], options_.min_line_load);
-    g_[i] = cf_[i] + f_[i] - delta[i];  // paper eq. 1
+    jet_[i] = local_law_jet(kernel_[i], F[i]);
+    energy += jet_[i].energy;
+    slope_[i] = newton_slope(i, F[i]);
+    g_[i] = cf_[i] + jet_[i].approach - delta[i];  // paper eq. 1
     residual = std::max(residual, std::abs(std::min(C(i, i) * F[i], g_[i])));
   }
   phi_ = 0.5 * F.dot(cf_.head(n)) + energy - delta.dot(F);  // PHYSICS.md section 6
   return residual;
 }
 
-// LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in newton_ (the decomposition
-// object is a view on the preallocated storage, so nothing is allocated), then rhs_[0..m) <-
-// H_JJ^-1 rhs_[0..m). A pivot with L_jj^2 < kMinPivotRatio H_jj counts as singular.
-NlcpSolver::Fault NlcpSolver::factor_and_solve(const ConstMat& C, int m) {
+// After F += trial_ (the accepted step): the same as evaluate, from what the line search
+// computed at that point (trial_jet_, C trial_), without evaluating a law or C F again. phi_ is
+// left as it was (it is only needed for the warm start test).
+double NlcpSolver::accept_trial(const ConstMat& C, const ConstVec& delta,
+                                const Eigen::Ref<const Eigen::VectorXd>& F) {
+  const Eigen::Index n = delta.size();
+  cf_.head(n) += c_trial_.head(n);
+  double residual = 0;
+  for (int i = 0; i < n; ++i) {
+    if (trial_[i] != 0) jet_[i] = trial_jet_[i];
+    slope_[i] = newton_slope(i, F[i]);
+    g_[i] = cf_[i] + jet_[i].approach - delta[i];  // paper eq. 1
+    residual = std::max(residual, std::abs(std::min(C(i, i) * F[i], g_[i])));
+  }
+  return residual;
+}
+
+// LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in the lower triangle of an
+// m x m matrix packed at the start of newton_'s storage, then rhs_[0..m) <- H_JJ^-1 rhs_[0..m). Plain loops over the contiguous columns: at
+// the sizes of a mesh (m ~ 10..100) Eigen's LLT on a dynamic block spends most of its time in
+// per-column dispatch; two columns per update pass take ~25 % off at m = 20..60 (measured). The
+// pivot of column j is the Schur complement of the unknowns before it; one below
+// kMinPivotRatio H_jj stops the factorization and names unknown j: ~0 (a dependent row) or
+// negative (H not positive definite).
+NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::VectorXd& slope) {
+  const Eigen::Index ld = m;  // packed: the m x m block is contiguous whatever the capacity
+  double* H = newton_.data();
+  const bool leading = m == 0 || free_[m - 1] == m - 1;  // free_ ascending: J = 0..m-1
   for (int b = 0; b < m; ++b) {
-    for (int a = b; a < m; ++a) newton_(a, b) = C(free_[a], free_[b]);
-    newton_(b, b) += slope_[free_[b]];
+    const double* Cb = C.data() + free_[b] * C.outerStride();
+    double* Hb = H + b * ld;
+    if (leading)
+      for (int a = b; a < m; ++a) Hb[a] = Cb[a];
+    else
+      for (int a = b; a < m; ++a) Hb[a] = Cb[free_[a]];
+    Hb[b] += slope[free_[b]];
   }
-  Eigen::Ref<Eigen::MatrixXd> H = newton_.topLeftCorner(m, m);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(H);
-  bool ok = llt.info() == Eigen::Success;
-  for (int j = 0; j < m && ok; ++j)
-    ok = H(j, j) * H(j, j) >= kMinPivotRatio * (C(free_[j], free_[j]) + slope_[free_[j]]);
-  if (ok) {
-    llt.solveInPlace(rhs_.head(m));
-    return Fault{};
+  for (int j = 0; j < m; ++j) {  // left-looking: column j minus L_jk times column k, k < j
+    double* __restrict Hj = H + j * ld;
+    int k = 0;
+    for (; k + 1 < j; k += 2) {  // two columns per pass: half the loads and stores of column j
+      const double* __restrict A = H + k * ld;
+      const double* __restrict B = A + ld;
+      const double la = A[j], lb = B[j];
+      for (int i = j; i < m; ++i) Hj[i] -= la * A[i] + lb * B[i];
+    }
+    if (k < j) {
+      const double* __restrict A = H + k * ld;
+      const double la = A[j];
+      for (int i = j; i < m; ++i) Hj[i] -= la * A[i];
+    }
+    const double Hjj = C(free_[j], free_[j]) + slope[free_[j]];
+    const double pivot = Hj[j];
+    if (!(pivot >= kMinPivotRatio * Hjj)) return Fault{j, pivot > -kSingularPivot * Hjj};
+    const double d = std::sqrt(pivot), inv = 1.0 / d;
+    Hj[j] = d;
+    newton_inv_[j] = inv;
+    for (int i = j + 1; i < m; ++i) Hj[i] *= inv;
   }
-  // Failure (rare): redo the factorization column by column to name the first unknown whose
-  // pivot, the Schur complement of the ones before it, is ~0 (a dependent row) or negative.
-  for (int b = 0; b < m; ++b) {
-    for (int a = b; a < m; ++a) H(a, b) = C(free_[a], free_[b]);
-    H(b, b) += slope_[free_[b]];
+  return Fault{};
+}
+
+// rhs_[0..m) <- (L L^T)^-1 rhs_[0..m), L the lower triangle of the m x m matrix packed at the
+// start of L's storage, inv its diagonal's reciprocals (no division on the critical path). Both
+// substitutions as updates (L y = b down the columns, L^T x = y along the rows), in scalar code:
+// at m ~ 10..30 the vectorized forms stall on loads of entries just stored (measured: the pair
+// of solves at m = 20 took 1.9x as long vectorized, or in dot-product form).
+GM_SCALAR_LOOPS void NlcpSolver::solve_factored(const Eigen::MatrixXd& L,
+                                                const Eigen::VectorXd& inv, int m) {
+  const Eigen::Index ld = m;
+  const double* H = L.data();
+  double* __restrict x = rhs_.data();
+  for (int k = 0; k < m; ++k) {  // L y = b
+    const double* Hk = H + k * ld;
+    const double y = x[k] * inv[k];
+    x[k] = y;
+    for (int i = k + 1; i < m; ++i) x[i] -= Hk[i] * y;
   }
-  for (int k = 0; k < m; ++k) {
-    const double Hkk = H(k, k);
-    const double pivot = Hkk - H.row(k).head(k).squaredNorm();
-    if (pivot < kMinPivotRatio * Hkk) return Fault{k, pivot > -kSingularPivot * Hkk};
-    H(k, k) = std::sqrt(pivot);
-    for (int i = k + 1; i < m; ++i)
-      H(i, k) = (H(i, k) - H.row(i).head(k).dot(H.row(k).head(k))) / H(k, k);
+  for (int k = m - 1; k >= 0; --k) {  // L^T x = y: x_j -= L_kj x_k, j < k (row k of L)
+    const double y = x[k] * inv[k];
+    x[k] = y;
+    const double* row = H + k;
+    for (int j = 0; j < k; ++j) x[j] -= row[j * ld] * y;
   }
-  return Fault{m - 1, true};  // LLT failed on rounding at the threshold
+}
+
+NlcpSolver::Fault NlcpSolver::factor_and_solve(const ConstMat& C, int m,
+                                               const Eigen::VectorXd& slope) {
+  const Fault fault = factor(C, m, slope);
+  if (fault.position < 0) solve_factored(newton_, newton_inv_, m);
+  return fault;
+}
+
+bool NlcpSolver::same_as_tangent(int m) const {
+  if (!tangent_usable_ || m != tangent_m_) return false;
+  for (int a = 0; a < m; ++a)
+    if (free_[a] != tangent_index_[a]) return false;
+  return true;
 }
 
 const char* NlcpSolver::fault_message(const Fault& fault) {
@@ -132,20 +239,22 @@ const char* NlcpSolver::fault_message(const Fault& fault) {
                         : "C + diag(f') is not positive definite on the loaded unknowns";
 }
 
-NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
                                Eigen::Ref<Eigen::VectorXd> F) {
   const int n = static_cast<int>(delta.size());
   NlcpResult res;
   res.status = NlcpStatus::iteration_cap;
   res.tolerance = options_.tolerance +
                   options_.relative_tolerance * (n ? delta.cwiseAbs().maxCoeff() : 0.0);
-  double r = evaluate(C, delta, laws, F);
+  double r = evaluate(C, delta, F);
   if (phi_ > 0) {  // a stale warm start, worse than F = 0 (Phi(0) = 0 >= min Phi): drop it
     F.setZero();
-    r = evaluate(C, delta, laws, F);
+    r = evaluate(C, delta, F);
   }
   double best_r = r;
   best_.head(n) = F;
+  bool on_tangent = false;  // the last step was taken on the kept tangent
+  double rate = 1;          // residual after / before the last step
   for (;;) {
     if (r <= res.tolerance) {
       res.status = NlcpStatus::converged;
@@ -169,9 +278,20 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
         free_[m++] = i;
     }
     double decrease_free = 0;  // -g_I^T d_I = g_I^T H_II^-1 g_I
+    if (m == 0) on_tangent = false;
     if (m > 0) {
       for (int a = 0; a < m; ++a) rhs_[a] = -g_[free_[a]];
-      const Fault fault = factor_and_solve(C, m);
+      Fault fault;
+      // The previous answer's tangent for the first step, and again for a step that the
+      // contraction it showed (rate, the residual ratio of its last step) predicts to end the
+      // solve; else a Newton factorization.
+      on_tangent = same_as_tangent(m) &&
+                   (res.iterations == 0 ||
+                    (on_tangent && rate <= kChordRate && r * rate <= 0.5 * res.tolerance));
+      if (on_tangent)
+        solve_factored(tangent_, tangent_inv_, m);
+      else
+        fault = factor_and_solve(C, m, slope_), ++res.factorizations;
       if (fault.position >= 0) {
         res.status = NlcpStatus::bad_input;
         res.index = free_[fault.position];
@@ -185,7 +305,9 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
     }
     // Armijo rule on Phi along the projection arc F(alpha) = [F + alpha d]^+ (Bertsekas 1982,
     // eq. 34). Phi(F + s) - Phi(F) = (C F - Delta)^T s + s^T C s/2 + sum dP_i, each term computed
-    // from s itself so that short steps near the solution are not lost to cancellation.
+    // from s itself so that short steps near the solution are not lost to cancellation; dP_i
+    // from the laws at both ends (local_law_energy_change), those at F + s kept for the next
+    // iterate.
     bool accepted = false;
     double alpha = 1;
     for (int k = 0; k < kMaxBacktracks && !accepted; ++k, alpha *= 0.5) {
@@ -193,7 +315,11 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
       for (int i = 0; i < n; ++i) {
         const double s = std::max(0.0, F[i] + alpha * step_[i]) - F[i];
         trial_[i] = s;
-        const double dP = local_law_energy_change(law_of(laws, i), F[i], s);
+        double dP = 0;
+        if (s != 0) {  // the law at exactly the F[i] + s that F += trial_ will give
+          trial_jet_[i] = local_law_jet(kernel_[i], F[i] + s);
+          dP = local_law_energy_change(kernel_[i], F[i], s, jet_[i], trial_jet_[i]);
+        }
         change += (cf_[i] - delta[i]) * s + dP;
         size += std::abs((cf_[i] - delta[i]) * s) + std::abs(dP);
         if (F[i] <= eps && g_[i] > 0) decrease_active -= g_[i] * s;
@@ -211,7 +337,9 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
     }
     F += trial_.head(n);
     ++res.iterations;
-    r = evaluate(C, delta, laws, F);
+    const double r_before = r;
+    r = options_.reuse_evaluations ? accept_trial(C, delta, F) : evaluate(C, delta, F);
+    rate = r / r_before;
     if (r < best_r) {
       best_r = r;
       best_.head(n) = F;
@@ -219,28 +347,63 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta, const L
   }
   if (res.status != NlcpStatus::converged && best_r < r) {
     F = best_.head(n);
-    r = evaluate(C, delta, laws, F);
+    r = evaluate(C, delta, F);
   }
   res.residual = r;
+  answer_.head(n) = F;
+  answer_n_ = n;
   return res;
 }
 
 NlcpResult NlcpSolver::solve(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
                              Eigen::Ref<Eigen::VectorXd> force) {
   NlcpResult res;
+  answer_n_ = -1;
   if (const char* err = prepare(C, delta, laws, force, res.index)) {
     if (force.size() == delta.size()) force.setZero();
     res.message = err;
     res.residual = kInf;
     return res;
   }
-  return iterate(C, delta, laws, force);
+  tangent_usable_ = options_.reuse_tangent && tangent_n_ == delta.size() &&
+                    force == tangent_force_.head(tangent_n_);
+  tangent_n_ = -1;  // one use
+  const NlcpResult out = iterate(C, delta, force);
+  tangent_usable_ = false;
+  return out;
+}
+
+bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
+                                 Eigen::Ref<Eigen::VectorXd> row_sums) {
+  const int n = static_cast<int>(F.size());
+  row_sums.setZero();
+  tangent_n_ = -1;
+  if (n != answer_n_ || F != answer_.head(n)) return false;
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    if (F[i] > 0) {
+      trial_[i] = jet_[i].slope;  // (trial_ is free scratch between solves)
+      rhs_[m] = 1;
+      free_[m++] = i;
+    }
+  }
+  if (m == 0) return true;
+  if (factor(C, m, trial_).position >= 0) return false;
+  newton_.swap(tangent_);  // keep it for the next solve (reuse_tangent); swaps storage only
+  newton_inv_.swap(tangent_inv_);
+  tangent_index_.head(m) = free_.head(m);
+  tangent_force_.head(n) = F;
+  tangent_n_ = n;
+  tangent_m_ = m;
+  solve_factored(tangent_, tangent_inv_, m);
+  for (int a = 0; a < m; ++a) row_sums[free_[a]] = rhs_[a];
+  return true;
 }
 
 // Slope of w^T F(lambda): w_J^T H_JJ^-1 w_J over J = loaded unknowns and the unknowns with
 // w_i > 0 at their threshold (g_i <= tol; raising lambda closes them), so that the right
 // derivative is found at a kink. Leaves J in free_[0..m) and H_JJ^-1 w_J in rhs_[0..m).
-// Returns 0 if no weighted unknown is in J; fault as from factor_and_solve.
+// Returns 0 (and m = 0) if no weighted unknown is in J; fault as from factor_and_solve.
 double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
                                      const Eigen::Ref<const Eigen::VectorXd>& F, double tol,
                                      int& m, Fault& fault) {
@@ -255,11 +418,48 @@ double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
     }
   }
   fault = Fault{};
-  if (!weighted) return 0;
-  fault = factor_and_solve(C, m);
+  if (!weighted) {
+    m = 0;
+    return 0;
+  }
+  fault = factor_and_solve(C, m, slope_);
   double slope = 0;
   for (int a = 0; a < m; ++a) slope += weights[free_[a]] * rhs_[a];
   return slope;
+}
+
+// The last lambda correction dlambda = -mismatch/slope of a converged solve_total, applied with
+// its first-order force update F_J += H_JJ^-1 w_J dlambda (rhs_, from total_force_slope): w^T F
+// then meets total_force to rounding instead of to slope * tol, which a caller balancing a
+// moment to a relative 1e-12 would otherwise chase with repeated solves. Kept only if the KKT
+// residual at the new point is still within tol (no force hits 0), else everything is restored.
+void NlcpSolver::polish_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                              double total_force, double slope, int m,
+                              Eigen::Ref<Eigen::VectorXd> force, double& lambda, NlcpResult& res) {
+  const int n = static_cast<int>(delta0.size());
+  const double mismatch = weights.dot(force) - total_force;
+  const double dl = -mismatch / slope;
+  bool clamped = false;
+  best_.head(n) = force;
+  for (int a = 0; a < m; ++a) {
+    const double next = force[free_[a]] + rhs_[a] * dl;
+    clamped = clamped || !(next > 0);
+    force[free_[a]] = next;
+  }
+  if (!clamped) {
+    delta_.head(n) = delta0 + (lambda + dl) * weights;
+    const double r = evaluate(C, delta_.head(n), force);
+    const double after = std::abs(weights.dot(force) - total_force);
+    if (r <= res.tolerance && after <= std::abs(mismatch)) {
+      lambda += dl;
+      answer_.head(n) = force;
+      res.residual = std::max(r, after / slope);
+      return;
+    }
+  }
+  force = best_.head(n);
+  delta_.head(n) = delta0 + lambda * weights;
+  evaluate(C, delta_.head(n), force);  // the laws at the restored answer, for loaded_row_sums
 }
 
 NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, const LocalLaw* laws,
@@ -267,6 +467,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
                                    Eigen::Ref<Eigen::VectorXd> force, double& lambda) {
   const int n = static_cast<int>(delta0.size());
   NlcpResult res;
+  answer_n_ = -1;
   const char* err = prepare(C, delta0, laws, force, res.index);
   if (!err && weights.size() != n) err = "weights must have n entries";
   if (!err) {
@@ -283,12 +484,16 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   if (!err && !(total_force > 0 && std::isfinite(total_force)))
     err = "total force must be finite and > 0";
   if (err) {
+    tangent_n_ = -1;
     if (force.size() == n) force.setZero();
     res.message = err;
     res.residual = kInf;
     return res;
   }
   if (!std::isfinite(lambda)) lambda = 0;
+  // the first inner solve may take its first step on the kept tangent, as in solve()
+  tangent_usable_ = options_.reuse_tangent && tangent_n_ == n && force == tangent_force_.head(n);
+  tangent_n_ = -1;
 
   // Safeguarded Newton on s(lambda) = w^T F(lambda) = total_force: s is continuous and
   // non-decreasing for weights of any sign (it is total_force minus the derivative of the
@@ -299,8 +504,10 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   double lo = -kInf, hi = kInf, last_step = kInf;
   for (;;) {
     delta_.head(n) = delta0 + lambda * weights;
-    const NlcpResult inner = iterate(C, delta_.head(n), laws, force);
+    const NlcpResult inner = iterate(C, delta_.head(n), force);
+    tangent_usable_ = false;
     res.iterations += inner.iterations;
+    res.factorizations += inner.factorizations;
     res.tolerance = inner.tolerance;
     res.status = inner.status;
     res.message = inner.message;
@@ -310,6 +517,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
     int m = 0;
     Fault fault;
     const double slope = total_force_slope(C, weights, force, inner.tolerance, m, fault);
+    res.factorizations += m > 0;
     if (fault.position >= 0) {
       res.status = NlcpStatus::bad_input;
       res.index = free_[fault.position];
@@ -319,7 +527,11 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
     const double correction = slope > 0 ? std::abs(mismatch) / slope : kInf;  // lambda error, m
     const double lambda_error = std::min(correction, hi - lo);
     res.residual = std::max(inner.residual, lambda_error);
-    if (inner.status == NlcpStatus::converged && lambda_error <= inner.tolerance) return res;
+    if (inner.status == NlcpStatus::converged && lambda_error <= inner.tolerance) {
+      if (slope > 0 && mismatch != 0 && correction <= inner.tolerance)
+        polish_total(C, delta0, weights, total_force, slope, m, force, lambda, res);
+      return res;
+    }
     if (res.approach_updates >= options_.max_approach_updates) {
       res.status = NlcpStatus::iteration_cap;
       res.message = "cap on updates of the rigid approach reached";

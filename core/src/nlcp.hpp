@@ -12,7 +12,11 @@
 // optimization problems with simple constraints", SIAM J. Control Optim. 20(2)): Newton on the
 // free unknowns, scaled gradient on the eps-active ones, Armijo search on Phi along the
 // projection arc. Globally convergent from any start, quadratic once the active set is found;
-// warm-started from the caller's previous forces.
+// warm-started from the caller's previous forces. Per iterate each law is evaluated once (at
+// the line search's trial point, carried over when it is accepted); the Newton matrix is
+// factorized in place by a plain-loop Cholesky of the free set; a caller that asks for the
+// tangent of each answer (loaded_row_sums) has its factorization reused for the next solve's
+// first step (NlcpOptions::reuse_tangent).
 //
 // Stopping: r = ||min(diag(C) F, g)||_inf <= tol, both terms in metres (the force is scaled by
 // the slice's own compliance), tol = tolerance + relative_tolerance * max_i |Delta_i|. A gap
@@ -20,6 +24,8 @@
 // 1e-10 |Delta|) give forces to ~1e-10 relative, well above the rounding floor of g
 // (~n eps |Delta|).
 #pragma once
+
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -39,12 +45,27 @@ struct NlcpOptions {
   int max_iterations = 50;            // Newton iterations per solve (quasi-static: per lambda)
   int max_approach_updates = 60;      // quasi-static: updates of lambda
   double min_line_load = 1.0;         // N/m: the Newton matrix takes f' at no less than this w
+  // Carry the law values (f, f', f'', P) and C s of the accepted trial point of the line search
+  // over to the next iterate instead of evaluating them there again (C F then accumulates the
+  // accepted C s; the difference is rounding, ~1e-16 of |C F| per iteration). false: evaluate
+  // every iterate from scratch (the reference the tests compare with).
+  bool reuse_evaluations = true;
+  // solve() or solve_total() warm-started from exactly the answer whose tangent
+  // loaded_row_sums() factorized (the caller's previous step): take the first Newton step with
+  // that factorization when the free set is the same loaded set (a quasi-Newton step: the matrix is that of the previous
+  // C and laws; any symmetric positive definite matrix gives a descent direction, and the
+  // Armijo search and the following exact Newton steps keep the method and its stopping test
+  // as they are). A further step is taken on it too when its last step contracted the residual
+  // by 100 or more and that rate predicts the next one to meet the tolerance (a chord step).
+  // Saves one or two factorizations per call. false: factorize at every iteration.
+  bool reuse_tangent = true;
 };
 
 struct NlcpResult {
   NlcpStatus status = NlcpStatus::bad_input;
   int iterations = 0;         // Newton iterations (quasi-static: summed over all lambda updates)
   int approach_updates = 0;   // quasi-static only: Newton/bisection updates of lambda
+  int factorizations = 0;     // of a Newton matrix (a first step on the kept tangent has none)
   double residual = 0;        // m: ||min(diag(C) F, g)||_inf; quasi-static: max with |lambda error|
   double tolerance = 0;       // m, tol used
   int index = -1;             // bad_input: the unknown at fault, if one is
@@ -82,46 +103,84 @@ class NlcpSolver {
   // w^T F(lambda) = total_force, whose slope w_J^T H_JJ^-1 w_J is the lambda row of the KKT
   // system of the active set (J: loaded unknowns, H = C + diag f'); each F(lambda) is a warm
   // projected-Newton solve as above, started from the first-order predictor H_JJ^-1 w_J dlambda.
-  // Stops when the plain residual and the lambda correction are both below tol.
+  // Stops when the plain residual and the lambda correction are both below tol, and then applies
+  // that last correction with its first-order force update when the residual stays below tol
+  // (so that w^T F = total_force to rounding).
   NlcpResult solve_total(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
                          const Eigen::Ref<const Eigen::VectorXd>& delta0, const LocalLaw* laws,
                          const Eigen::Ref<const Eigen::VectorXd>& weights, double total_force,
                          Eigen::Ref<Eigen::VectorXd> force, double& lambda);
 
+  // The tangent of the last answer of solve() or solve_total() (force: that answer, unchanged;
+  // C: the same matrix): on the loaded unknowns A = {i : F_i > 0}, K = dF_A/dDelta_A =
+  // (C_AA + diag f'_A)^-1 with the laws' own slopes at F (no floor), from the law values the
+  // solve already holds. Writes the row sums K 1 (N/m: each loaded slice's stiffness under a
+  // uniform approach; their sum is the mesh stiffness) to row_sums[i], i in A, and 0 elsewhere.
+  // Returns false (row_sums all 0) if force is not this solver's last answer or C_AA + diag f'_A
+  // is not numerically positive definite.
+  // Keeps the factorization for the next solve (see NlcpOptions::reuse_tangent).
+  bool loaded_row_sums(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
+                       const Eigen::Ref<const Eigen::VectorXd>& force,
+                       Eigen::Ref<Eigen::VectorXd> row_sums);
+
  private:
   using ConstMat = Eigen::Ref<const Eigen::MatrixXd>;
   using ConstVec = Eigen::Ref<const Eigen::VectorXd>;
 
+  // Checks the input and prepares the laws' kernels (kernel_, floor_).
   const char* prepare(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
-                      Eigen::Ref<Eigen::VectorXd> F, int& index) const;
-  double evaluate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
+                      Eigen::Ref<Eigen::VectorXd> F, int& index);
+  double newton_slope(int i, double force);
+  double evaluate(const ConstMat& C, const ConstVec& delta,
                   const Eigen::Ref<const Eigen::VectorXd>& F);
+  double accept_trial(const ConstMat& C, const ConstVec& delta,
+                      const Eigen::Ref<const Eigen::VectorXd>& F);
   struct Fault {
     int position = -1;      // in the free set; -1: factorized
     bool singular = false;  // pivot ~0 (dependent rows) rather than negative
   };
-  Fault factor_and_solve(const ConstMat& C, int m);
+  Fault factor(const ConstMat& C, int m, const Eigen::VectorXd& slope);
+  void solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv_diagonal, int m);
+  Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
+  bool same_as_tangent(int m) const;
   static const char* fault_message(const Fault& fault);
-  NlcpResult iterate(const ConstMat& C, const ConstVec& delta, const LocalLaw* laws,
-                     Eigen::Ref<Eigen::VectorXd> F);
+  NlcpResult iterate(const ConstMat& C, const ConstVec& delta, Eigen::Ref<Eigen::VectorXd> F);
+  void polish_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                    double total_force, double slope, int m, Eigen::Ref<Eigen::VectorXd> force,
+                    double& lambda, NlcpResult& res);
   double total_force_slope(const ConstMat& C, const ConstVec& weights,
                            const Eigen::Ref<const Eigen::VectorXd>& F, double tol, int& m,
                            Fault& fault);
 
   int capacity_;
   NlcpOptions options_;
-  Eigen::MatrixXd newton_;    // H_II = C_II + diag(f'_I), free unknowns packed; its LLT in place
+  Eigen::MatrixXd newton_;    // storage of H_II = C_II + diag(f'_I) (m x m packed with leading
+                              // dimension m, the free unknowns' order); its LLT in place
+  Eigen::VectorXd newton_inv_;  // 1/L_jj of newton_ (multiplies in the substitutions)
   Eigen::VectorXd cf_;        // C F, m
   Eigen::VectorXd g_;         // g(F), m
-  Eigen::VectorXd f_;         // f(F), m
+  std::vector<LocalLawKernel> kernel_;  // the laws of the current solve
+  std::vector<LocalLawJet> jet_;        // f, f', f'', P at F
+  std::vector<LocalLawJet> trial_jet_;  // the same at F + trial_
+  Eigen::VectorXd floor_;     // f' at the floor line load min_line_load (NaN: not yet known)
   Eigen::VectorXd slope_;     // f'(F) floored for the Newton matrix, m/N
   Eigen::VectorXd step_;      // search direction d, N
   Eigen::VectorXd trial_;     // projected step s = max(0, F + alpha d) - F, N
   Eigen::VectorXd c_trial_;   // C s, m
   Eigen::VectorXd rhs_;       // packed right-hand side / solution on the free set
   Eigen::VectorXd best_;      // best iterate so far, N
+  Eigen::VectorXd answer_;    // the last answer (jet_ holds the laws there), N
+  int answer_n_ = -1;         // its size; -1: none
   Eigen::VectorXd delta_;     // quasi-static: Delta0 + lambda w, m
   Eigen::VectorXi free_;      // indices of the free unknowns
+  // The factorization kept by loaded_row_sums for the next solve (reuse_tangent).
+  Eigen::MatrixXd tangent_;        // its LLT (lower), packed on tangent_index_[0..tangent_m_)
+  Eigen::VectorXd tangent_inv_;    // 1/L_jj of tangent_
+  Eigen::VectorXi tangent_index_;
+  Eigen::VectorXd tangent_force_;  // the answer it was made at
+  int tangent_n_ = -1;             // its number of unknowns; -1: none
+  int tangent_m_ = 0;
+  bool tangent_usable_ = false;    // this solve started from tangent_force_
   double phi_ = 0;            // Phi at the last evaluated F, J
 };
 

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <string>
@@ -120,7 +121,12 @@ void fe_level(gm_model_params& p) {
 
 }  // namespace
 
-int main() {
+// Optional arguments: a case-name filter (cases whose name contains it, plus the baseline and
+// level 4 for the ratios) and the number of rounds (default 5), e.g. for a profiler run:
+//   bench_evaluate "level 5 (FE" 1
+int main(int argc, char** argv) {
+  const std::string filter = argc > 1 ? argv[1] : "";
+  const int rounds = argc > 2 ? std::max(1, std::atoi(argv[2])) : 5;
   const Case cases[] = {
       {"spur, aligned, 1 slice (baseline)", [](gm_model_params&) {}, 0},
       {"spur, aligned, 10 slices", [](gm_model_params& p) { p.slices = 10; }, 0},
@@ -147,16 +153,22 @@ int main() {
   };
   std::printf("gm_evaluate, 57/57 pair of the paper at TE = 5 um (time per evaluation)\n");
   std::printf("%-52s %10s %18s %8s\n", "case", "median ns", "IQR ns", "ratio");
-  // Five rounds over all cases, so that every case sees the machine in the same states; each
+  // Rounds (five by default) over all cases, so that every case sees the machine in the same states; each
   // figure is the median over the rounds of the per-round median, and the IQR is the widest
   // per-round IQR.
-  constexpr int kRounds = 5;
   constexpr int kCases = sizeof cases / sizeof cases[0];
+  const std::string kLevel4 = "spur, 10 slices, level 4 (analytical + Hertz)";
+  bool chosen[kCases];
+  for (int c = 0; c < kCases; ++c)
+    chosen[c] = c == 0 || cases[c].name == kLevel4 ||
+                std::string(cases[c].name).find(filter) != std::string::npos;
   std::vector<Stats> runs[kCases];
-  for (int round = 0; round < kRounds; ++round)
-    for (int c = 0; c < kCases; ++c) runs[c].push_back(time_case(cases[c]));
+  for (int round = 0; round < rounds; ++round)
+    for (int c = 0; c < kCases; ++c)
+      if (chosen[c]) runs[c].push_back(time_case(cases[c]));
   double base = NAN, level4 = NAN;
   for (int c = 0; c < kCases; ++c) {
+    if (!chosen[c]) continue;
     std::vector<double> med;
     double q1 = INFINITY, q3 = 0;
     for (const Stats& s : runs[c]) {
@@ -167,7 +179,7 @@ int main() {
     std::sort(med.begin(), med.end());
     const double m = med[med.size() / 2];
     if (std::isnan(base)) base = m;
-    if (std::string(cases[c].name) == "spur, 10 slices, level 4 (analytical + Hertz)") level4 = m;
+    if (cases[c].name == kLevel4) level4 = m;
     std::printf("%-52s %10.0f %8.0f..%-8.0f %8.2f", cases[c].name, m, q1, q3, m / base);
     if (std::string(cases[c].name).find("level 5") != std::string::npos)
       std::printf("   %.2f x level 4", m / level4);

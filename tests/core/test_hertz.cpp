@@ -1,5 +1,6 @@
 // Tests of core/src/hertz.cpp: the local law of PHYSICS.md section 4 (its worked check, the
-// Weber-Banaschek limit), and f', P and the solver helpers against independent numerics.
+// Weber-Banaschek limit), and f', f'', P and the solver helpers (the prepared kernel and its
+// jets, the energy change from the jets at both ends) against independent numerics.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -199,6 +200,65 @@ TEST(Hertz, EnergyChange) {
   EXPECT_NEAR(gm::local_law_energy_change(law, F, s), v.approach * s + 0.5 * v.slope * s * s,
               1e-14 * v.approach * s);
   EXPECT_EQ(gm::local_law_energy_change(law, 0.0, 5.0), gm::evaluate_local_law(law, 5.0).energy);
+}
+
+TEST(Hertz, JetCurvatureAndMergedBodies) {
+  // local_law_jet: f'' against central differences of f'; identical bodies (merged into one
+  // term) against twice the literal formula of PHYSICS.md 4, below and above b_H = h (the log and
+  // log1p branches of asinh).
+  gm::LocalLaw law = gear_slice();
+  const gm::LocalLawKernel kern = gm::local_law_kernel(law);
+  EXPECT_EQ(kern.terms, 1);
+  const double E_star = gm::reduced_modulus(law.body[0], law.body[1]);
+  bool above = false, below = false;
+  for (double w = 1e-3; w <= 1e9; w *= 3.3) {
+    const double F = w * law.width, dF = 1e-5 * F;
+    const gm::LocalLawJet j = gm::local_law_jet(kern, F);
+    const double fd = (gm::local_law_jet(kern, F + dF).slope - gm::local_law_jet(kern, F - dF).slope) /
+                      (2 * dF);
+    EXPECT_LT(j.curvature, 0) << "w = " << w;
+    EXPECT_NEAR(j.curvature, fd, 1e-7 * std::abs(fd)) << "w = " << w;
+    const double b = gm::hertz_half_width(w, law.reduced_radius, E_star);
+    (b < law.body[0].depth ? below : above) = true;
+    const double literal = 2 * gm::hertz_body_approach(w, b, law.body[0]);
+    EXPECT_NEAR(j.approach, literal, 1e-13 * literal) << "w = " << w;
+  }
+  EXPECT_TRUE(above && below);
+  law.body[1].depth *= 1.5;  // different depths: two terms
+  EXPECT_EQ(gm::local_law_kernel(law).terms, 2);
+  EXPECT_EQ(gm::local_law_kernel(gm::LocalLaw{}).terms, 0);
+}
+
+TEST(Hertz, EnergyChangeFromJets) {
+  // The two-point Hermite rule (|s| <= F/8) and the closed-form difference beyond it, from the
+  // jets at both ends: against the closed-form difference where that has no cancellation, and
+  // against f s + f' s^2/2 for a tiny step; relative error below 1e-9 at |s| = F/8.
+  gm::LocalLaw law = gear_slice();
+  law.body[1] = {110e9, 0.34, 2 * kMm};
+  const gm::LocalLawKernel kern = gm::local_law_kernel(law);
+  for (double F : {0.2, 200.0, 2e4, 2e6}) {
+    const gm::LocalLawJet at = gm::local_law_jet(kern, F);
+    for (double r : {-0.125, -0.1, -0.01, -1e-3, 1e-3, 0.01, 0.1, 0.125, 0.5, 2.0, -0.5, -1.0}) {
+      const double s = r * F;
+      const gm::LocalLawJet end = gm::local_law_jet(kern, F + s);
+      const double exact = end.energy - at.energy;
+      EXPECT_NEAR(gm::local_law_energy_change(kern, F, s, at, end), exact, 1e-9 * std::abs(exact))
+          << "F " << F << " s/F " << r;
+      // the Gauss rule of the law-based overload agrees
+      EXPECT_NEAR(gm::local_law_energy_change(kern, F, s, at, end),
+                  gm::local_law_energy_change(law, F, s), 1e-9 * std::abs(exact));
+    }
+    const double s = 1e-9 * F;
+    const double dP = gm::local_law_energy_change(kern, F, s, at, gm::local_law_jet(kern, F + s));
+    EXPECT_NEAR(dP, at.approach * s + 0.5 * at.slope * s * s, 1e-14 * at.approach * s);
+  }
+  // From zero, and between forces so small that b_H underflows (infinite slopes): finite.
+  const gm::LocalLawJet zero = gm::local_law_jet(kern, 0.0), five = gm::local_law_jet(kern, 5.0);
+  EXPECT_EQ(gm::local_law_energy_change(kern, 0.0, 5.0, zero, five), five.energy);
+  const gm::LocalLawJet t1 = gm::local_law_jet(kern, 1e-320), t2 = gm::local_law_jet(kern, 1.01e-320);
+  EXPECT_EQ(gm::local_law_energy_change(kern, 1e-320, 0.01e-320, t1, t2), 0.0);
+  const gm::LocalLawKernel none;
+  EXPECT_EQ(gm::local_law_energy_change(none, 1.0, 0.1, gm::LocalLawJet{}, gm::LocalLawJet{}), 0.0);
 }
 
 TEST(Hertz, InputChecksAndReducedRadius) {

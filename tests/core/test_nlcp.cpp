@@ -1,6 +1,7 @@
 // Tests of core/src/nlcp.cpp: the NLCP of paper eq. 1-4 (PHYSICS.md section 6) against an
 // independent brute-force reference (enumeration of all active sets), warm starts, the
-// quasi-static variant with a prescribed total force, extremes, bad input, and that solving
+// quasi-static variant with a prescribed total force, extremes, bad input, the reuse paths
+// (carried law values, the kept tangent) against the plain one, the tangent, and that solving
 // allocates nothing.
 #include <gtest/gtest.h>
 
@@ -571,6 +572,193 @@ TEST(Nlcp, IterationCapReturnsBestIterate) {
   EXPECT_EQ(solver.solve(p.C, p.delta, p.laws(), F).status, gm::NlcpStatus::converged);
 }
 
+TEST(Nlcp, ReusedEvaluationsEqualThePlainPath) {
+  // The default path carries the law values and C s of the accepted trial point over to the next
+  // iterate; the plain path evaluates every iterate from scratch. Same iterations, same answer
+  // (to rounding), cold and warm, n = 1..40, half with laws.
+  std::mt19937_64 rng(53);
+  gm::NlcpOptions plain_options;
+  plain_options.reuse_evaluations = false;
+  plain_options.reuse_tangent = false;
+  gm::NlcpSolver reuse(40), plain(40, plain_options);
+  int same_iterations = 0, count = 0;
+  for (int k = 0; k < 400; ++k) {
+    const int n = 1 + k % 40;
+    Problem p = random_problem(rng, n, k % 2 == 1);
+    VectorXd Fr = VectorXd::Zero(n), Fp = VectorXd::Zero(n);
+    for (int pass = 0; pass < 2; ++pass) {  // cold, then warm after a 1e-3 change of Delta
+      const gm::NlcpResult rr = reuse.solve(p.C, p.delta, p.laws(), Fr);
+      const gm::NlcpResult rp = plain.solve(p.C, p.delta, p.laws(), Fp);
+      ASSERT_EQ(rr.status, gm::NlcpStatus::converged) << k << ": " << rr.message;
+      ASSERT_EQ(rp.status, gm::NlcpStatus::converged) << k << ": " << rp.message;
+      EXPECT_LE(kkt_residual(p, Fr, p.delta), rr.tolerance * (1 + 1e-6)) << k;
+      EXPECT_LE((Fr - Fp).cwiseAbs().maxCoeff(), 1e-9 * force_scale(p)) << k;
+      EXPECT_LE(std::abs(rr.iterations - rp.iterations), 1) << k;
+      EXPECT_LE(rp.factorizations, rp.iterations) << k;  // none when all are active
+      same_iterations += rr.iterations == rp.iterations;
+      ++count;
+      for (int i = 0; i < n; ++i) p.delta[i] += 1e-3 * uniform(rng, -1e-5, 1e-5);
+      Fp = Fr;  // both warm-start from the same forces
+    }
+  }
+  std::printf("reuse vs plain: %d of %d solves with the same iteration count\n", same_iterations,
+              count);
+  EXPECT_GE(same_iterations, count * 99 / 100);
+}
+
+TEST(Nlcp, LoadedRowSumsAreTheTangent) {
+  // K 1 with K = (C_AA + diag f'_A)^-1 on the loaded set: against an Eigen LLT built here from
+  // evaluate_local_law, and against central differences of the solve under a uniform shift t of
+  // Delta (dF_A/dt = K 1 while the active set holds).
+  std::mt19937_64 rng(59);
+  gm::NlcpOptions tight;
+  tight.relative_tolerance = 1e-14;
+  gm::NlcpSolver solver(20, tight), other(20, tight);
+  int differenced = 0;
+  for (int k = 0; k < 200; ++k) {
+    const int n = 1 + k % 20;
+    const Problem p = random_problem(rng, n, k % 4 != 0);
+    VectorXd F = VectorXd::Zero(n), sums(n);
+    ASSERT_EQ(solver.solve(p.C, p.delta, p.laws(), F).status, gm::NlcpStatus::converged);
+    ASSERT_TRUE(solver.loaded_row_sums(p.C, F, sums));
+    std::vector<int> A;
+    for (int i = 0; i < n; ++i)
+      if (F[i] > 0) A.push_back(i); else EXPECT_EQ(sums[i], 0.0) << k;
+    const int m = static_cast<int>(A.size());
+    if (m == 0) continue;
+    MatrixXd H(m, m);
+    for (int a = 0; a < m; ++a) {
+      for (int b = 0; b < m; ++b) H(a, b) = p.C(A[a], A[b]);
+      if (!p.law.empty()) H(a, a) += gm::evaluate_local_law(p.law[A[a]], F[A[a]]).slope;
+    }
+    const VectorXd ref = Eigen::LLT<MatrixXd>(H).solve(VectorXd::Ones(m));
+    for (int a = 0; a < m; ++a)
+      EXPECT_NEAR(sums[A[a]], ref[a], 1e-10 * ref.cwiseAbs().maxCoeff()) << k;
+    // Central differences, where the active set is the same on both sides.
+    const double t = 1e-7 * p.delta.cwiseAbs().maxCoeff();
+    VectorXd Fp = F, Fm = F;
+    const VectorXd dp = p.delta.array() + t, dm = p.delta.array() - t;
+    ASSERT_EQ(other.solve(p.C, dp, p.laws(), Fp).status, gm::NlcpStatus::converged);
+    ASSERT_EQ(other.solve(p.C, dm, p.laws(), Fm).status, gm::NlcpStatus::converged);
+    bool stable = true;
+    for (int i = 0; i < n; ++i) stable = stable && (Fp[i] > 0) == (F[i] > 0) && (Fm[i] > 0) == (F[i] > 0);
+    if (!stable) continue;
+    ++differenced;
+    for (int a = 0; a < m; ++a) {
+      const double fd = (Fp[A[a]] - Fm[A[a]]) / (2 * t);
+      EXPECT_NEAR(sums[A[a]], fd, 1e-5 * ref.cwiseAbs().maxCoeff()) << k;
+    }
+  }
+  std::printf("tangent row sums: %d of 200 problems also checked by differences\n", differenced);
+  EXPECT_GE(differenced, 100);
+}
+
+TEST(Nlcp, FirstStepOnThePreviousTangent) {
+  // A time step: solve, take the tangent (loaded_row_sums), then solve a slightly changed problem
+  // (C, laws and Delta all moved by ~1e-3) warm: the first Newton step runs on the kept
+  // factorization (and a second one where the first contracted enough), so fewer factorizations
+  // than iterations, and the answer is the plain path's.
+  // Then a stale tangent (C five times stiffer since) still converges, to the brute-force answer.
+  std::mt19937_64 rng(61);
+  gm::NlcpOptions plain_options;
+  plain_options.reuse_tangent = false;
+  gm::NlcpSolver reuse(30), plain(30, plain_options);
+  int reused = 0, chord = 0, count = 0, factorizations_reuse = 0, factorizations_plain = 0;
+  for (int k = 0; k < 150; ++k) {
+    const int n = 2 + k % 29;
+    Problem p = random_problem(rng, n, true);
+    VectorXd F = VectorXd::Zero(n), sums(n);
+    ASSERT_EQ(reuse.solve(p.C, p.delta, p.laws(), F).status, gm::NlcpStatus::converged);
+    ASSERT_TRUE(reuse.loaded_row_sums(p.C, F, sums));
+    const VectorXd y = VectorXd::Random(n);
+    p.C += 1e-3 * p.C.diagonal().mean() * (y * y.transpose()) / n;  // stays SPD
+    for (gm::LocalLaw& law : p.law) law.reduced_radius *= 1.001;
+    for (int i = 0; i < n; ++i) p.delta[i] += 1e-3 * uniform(rng, -1e-5, 1e-5);
+    VectorXd Fp = F;
+    const gm::NlcpResult rr = reuse.solve(p.C, p.delta, p.laws(), F);
+    const gm::NlcpResult rp = plain.solve(p.C, p.delta, p.laws(), Fp);
+    ASSERT_EQ(rr.status, gm::NlcpStatus::converged) << k << ": " << rr.message;
+    ASSERT_EQ(rp.status, gm::NlcpStatus::converged) << k << ": " << rp.message;
+    EXPECT_LE(kkt_residual(p, F, p.delta), rr.tolerance * (1 + 1e-6)) << k;
+    EXPECT_LE((F - Fp).cwiseAbs().maxCoeff(), 1e-7 * force_scale(p)) << k;
+    EXPECT_LE(rr.iterations, rp.iterations + 1) << k;
+    EXPECT_LE(rp.factorizations, rp.iterations) << k;
+    EXPECT_LE(rr.factorizations, rp.factorizations) << k;
+    reused += rr.iterations > 0 && rr.factorizations < rr.iterations;
+    chord += rr.factorizations < rr.iterations - 1;  // a second step on the tangent too
+    factorizations_reuse += rr.factorizations;
+    factorizations_plain += rp.factorizations;
+    ++count;
+    // The kept tangent is one-shot: a second solve from the same forces factorizes as the plain
+    // path does.
+    VectorXd again = F, again_plain = F;
+    p.delta *= 1.01;
+    const gm::NlcpResult second = reuse.solve(p.C, p.delta, p.laws(), again);
+    EXPECT_EQ(second.factorizations, plain.solve(p.C, p.delta, p.laws(), again_plain).factorizations)
+        << k;
+  }
+  std::printf("time steps: %d of %d took their first step on the kept tangent, %d a second one; "
+              "%d factorizations (%d factorizing every step)\n",
+              reused, count, chord, factorizations_reuse, factorizations_plain);
+  EXPECT_GE(reused, count * 9 / 10);
+  for (int k = 0; k < 60; ++k) {  // stale: the tangent of a much softer C
+    const int n = 1 + k % 12;
+    Problem p = random_problem(rng, n, k % 2 == 0);
+    VectorXd F = VectorXd::Zero(n), sums(n);
+    ASSERT_EQ(reuse.solve(p.C, p.delta, p.laws(), F).status, gm::NlcpStatus::converged);
+    ASSERT_TRUE(reuse.loaded_row_sums(p.C, F, sums));
+    p.C /= 5;
+    const gm::NlcpResult res = reuse.solve(p.C, p.delta, p.laws(), F);
+    ASSERT_EQ(res.status, gm::NlcpStatus::converged) << k << ": " << res.message;
+    EXPECT_LE((F - reference_solution(p)).cwiseAbs().maxCoeff(), 1e-7 * force_scale(p)) << k;
+  }
+}
+
+TEST(Nlcp, TotalForceMetToRounding) {
+  // solve_total applies its last lambda correction: w^T F = total_force to ~1e-12 relative (the
+  // stopping test alone leaves slope * tol, ~1e-10 of it here), the KKT residual of
+  // Delta0 + lambda w still within tol. Then a time step: the tangent kept, the problem moved by
+  // ~1e-3, a warm solve_total (first step on the kept tangent) agrees with a solver that
+  // factorizes every step.
+  std::mt19937_64 rng(67);
+  gm::NlcpOptions plain_options;
+  plain_options.reuse_tangent = false;
+  gm::NlcpSolver solver(30), plain(30, plain_options);
+  int reused = 0;
+  for (int k = 0; k < 100; ++k) {
+    const int n = 2 + k % 29;
+    Problem p = random_problem(rng, n, true);
+    VectorXd w(n);
+    for (int i = 0; i < n; ++i) w[i] = uniform(rng, 0.5, 1.0);
+    const double total = uniform(rng, 1e2, 1e4);
+    VectorXd F = VectorXd::Zero(n), sums(n);
+    double lambda = 0;
+    const gm::NlcpResult res = solver.solve_total(p.C, p.delta, p.laws(), w, total, F, lambda);
+    ASSERT_EQ(res.status, gm::NlcpStatus::converged) << k << ": " << res.message;
+    EXPECT_NEAR(w.dot(F), total, 1e-12 * total) << k;
+    const VectorXd delta = p.delta + lambda * w;
+    EXPECT_LE(kkt_residual(p, F, delta), res.tolerance * (1 + 1e-6)) << k;
+    ASSERT_TRUE(solver.loaded_row_sums(p.C, F, sums)) << k;
+    const VectorXd y = VectorXd::Random(n);
+    p.C += 1e-3 * p.C.diagonal().mean() * (y * y.transpose()) / n;
+    for (gm::LocalLaw& law : p.law) law.reduced_radius *= 1.001;
+    for (int i = 0; i < n; ++i) p.delta[i] += 1e-3 * uniform(rng, -1e-5, 1e-5);
+    VectorXd Fp = F;
+    double lambda_p = lambda;
+    const gm::NlcpResult rr = solver.solve_total(p.C, p.delta, p.laws(), w, total, F, lambda);
+    const gm::NlcpResult rp = plain.solve_total(p.C, p.delta, p.laws(), w, total, Fp, lambda_p);
+    ASSERT_EQ(rr.status, gm::NlcpStatus::converged) << k << ": " << rr.message;
+    ASSERT_EQ(rp.status, gm::NlcpStatus::converged) << k << ": " << rp.message;
+    EXPECT_LE((F - Fp).cwiseAbs().maxCoeff(), 1e-7 * force_scale(p)) << k;
+    EXPECT_NEAR(lambda, lambda_p, 1e-7 * p.delta.cwiseAbs().maxCoeff()) << k;
+    EXPECT_NEAR(w.dot(F), total, 1e-12 * total) << k;
+    reused += rr.factorizations < rp.factorizations;
+  }
+  std::printf("quasi-static time steps: %d of 100 saved a factorization on the kept tangent\n",
+              reused);
+  EXPECT_GE(reused, 50);
+}
+
 TEST(Nlcp, SolveDoesNotAllocate) {
   // (e) n up to the capacity of 200, cold and warm, the quasi-static variant and bad input.
 #ifndef GM_TEST_COUNTS_MALLOC
@@ -590,7 +778,7 @@ TEST(Nlcp, SolveDoesNotAllocate) {
   for (int n : {1, 7, 50, 200}) {
     const Problem p = random_problem(rng, n, n != 7);
     VectorXd F = VectorXd::Zero(n), F2 = VectorXd::Zero(n), w = VectorXd::Ones(n);
-    VectorXd delta2 = p.delta * 1.001;
+    VectorXd delta2 = p.delta * 1.001, sums(n);
     MatrixXd Cbad = p.C;
     Cbad(0, 0) = NAN;
     double lambda = 0;
@@ -598,9 +786,13 @@ TEST(Nlcp, SolveDoesNotAllocate) {
     g_count_mallocs = true;
     const gm::NlcpResult cold = solver.solve(p.C, p.delta, p.laws(), F);
     const gm::NlcpResult warm = solver.solve(p.C, delta2, p.laws(), F);
+    const bool tangent = solver.loaded_row_sums(p.C, F, sums);
+    const gm::NlcpResult next = solver.solve(p.C, p.delta, p.laws(), F);  // on the kept tangent
     const gm::NlcpResult total = solver.solve_total(p.C, p.delta, p.laws(), w, 2e3, F2, lambda);
     const gm::NlcpResult bad = solver.solve(Cbad, p.delta, p.laws(), F2);
     g_count_mallocs = false;
+    EXPECT_TRUE(tangent);
+    EXPECT_EQ(next.status, gm::NlcpStatus::converged);
     EXPECT_EQ(g_mallocs.load(), 0) << "n = " << n;
     EXPECT_EQ(cold.status, gm::NlcpStatus::converged);
     EXPECT_EQ(warm.status, gm::NlcpStatus::converged);
