@@ -222,6 +222,40 @@ struct SmoothFe {
 // distances), with an axial motion in the middle (the face strips change: that call computes
 // directly, and the cache is rebuilt): equal to round-off; and a fresh assembly (nothing cached)
 // gives the very same bits as the long-lived one at every pose.
+// FMU state at level 5: the warm start (previous forces, kept tangent) and the assembly cache
+// are not part of the state; gm_data_state_load makes the next solve start cold. So the result
+// after a restore is a function of the state and the inputs alone (two instances restored from
+// one blob agree bit for bit), and differs from the warm continuation that saved it only within
+// the solver's tolerance.
+TEST(FeLevel, RestoredStateIsDeterministicAndWithinToleranceOfTheWarmRun) {
+  gm_model_params p = fe_paper(3);
+  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;  // for the databases' tooth sections
+  const FeFiles coupled = fe_files(p, "state3", Coupling{0.4, 0.2});
+  const gm_model_params p5 = at_level5(p, coupled);
+  Instance a(p5), b(p5);
+  const double torque = 300;
+  const int n = 12;
+  auto phi1 = [&](int s) { return a.geo().p_bt / a.rb(0) * (s + 0.5) / n; };
+  for (int s = 0; s < n / 2; ++s) a.loaded(phi1(s), torque);
+  std::vector<unsigned char> blob(gm_data_state_size(a.m, a.d));
+  ASSERT_EQ(gm_data_state_save(a.m, a.d, blob.data(), blob.size()), GM_OK);
+  const gm_result warm = a.loaded(phi1(n / 2), torque);
+  ASSERT_EQ(gm_data_state_load(a.m, a.d, blob.data(), blob.size()), GM_OK) << gm_data_message(a.d);
+  ASSERT_EQ(gm_data_state_load(b.m, b.d, blob.data(), blob.size()), GM_OK) << gm_data_message(b.d);
+  const gm_result ra = a.loaded(phi1(n / 2), torque), rb = b.loaded(phi1(n / 2), torque);
+  EXPECT_EQ(ra.te, rb.te);
+  EXPECT_EQ(ra.normal_force, rb.normal_force);
+  EXPECT_EQ(ra.stiffness, rb.stiffness);
+  EXPECT_EQ(ra.force[0][1], rb.force[0][1]);
+  std::printf("restored - warm: TE %.3g m, normal force %.3g N, stiffness %.3g relative\n",
+              ra.te - warm.te, ra.normal_force - warm.normal_force,
+              ra.stiffness / warm.stiffness - 1);
+  // the solver stops at 1e-15 m + 1e-10 |Delta| (Delta ~ 15 um here, so ~2e-15 m) per slice
+  EXPECT_NEAR(ra.te, warm.te, 1e-13);
+  EXPECT_NEAR(ra.normal_force, warm.normal_force, 1e-9 * warm.normal_force);
+  EXPECT_NEAR(ra.stiffness, warm.stiffness, 1e-6 * warm.stiffness);
+}
+
 TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
   for (double beta : {0.0, 15.0}) {
     gm_model_params base = fe_paper(6);
