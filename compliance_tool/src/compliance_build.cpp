@@ -282,6 +282,11 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   gm_status st = mesh::build_gear_body(p, g, gear, mesh_options, body, msg);
   if (st != GM_OK) return st;
   stats.mesh_seconds = body.mesh_seconds;
+  if (!o.write_mesh.empty()) {
+    st = mesh::write_gear_body_msh(body, o.write_mesh, msg);
+    if (st != GM_OK) return st;
+    say("wrote the body mesh to " + o.write_mesh);
+  }
   stats.nodes = int(body.nodes.size());
   stats.elements = int(body.tets.size());
   stats.dofs = 3 * stats.nodes;

@@ -78,6 +78,8 @@ struct BuildOptions {
   double load_fraction = 1.0;  // share of the flank grid loaded, (0, 1]; the rest from the
                                // reduction space (see the header comment)
   std::string note;            // appended to the database note
+  std::string write_mesh;      // if set: the body mesh used is also written there (gmsh .msh),
+                               // e.g. to inspect it or to edit it and feed it back as mesh_file
   // Progress messages (meshing, assembly, factorization, solves i/N); may be empty.
   std::function<void(const std::string&)> progress;
 };

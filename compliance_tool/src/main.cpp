@@ -57,14 +57,15 @@ void usage(FILE* f) {
       "  --profile-elements N      along the involute, 1..200 (default 8)\n"
       "  --width-elements N        layers across the face width, 1..200 (default 6)\n"
       "  --fillet-elements N       along each fillet, 1..200 (default 3)\n"
-      "  --body-size-mm S          target element size in the body, > 0 (default 1.5 m_n)\n"
+      "  --body-size-mm S          target element size in the body, > 0 (default 2 m_n)\n"
       "  --depth-mm H              depth of the responses below the flank, > 0 (default 0.5)\n"
       "  --coupled N               neighbour teeth each side, 0..20 (default model.coupled_teeth, else 1)\n"
       "  --every-tooth             load every distinct tooth even on a cyclic body (cyclic = 0)\n"
       "  --load-fraction F         share of the flank grid loaded, 0 < F <= 1 (default 1); the other\n"
       "                            columns come from the reduction space of the loaded ones\n"
       "  --threads N               threads for gmsh and the BLAS under CHOLMOD, 1..256\n"
-      "  --note TEXT               appended to the database note\n");
+      "  --note TEXT               appended to the database note\n"
+      "  --write-mesh FILE         also write the body mesh used (gmsh .msh; --mesh reads it back)\n");
 }
 
 bool parse_double(const std::string& s, double& v) {
@@ -176,7 +177,7 @@ int main(int argc, char** argv) {
         "--width-elements", "--fillet-elements", "--param", "--bore-diameter-mm",
         "--rim-inner-diameter-mm", "--hub-diameter-mm", "--web-thickness-mm", "--web-offset-mm",
         "--holes", "--hole-diameter-mm", "--hole-circle-diameter-mm", "--ring-outer-diameter-mm",
-        "--mesh", "--body-size-mm", "--load-fraction", "--threads"};
+        "--mesh", "--body-size-mm", "--load-fraction", "--threads", "--write-mesh"};
     if (std::find(std::begin(kValued), std::end(kValued), arg) == std::end(kValued)) {
       std::fprintf(stderr, "compliance_tool: unknown argument '%s'%s\n", arg.c_str(),
                    arg == "--bore-mm" ? " (now --bore-diameter-mm, a diameter in mm)" : "");
@@ -209,6 +210,7 @@ int main(int argc, char** argv) {
     else if (arg == "--out") out = v;
     else if (arg == "--note") o.note = v;
     else if (arg == "--mesh") mesh_file = v;
+    else if (arg == "--write-mesh") o.write_mesh = v;
     else if (arg == "--gear") rc = integer(gear, 1, 2);
     else if (arg == "--coupled") rc = integer(coupled, 0, int(gm::kComplianceDbMaxCoupled));
     else if (arg == "--depth-mm") {
