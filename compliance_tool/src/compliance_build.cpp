@@ -268,13 +268,17 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   const int sym = user_mesh ? 1 : (o.mesh.holes > 0 ? std::gcd(z, o.mesh.holes) : z);
   stats.symmetry = sym;
   const bool cyclic = sym == z && !o.every_tooth;
-  // The mesher resolves the loaded tooth and fine_teeth neighbours each side at the full
-  // element counts (gear_mesh.hpp): a cyclic body loads tooth 0 and reads teeth up to +-n_c, so
-  // it needs fine_teeth >= n_c + 1 (the read teeth and one beyond, so that no read tooth borders
-  // a coarse one); a non-cyclic body loads every distinct tooth, so every tooth is fine.
+  // The mesher resolves tooth 0 and fine_teeth teeth each side at the full element counts
+  // (gear_mesh.hpp). A cyclic body loads tooth 0 and reads teeth up to +-n_c: fine_teeth >= n_c + 1
+  // (the read teeth and one beyond, so that no read tooth borders a coarse one). A body of
+  // symmetry order g loads the z/g distinct teeth 0 .. z/g - 1 (flank B through the mirror, from
+  // teeth 0 .. -(z/g - 1)) and reads +-n_c around each: fine_teeth >= z/g + n_c. Every tooth
+  // (--every-tooth, a user mesh): every tooth fine.
+  const int distinct = cyclic ? 1 : (o.every_tooth ? z : z / sym);
   mesh::GearBodyOptions mesh_options = o.mesh;
-  if (!cyclic) mesh_options.fine_teeth = -1;
-  else if (mesh_options.fine_teeth >= 0) mesh_options.fine_teeth = std::max(mesh_options.fine_teeth, nc + 1);
+  if (o.every_tooth) mesh_options.fine_teeth = -1;
+  else if (mesh_options.fine_teeth >= 0)
+    mesh_options.fine_teeth = std::max(mesh_options.fine_teeth, distinct + nc);
 
   // 1. Mesh.
   say("meshing gear " + std::to_string(gear + 1) + " (z = " + std::to_string(z) + ") with gmsh ...");
@@ -387,7 +391,7 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
 
   // 3. Symmetry and the tooth sets to load.
   // Distinct teeth 0 .. classes-1 (tooth t ~ t mod classes); every tooth when forced.
-  const int classes = cyclic ? 1 : (o.every_tooth ? z : z / sym);
+  const int classes = distinct;
   const bool helical = body.hand != 0;
   // Flank B from flank A by the body's mirror symmetry (spur: the mirror through tooth 0's centre
   // plane, y -> -y; helical: the half turn about tooth 0's radial centre line at mid-face,
