@@ -305,6 +305,13 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
         }
         return std::make_pair(geo::addSpline(tags), tags);
       };
+      // element counts along both fillets and both involutes
+      auto counts = [&](int fillet_a, int fillet_b, int involute_a, int involute_b) {
+        geo::mesh::setTransfiniteCurve(fillet_b, n_fil + 1);
+        geo::mesh::setTransfiniteCurve(fillet_a, n_fil + 1);
+        geo::mesh::setTransfiniteCurve(involute_b, n_prof + 1);
+        geo::mesh::setTransfiniteCurve(involute_a, n_prof + 1);
+      };
       if (!ring) {
         auto fb = spline(to.fillet, true, false, 0);                   // root -> form
         auto ib = spline(to.involute, true, false, fb.second.back());  // form -> tip
@@ -315,10 +322,7 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
         involute_curve[k] = {ia.first, ib.first};
         first_pt[k] = fb.second.front();
         last_pt[k] = fa.second.back();
-        geo::mesh::setTransfiniteCurve(fb.first, n_fil + 1);
-        geo::mesh::setTransfiniteCurve(fa.first, n_fil + 1);
-        geo::mesh::setTransfiniteCurve(ib.first, n_prof + 1);
-        geo::mesh::setTransfiniteCurve(ia.first, n_prof + 1);
+        counts(fa.first, fb.first, ia.first, ib.first);
         geo::mesh::setTransfiniteCurve(tip, n_tip(hk) + 1);
       } else {
         auto ib = spline(to.involute, true, true, 0);                  // tip -> form
@@ -330,10 +334,7 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
         involute_curve[k] = {ia.first, ib.first};
         first_pt[k] = ib.second.front();
         last_pt[k] = ia.second.back();
-        geo::mesh::setTransfiniteCurve(fb.first, n_fil + 1);
-        geo::mesh::setTransfiniteCurve(fa.first, n_fil + 1);
-        geo::mesh::setTransfiniteCurve(ib.first, n_prof + 1);
-        geo::mesh::setTransfiniteCurve(ia.first, n_prof + 1);
+        counts(fa.first, fb.first, ia.first, ib.first);
         geo::mesh::setTransfiniteCurve(root, n_root(hk) + 1);
       }
     }
