@@ -443,6 +443,36 @@ void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const i
           }
           continue;
         }
+        if (!G.direct) {
+          // cached, non-uniform (helical, tilted): the terms below with the chunk offsets read
+          // inline (a chunk is computed only when new; the pool may then grow, so no pointer
+          // into it is kept across that call)
+          const int nrr = int(m.compliance[g].roll.size());
+          for (int a = a0; a < a1; ++a) {
+            const Spot& pa = G.spots[std::size_t(a)];
+            const double ras[2] = {pa.roll_weight, 1 - pa.roll_weight};
+            for (int b = b0; b < std::min(b1, a + 1); ++b) {
+              const Spot& pb = G.spots[std::size_t(b)];
+              const double rbs[2] = {pb.roll_weight, 1 - pb.roll_weight};
+              const int off = pa.strip * S + pb.strip;
+              double e = 0;
+              for (int al = 0; al < nr; ++al) {
+                const double ra = ras[al];
+                if (ra == 0) continue;
+                const int* row = B.chunk.data() + std::size_t(pa.roll_node + al) * std::size_t(nrr);
+                for (int be = 0; be < nr; ++be) {
+                  const double rb = rbs[be];
+                  if (rb == 0) continue;
+                  int at = row[pb.roll_node + be];
+                  if (at < 0) at = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
+                  e += ra * rb * B.pool[std::size_t(at + off)];
+                }
+              }
+              C(a, b) += e;
+            }
+          }
+          continue;
+        }
         for (int a = a0; a < a1; ++a) {
           const Spot& pa = G.spots[std::size_t(a)];
           for (int b = b0; b < std::min(b1, a + 1); ++b) {
