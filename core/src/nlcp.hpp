@@ -143,6 +143,7 @@ class NlcpSolver {
   void solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv_diagonal, int m);
   Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
   bool same_as_tangent(int m) const;
+  bool same_as_newton(int m) const;
   static const char* fault_message(const Fault& fault);
   NlcpResult iterate(const ConstMat& C, const ConstVec& delta, Eigen::Ref<Eigen::VectorXd> F);
   void polish_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
@@ -173,6 +174,8 @@ class NlcpSolver {
   int answer_n_ = -1;         // its size; -1: none
   Eigen::VectorXd delta_;     // quasi-static: Delta0 + lambda w, m
   Eigen::VectorXi free_;      // indices of the free unknowns
+  Eigen::VectorXi newton_index_;  // the free set newton_ was last factorized for (in iterate)
+  int newton_m_ = -1;             // its size
   // The factorization kept by loaded_row_sums for the next solve (reuse_tangent).
   Eigen::MatrixXd tangent_;        // its LLT (lower), packed on tangent_index_[0..tangent_m_)
   Eigen::VectorXd tangent_inv_;    // 1/L_jj of tangent_
