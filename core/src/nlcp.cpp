@@ -480,6 +480,42 @@ void NlcpSolver::polish_total(const ConstMat& C, const ConstVec& delta0, const C
   evaluate(C, delta_.head(n), force);  // the laws at the restored answer, for loaded_row_sums
 }
 
+// solve_total warm-started from the answer whose tangent loaded_row_sums kept (the previous
+// step): one Newton step of the KKT system on its loaded set A with that factorization,
+//   H_AA dF_A - w_A dlambda = -g_A,   w_A^T (F_A + dF_A) = total_force,
+// i.e. dlambda = (total - w^T F + w_A^T H^-1 g_A) / (w_A^T H^-1 w_A), dF_A = H^-1 (w_A dlambda
+// - g_A) (forces kept >= 0): lambda and F start near the new answer, so that the first inner
+// solve is mostly its last. Only the start changes (the stopping tests are as they are).
+bool NlcpSolver::predict_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                               double total_force, Eigen::Ref<Eigen::VectorXd> force,
+                               double& lambda) {
+  const int n = static_cast<int>(delta0.size());
+  const int m = tangent_m_;
+  if (m <= 0) return false;
+  delta_.head(n) = delta0 + lambda * weights;
+  evaluate(C, delta_.head(n), force);  // g_ at the warm start
+  for (int a = 0; a < m; ++a) rhs_[a] = weights[tangent_index_[a]];
+  solve_factored(tangent_, tangent_inv_, m);
+  double slope = 0;
+  for (int a = 0; a < m; ++a) {
+    step_[a] = rhs_[a];  // H^-1 w_A (step_ is free scratch between iterations)
+    slope += weights[tangent_index_[a]] * rhs_[a];
+  }
+  if (!(slope > 0)) return false;
+  for (int a = 0; a < m; ++a) rhs_[a] = g_[tangent_index_[a]];
+  solve_factored(tangent_, tangent_inv_, m);
+  double wg = 0;
+  for (int a = 0; a < m; ++a) wg += weights[tangent_index_[a]] * rhs_[a];
+  const double dl = (total_force - weights.dot(force) + wg) / slope;
+  if (!std::isfinite(dl)) return false;
+  for (int a = 0; a < m; ++a) {
+    const int i = tangent_index_[a];
+    force[i] = std::max(0.0, force[i] + step_[a] * dl - rhs_[a]);
+  }
+  lambda += dl;
+  return true;
+}
+
 NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, const LocalLaw* laws,
                                    const ConstVec& weights, double total_force,
                                    Eigen::Ref<Eigen::VectorXd> force, double& lambda) {
@@ -512,6 +548,9 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   // the first inner solve may take its first step on the kept tangent, as in solve()
   tangent_usable_ = options_.reuse_tangent && tangent_n_ == n && force == tangent_force_.head(n);
   tangent_n_ = -1;
+  // (counted as an iteration: it is a Newton step of the KKT system)
+  if (tangent_usable_ && predict_total(C, delta0, weights, total_force, force, lambda))
+    ++res.iterations;
 
   // Safeguarded Newton on s(lambda) = w^T F(lambda) = total_force: s is continuous and
   // non-decreasing for weights of any sign (it is total_force minus the derivative of the

@@ -57,6 +57,10 @@ struct NlcpOptions {
   // Armijo search and the following exact Newton steps keep the method and its stopping test
   // as they are). A further step is taken on it too when its last step contracted the residual
   // by 100 or more and that rate predicts the next one to meet the tolerance (a chord step).
+  // The same rule for the last Newton factorization of a solve (a chord step on it).
+  // solve_total() from such an answer first takes one Newton step of the KKT system (forces and
+  // lambda) with that factorization (counted as an iteration), so that its first lambda is
+  // nearly the answer's.
   // Saves one or two factorizations per call. false: factorize at every iteration.
   bool reuse_tangent = true;
 };
@@ -149,6 +153,8 @@ class NlcpSolver {
   void polish_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
                     double total_force, double slope, int m, Eigen::Ref<Eigen::VectorXd> force,
                     double& lambda, NlcpResult& res);
+  bool predict_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                     double total_force, Eigen::Ref<Eigen::VectorXd> force, double& lambda);
   double total_force_slope(const ConstMat& C, const ConstVec& weights,
                            const Eigen::Ref<const Eigen::VectorXd>& F, double tol, int& m,
                            Fault& fault);
