@@ -381,6 +381,35 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
   }
   return out;
 }
+
+// Level 5 quasi-static: the TE to detect at first. The solved TE is a smooth function of gear
+// 1's angle between mesh events, so it is extrapolated linearly from the last two solves when
+// they were made at the same load torque and this step is no longer than twice theirs; else
+// the last solved TE. Only where the pass loop starts: the answer is the same fixed point (to
+// the pass loop's tolerance), reached with fewer solver iterations and passes.
+double predicted_te(gm_data& d, double phi, double load_torque) {
+  gm_data::TeHistory& h = d.te_history;
+  if (d.fe_prev_n < 0) h.n = 0;  // reset or restored state: cold
+  if (h.n < 2 || h.load[0] != load_torque || h.load[1] != load_torque) return d.te_estimate;
+  const double step = h.phi[0] - h.phi[1];
+  if (step == 0 || std::fabs(phi - h.phi[0]) > 2 * std::fabs(step)) return d.te_estimate;
+  return d.te_estimate + (h.te[0] - h.te[1]) / step * (phi - h.phi[0]);
+}
+
+void record_te(gm_data& d, double phi, double te, double load_torque) {
+  gm_data::TeHistory& h = d.te_history;
+  if (h.n > 0 && phi == h.phi[0] && load_torque == h.load[0]) {  // the same pose again
+    h.te[0] = te;
+    return;
+  }
+  h.phi[1] = h.phi[0];
+  h.te[1] = h.te[0];
+  h.load[1] = h.load[0];
+  h.phi[0] = phi;
+  h.te[0] = te;
+  h.load[0] = load_torque;
+  h.n = std::min(h.n + 1, 2);
+}
 }  // namespace
 
 gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, gm_result& res) {
@@ -415,7 +444,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     // while the move changes what detection sees (tip edges); the estimate carries over calls.
     const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
     const double load = kin.load_torque / rb2;  // generalized force of the TE coordinate, N
-    double te = d.te_estimate;
+    double te = fe ? predicted_te(d, kin.phi[0], kin.load_torque) : d.te_estimate;
     for (int pass = 0; pass < 6; ++pass) {
       kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2);
       n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
@@ -441,6 +470,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     }
     kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2);
     d.te_estimate = te;
+    if (fe) record_te(d, kin.phi[0], te, kin.load_torque);
     // The last pass ends at the solved pose; its slice forces belong to approach + gain lambda.
     for (int i = 0; i < n; ++i) d.slices[i].approach = d.approach[i];
   }
@@ -742,9 +772,11 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
     // d(sum b_i F_i) = d(load_torque)/r_b2 (or, on a free mesh at zero load, from the touching
     // slice's approach staying 0).
     const double warm = d.te_estimate;
+    const gm_data::TeHistory history = d.te_history;
     gm_result r0;
     const gm_status st0 = evaluate(m, d, at, r0);
     d.te_estimate = warm;
+    d.te_history = history;
     if (st0 != GM_OK) return st0;
     kin.phi[1] = Dual((r0.te - rb1 * at.phi[0]) / (s * rb2), -rb1 * seed.phi[0] / (s * rb2));
     DualPass a, b;

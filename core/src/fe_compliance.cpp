@@ -399,12 +399,20 @@ void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const i
         if (p.roll_node != p0.roll_node || p.roll_weight != p0.roll_weight)
           uniform_[std::size_t(g * ng + q)] = 0;
       }
+  consecutive_.assign(std::size_t(2 * ng), 1);
+  for (int g = 0; g < 2; ++g)
+    for (int q = 0; q < ng; ++q) {
+      const int a0 = group_first_[std::size_t(q)];
+      for (int a = a0 + 1; a < group_first_[std::size_t(q) + 1]; ++a)
+        if (gear_[g].spots[std::size_t(a)].strip != gear_[g].spots[std::size_t(a0)].strip + a - a0)
+          consecutive_[std::size_t(g * ng + q)] = 0;
+    }
   for (int ga = 0; ga < ng; ++ga) {
     const int a0 = group_first_[std::size_t(ga)], a1 = group_first_[std::size_t(ga) + 1];
     for (int gb = 0; gb <= ga; ++gb) {
       const int b0 = group_first_[std::size_t(gb)], b1 = group_first_[std::size_t(gb) + 1];
       for (int a = a0; a < a1; ++a)
-        for (int b = b0; b < std::min(b1, a + 1); ++b) C(a, b) = 0;
+        for (int b = b0; b < std::min(b1, a + 1); ++b) C(b, a) = 0;
       for (int g = 0; g < 2; ++g) {
         Gear& G = gear_[g];
         const int slot = slot_of(m, g, slices[index[a0]], G.spots[std::size_t(a0)],
@@ -432,13 +440,64 @@ void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const i
             }
           }
           for (int t = 0; t < nt; ++t) v[t] = B.pool.data() + at[t];  // pool no longer grows
+          if (nt == 4 && consecutive_[std::size_t(g * ng + gb)]) {
+            // group b's strips are consecutive: each column segment C(b0.., a) reads a
+            // contiguous run of every chunk (the same terms in the same order)
+            const int s0 = G.spots[std::size_t(b0)].strip;
+            for (int a = a0; a < a1; ++a) {
+              const int base = G.spots[std::size_t(a)].strip * S + s0;
+              const int len = std::min(b1, a + 1) - b0;
+              double* col = &C(b0, a);
+              const double *v0 = v[0] + base, *v1 = v[1] + base, *v2 = v[2] + base,
+                           *v3 = v[3] + base;
+              for (int k = 0; k < len; ++k) {
+                double e = 0;
+                e += w[0] * v0[k];
+                e += w[1] * v1[k];
+                e += w[2] * v2[k];
+                e += w[3] * v3[k];
+                col[k] += e;
+              }
+            }
+            continue;
+          }
           for (int a = a0; a < a1; ++a) {
             const int sa = G.spots[std::size_t(a)].strip * S;
             for (int b = b0; b < std::min(b1, a + 1); ++b) {
               const int at = sa + G.spots[std::size_t(b)].strip;
               double e = 0;
               for (int t = 0; t < nt; ++t) e += w[t] * v[t][at];
-              C(a, b) += e;
+              C(b, a) += e;
+            }
+          }
+          continue;
+        }
+        if (!G.direct) {
+          // cached, non-uniform (helical, tilted): the terms below with the chunk offsets read
+          // inline (a chunk is computed only when new; the pool may then grow, so no pointer
+          // into it is kept across that call)
+          const int nrr = int(m.compliance[g].roll.size());
+          for (int a = a0; a < a1; ++a) {
+            const Spot& pa = G.spots[std::size_t(a)];
+            const double ras[2] = {pa.roll_weight, 1 - pa.roll_weight};
+            for (int b = b0; b < std::min(b1, a + 1); ++b) {
+              const Spot& pb = G.spots[std::size_t(b)];
+              const double rbs[2] = {pb.roll_weight, 1 - pb.roll_weight};
+              const int off = pa.strip * S + pb.strip;
+              double e = 0;
+              for (int al = 0; al < nr; ++al) {
+                const double ra = ras[al];
+                if (ra == 0) continue;
+                const int* row = B.chunk.data() + std::size_t(pa.roll_node + al) * std::size_t(nrr);
+                for (int be = 0; be < nr; ++be) {
+                  const double rb = rbs[be];
+                  if (rb == 0) continue;
+                  int at = row[pb.roll_node + be];
+                  if (at < 0) at = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
+                  e += ra * rb * B.pool[std::size_t(at + off)];
+                }
+              }
+              C(b, a) += e;
             }
           }
           continue;
@@ -464,12 +523,12 @@ void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const i
                 e += ra * rb * x;
               }
             }
-            C(a, b) += e;
+            C(b, a) += e;
           }
         }
       }
       for (int a = a0; a < a1; ++a)
-        for (int b = b0; b < std::min(b1, a + 1); ++b) C(b, a) = C(a, b);
+        for (int b = b0; b < std::min(b1, a + 1); ++b) C(a, b) = C(b, a);
     }
   }
   // blocks of teeth that left the candidates: dropped (a cyclic database has few blocks, kept)

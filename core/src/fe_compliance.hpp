@@ -113,6 +113,7 @@ class FeAssembly {
   std::vector<int> group_first_;  // groups (consecutive candidates of one tooth pair and
                                   // flank) -> first candidate, and n after the last
   std::vector<char> uniform_;     // (gear, group) -> its candidates share roll node and weight
+  std::vector<char> consecutive_; // (gear, group) -> its candidates' strips are consecutive
 };
 
 }  // namespace gm

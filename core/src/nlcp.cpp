@@ -48,6 +48,7 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
       answer_(capacity_),
       delta_(capacity_),
       free_(capacity_),
+      newton_index_(capacity_),
       tangent_(capacity_, capacity_),
       tangent_inv_(capacity_),
       tangent_index_(capacity_),
@@ -226,6 +227,13 @@ NlcpSolver::Fault NlcpSolver::factor_and_solve(const ConstMat& C, int m,
   return fault;
 }
 
+bool NlcpSolver::same_as_newton(int m) const {
+  if (m != newton_m_) return false;
+  for (int a = 0; a < m; ++a)
+    if (free_[a] != newton_index_[a]) return false;
+  return true;
+}
+
 bool NlcpSolver::same_as_tangent(int m) const {
   if (!tangent_usable_ || m != tangent_m_) return false;
   for (int a = 0; a < m; ++a)
@@ -254,6 +262,8 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
   double best_r = r;
   best_.head(n) = F;
   bool on_tangent = false;  // the last step was taken on the kept tangent
+  bool on_newton = false;   // the last step was taken on newton_, factorized in this solve for
+                            // the free set newton_index_[0..newton_m_)
   double rate = 1;          // residual after / before the last step
   for (;;) {
     if (r <= res.tolerance) {
@@ -278,20 +288,28 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
         free_[m++] = i;
     }
     double decrease_free = 0;  // -g_I^T d_I = g_I^T H_II^-1 g_I
-    if (m == 0) on_tangent = false;
+    if (m == 0) on_tangent = on_newton = false;
     if (m > 0) {
       for (int a = 0; a < m; ++a) rhs_[a] = -g_[free_[a]];
       Fault fault;
       // The previous answer's tangent for the first step, and again for a step that the
       // contraction it showed (rate, the residual ratio of its last step) predicts to end the
       // solve; else a Newton factorization.
-      on_tangent = same_as_tangent(m) &&
-                   (res.iterations == 0 ||
-                    (on_tangent && rate <= kChordRate && r * rate <= 0.5 * res.tolerance));
-      if (on_tangent)
+      // The same rule for the last Newton factorization of this solve: after a Newton step the
+      // rate is ~K |F_k - F_k-1|, which is also the rate of a chord step on that matrix.
+      const bool chord = rate <= kChordRate && r * rate <= 0.5 * res.tolerance;
+      on_tangent = same_as_tangent(m) && (res.iterations == 0 || (on_tangent && chord));
+      on_newton = !on_tangent && on_newton && chord && same_as_newton(m);
+      if (on_tangent) {
         solve_factored(tangent_, tangent_inv_, m);
-      else
+      } else if (on_newton) {
+        solve_factored(newton_, newton_inv_, m);
+      } else {
         fault = factor_and_solve(C, m, slope_), ++res.factorizations;
+        on_newton = fault.position < 0;
+        newton_m_ = m;
+        newton_index_.head(m) = free_.head(m);
+      }
       if (fault.position >= 0) {
         res.status = NlcpStatus::bad_input;
         res.index = free_[fault.position];
@@ -462,6 +480,42 @@ void NlcpSolver::polish_total(const ConstMat& C, const ConstVec& delta0, const C
   evaluate(C, delta_.head(n), force);  // the laws at the restored answer, for loaded_row_sums
 }
 
+// solve_total warm-started from the answer whose tangent loaded_row_sums kept (the previous
+// step): one Newton step of the KKT system on its loaded set A with that factorization,
+//   H_AA dF_A - w_A dlambda = -g_A,   w_A^T (F_A + dF_A) = total_force,
+// i.e. dlambda = (total - w^T F + w_A^T H^-1 g_A) / (w_A^T H^-1 w_A), dF_A = H^-1 (w_A dlambda
+// - g_A) (forces kept >= 0): lambda and F start near the new answer, so that the first inner
+// solve is mostly its last. Only the start changes (the stopping tests are as they are).
+bool NlcpSolver::predict_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                               double total_force, Eigen::Ref<Eigen::VectorXd> force,
+                               double& lambda) {
+  const int n = static_cast<int>(delta0.size());
+  const int m = tangent_m_;
+  if (m <= 0) return false;
+  delta_.head(n) = delta0 + lambda * weights;
+  evaluate(C, delta_.head(n), force);  // g_ at the warm start
+  for (int a = 0; a < m; ++a) rhs_[a] = weights[tangent_index_[a]];
+  solve_factored(tangent_, tangent_inv_, m);
+  double slope = 0;
+  for (int a = 0; a < m; ++a) {
+    step_[a] = rhs_[a];  // H^-1 w_A (step_ is free scratch between iterations)
+    slope += weights[tangent_index_[a]] * rhs_[a];
+  }
+  if (!(slope > 0)) return false;
+  for (int a = 0; a < m; ++a) rhs_[a] = g_[tangent_index_[a]];
+  solve_factored(tangent_, tangent_inv_, m);
+  double wg = 0;
+  for (int a = 0; a < m; ++a) wg += weights[tangent_index_[a]] * rhs_[a];
+  const double dl = (total_force - weights.dot(force) + wg) / slope;
+  if (!std::isfinite(dl)) return false;
+  for (int a = 0; a < m; ++a) {
+    const int i = tangent_index_[a];
+    force[i] = std::max(0.0, force[i] + step_[a] * dl - rhs_[a]);
+  }
+  lambda += dl;
+  return true;
+}
+
 NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, const LocalLaw* laws,
                                    const ConstVec& weights, double total_force,
                                    Eigen::Ref<Eigen::VectorXd> force, double& lambda) {
@@ -494,6 +548,9 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   // the first inner solve may take its first step on the kept tangent, as in solve()
   tangent_usable_ = options_.reuse_tangent && tangent_n_ == n && force == tangent_force_.head(n);
   tangent_n_ = -1;
+  // (counted as an iteration: it is a Newton step of the KKT system)
+  if (tangent_usable_ && predict_total(C, delta0, weights, total_force, force, lambda))
+    ++res.iterations;
 
   // Safeguarded Newton on s(lambda) = w^T F(lambda) = total_force: s is continuous and
   // non-decreasing for weights of any sign (it is total_force minus the derivative of the

@@ -57,6 +57,10 @@ struct NlcpOptions {
   // Armijo search and the following exact Newton steps keep the method and its stopping test
   // as they are). A further step is taken on it too when its last step contracted the residual
   // by 100 or more and that rate predicts the next one to meet the tolerance (a chord step).
+  // The same rule for the last Newton factorization of a solve (a chord step on it).
+  // solve_total() from such an answer first takes one Newton step of the KKT system (forces and
+  // lambda) with that factorization (counted as an iteration), so that its first lambda is
+  // nearly the answer's.
   // Saves one or two factorizations per call. false: factorize at every iteration.
   bool reuse_tangent = true;
 };
@@ -143,11 +147,14 @@ class NlcpSolver {
   void solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv_diagonal, int m);
   Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
   bool same_as_tangent(int m) const;
+  bool same_as_newton(int m) const;
   static const char* fault_message(const Fault& fault);
   NlcpResult iterate(const ConstMat& C, const ConstVec& delta, Eigen::Ref<Eigen::VectorXd> F);
   void polish_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
                     double total_force, double slope, int m, Eigen::Ref<Eigen::VectorXd> force,
                     double& lambda, NlcpResult& res);
+  bool predict_total(const ConstMat& C, const ConstVec& delta0, const ConstVec& weights,
+                     double total_force, Eigen::Ref<Eigen::VectorXd> force, double& lambda);
   double total_force_slope(const ConstMat& C, const ConstVec& weights,
                            const Eigen::Ref<const Eigen::VectorXd>& F, double tol, int& m,
                            Fault& fault);
@@ -173,6 +180,8 @@ class NlcpSolver {
   int answer_n_ = -1;         // its size; -1: none
   Eigen::VectorXd delta_;     // quasi-static: Delta0 + lambda w, m
   Eigen::VectorXi free_;      // indices of the free unknowns
+  Eigen::VectorXi newton_index_;  // the free set newton_ was last factorized for (in iterate)
+  int newton_m_ = -1;             // its size
   // The factorization kept by loaded_row_sums for the next solve (reuse_tangent).
   Eigen::MatrixXd tangent_;        // its LLT (lower), packed on tangent_index_[0..tangent_m_)
   Eigen::VectorXd tangent_inv_;    // 1/L_jj of tangent_

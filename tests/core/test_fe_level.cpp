@@ -256,6 +256,40 @@ TEST(FeLevel, RestoredStateIsDeterministicAndWithinToleranceOfTheWarmRun) {
   EXPECT_NEAR(ra.stiffness, warm.stiffness, 1e-6 * warm.stiffness);
 }
 
+// Level 5 quasi-static: a run over poses starts each pass loop from the TE extrapolated from
+// the last two solves (evaluate.cpp, predicted_te). The answer is the pass loop's fixed point
+// whatever the start: an instance reset before every pose (starting from TE = 0, no history)
+// gives the same TE and forces within the solver's tolerance, in more solver iterations; a load
+// change drops the extrapolation (the two runs then agree as well).
+TEST(FeLevel, QuasiStaticTeExtrapolationReachesTheSameAnswer) {
+  gm_model_params p = fe_paper(3);
+  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;  // for the databases' tooth sections
+  const FeFiles coupled = fe_files(p, "extrap3", Coupling{0.4, 0.2});
+  const gm_model_params p5 = at_level5(p, coupled);
+  Instance run(p5), cold(p5);
+  const int n = 16;
+  int it_run = 0, it_cold = 0;
+  double worst_te = 0, worst_f = 0;
+  for (int s = 0; s < n; ++s) {
+    const double torque = s < 12 ? 300 : 200;
+    const double phi1 = run.geo().p_bt / run.rb(0) * (s + 0.5) / 10;  // across a mesh event
+    const gm_result a = run.loaded(phi1, torque);
+    gm_data_reset(cold.m, cold.d);
+    const gm_result b = cold.loaded(phi1, torque);
+    it_run += a.solver_iterations;
+    it_cold += b.solver_iterations;
+    worst_te = std::max(worst_te, std::fabs(a.te - b.te));
+    worst_f = std::max(worst_f, std::fabs(a.normal_force / b.normal_force - 1));
+    EXPECT_NEAR(a.te, b.te, 1e-13) << s;
+    EXPECT_NEAR(a.normal_force, b.normal_force, 1e-9 * b.normal_force) << s;
+    EXPECT_NEAR(a.force[1][1], b.force[1][1], 1e-9 * std::fabs(b.normal_force)) << s;
+    EXPECT_NEAR(a.stiffness, b.stiffness, 1e-6 * b.stiffness) << s;
+  }
+  std::printf("extrapolated - cold start: TE up to %.3g m, normal force %.3g relative; solver "
+              "iterations %d (extrapolated) vs %d (cold)\n",
+              worst_te, worst_f, it_run, it_cold);
+}
+
 TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
   for (double beta : {0.0, 15.0}) {
     gm_model_params base = fe_paper(6);
