@@ -11,7 +11,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <utility>
 
 namespace gm {
@@ -28,7 +27,6 @@ constexpr double kMaxAmount = 1e-3;             // design modification amounts, 
 // Deviation file parser.
 
 using text::format_number;
-using text::is_space;
 using text::quote;
 using text::to_double;
 
@@ -61,25 +59,10 @@ class DeviationParser {
     fpt_um_ = &fpt_um;
     pitch_line_ = &pitch_line;
     grid_line_ = &grid_line;
-    if (text.size() >= 3 && std::memcmp(text.data(), "\xEF\xBB\xBF", 3) == 0) text.remove_prefix(3);
-    int line = 0;
-    while (!text.empty() || line == 0) {
-      ++line;
-      const std::size_t nl = text.find('\n');
-      std::string_view l = text.substr(0, nl);
-      text.remove_prefix(nl == std::string_view::npos ? text.size() : nl + 1);
-      const std::size_t hash = l.find('#');
-      if (hash != std::string_view::npos) l = l.substr(0, hash);
-      tokens_.clear();
-      std::size_t i = 0;
-      while (i < l.size()) {
-        while (i < l.size() && is_space(l[i])) ++i;
-        const std::size_t b = i;
-        while (i < l.size() && !is_space(l[i])) ++i;
-        if (i > b) tokens_.push_back(l.substr(b, i - b));
-      }
-      if (tokens_.empty()) continue;
-      if (!handle_line(line, t)) return false;
+    text::TokenLines lines(text);
+    while (lines.next()) {
+      tokens_ = lines.tokens();
+      if (!handle_line(lines.line(), t)) return false;
     }
     if (!magic_)
       return fail(1, "empty file (only blanks and comments)",

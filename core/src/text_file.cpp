@@ -85,4 +85,29 @@ bool read_file(const char* path, const char* what, const char* magic, std::strin
   return true;
 }
 
+TokenLines::TokenLines(std::string_view text) : text_(text) {
+  if (text_.size() >= 3 && text_.substr(0, 3) == "\xEF\xBB\xBF") text_.remove_prefix(3);
+}
+
+bool TokenLines::next() {
+  while (!text_.empty()) {
+    ++line_;
+    const std::size_t nl = text_.find('\n');
+    std::string_view l = text_.substr(0, nl);
+    text_.remove_prefix(nl == std::string_view::npos ? text_.size() : nl + 1);
+    const std::size_t hash = l.find('#');
+    if (hash != std::string_view::npos) l = l.substr(0, hash);
+    tokens_.clear();
+    std::size_t i = 0;
+    while (i < l.size()) {
+      while (i < l.size() && is_space(l[i])) ++i;
+      const std::size_t b = i;
+      while (i < l.size() && !is_space(l[i])) ++i;
+      if (i > b) tokens_.push_back(l.substr(b, i - b));
+    }
+    if (!tokens_.empty()) return true;
+  }
+  return false;
+}
+
 }  // namespace gm::text

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace gm::text {
 
@@ -28,5 +29,22 @@ bool to_double(std::string_view token, double& v, std::string& why);
 // oversized file.
 bool read_file(const char* path, const char* what, const char* magic, std::string& text,
                std::string& msg);
+
+// The token lines of a text resource, one after another: a leading UTF-8 byte-order mark is
+// skipped, '\n' ends a line, '#' starts a comment that runs to the line's end, tokens are
+// separated by spaces and tabs (is_space); lines without a token are skipped.
+class TokenLines {
+ public:
+  explicit TokenLines(std::string_view text);
+  // Moves to the next line with a token; false at the end of the text.
+  bool next();
+  int line() const { return line_; }  // 1-based number of the current line
+  const std::vector<std::string_view>& tokens() const { return tokens_; }
+
+ private:
+  std::string_view text_;
+  int line_ = 0;
+  std::vector<std::string_view> tokens_;
+};
 
 }  // namespace gm::text

@@ -10,7 +10,6 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <utility>
 
 namespace gm {
@@ -25,7 +24,6 @@ constexpr double kMaxStiffness = 1e5;              // N/(mm um), as model.user_s
 constexpr double kMaxTeUm = 1000;                  // |TE excitation| in the file, um
 
 using text::format_number;
-using text::is_space;
 using text::quote;
 using text::to_double;
 
@@ -53,28 +51,13 @@ class TableParser {
       : f_(f), name_(name ? name : "(table file)"), msg_(msg) {}
 
   bool run(std::string_view text, std::vector<double>& xs, std::vector<double>& ys) {
-    if (text.size() >= 3 && std::memcmp(text.data(), "\xEF\xBB\xBF", 3) == 0) text.remove_prefix(3);
-    int line = 0, last_line = 1;
+    int last_line = 1;
     bool header = false;
-    std::string_view tokens[3];
-    while (!text.empty() || line == 0) {
-      ++line;
-      const std::size_t nl = text.find('\n');
-      std::string_view l = text.substr(0, nl);
-      text.remove_prefix(nl == std::string_view::npos ? text.size() : nl + 1);
-      const std::size_t hash = l.find('#');
-      if (hash != std::string_view::npos) l = l.substr(0, hash);
-      std::size_t count = 0, i = 0;
-      while (i < l.size()) {
-        while (i < l.size() && is_space(l[i])) ++i;
-        const std::size_t b = i;
-        while (i < l.size() && !is_space(l[i])) ++i;
-        if (i > b) {
-          if (count < 3) tokens[count] = l.substr(b, i - b);
-          ++count;
-        }
-      }
-      if (count == 0) continue;
+    text::TokenLines lines(text);
+    while (lines.next()) {
+      const int line = lines.line();
+      const std::string_view* tokens = lines.tokens().data();
+      const std::size_t count = lines.tokens().size();
       last_line = line;
       if (!header) {
         if (!header_(line, tokens, count)) return false;
