@@ -502,6 +502,7 @@ void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const i
           }
           continue;
         }
+        // direct (this call's face intervals are new): the same terms from the database
         for (int a = a0; a < a1; ++a) {
           const Spot& pa = G.spots[std::size_t(a)];
           for (int b = b0; b < std::min(b1, a + 1); ++b) {
@@ -513,14 +514,8 @@ void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const i
               for (int be = 0; be < nr; ++be) {
                 const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
                 if (rb == 0) continue;
-                const double x =
-                    G.direct
-                        ? strip_value(m, g, B.index, pa.roll_node + al, pb.roll_node + be,
-                                      pa.strip, pb.strip)
-                        : B.pool[std::size_t(chunk_at(m, g, B, pa.roll_node + al,
-                                                      pb.roll_node + be) +
-                                             pa.strip * S + pb.strip)];
-                e += ra * rb * x;
+                e += ra * rb * strip_value(m, g, B.index, pa.roll_node + al, pb.roll_node + be,
+                                           pa.strip, pb.strip);
               }
             }
             C(b, a) += e;
