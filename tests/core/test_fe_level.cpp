@@ -89,13 +89,6 @@ gm::ComplianceDb synthetic_db(const gm_model_params& p, int gear, const Coupling
   return db;
 }
 
-std::string write_db(const std::string& name, const gm::ComplianceDb& db) {
-  const std::string path = ::testing::TempDir() + name;
-  std::string msg;
-  EXPECT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
-  return path;
-}
-
 struct FeFiles {
   std::string path[2];
 };

@@ -159,13 +159,6 @@ gm::ComplianceDb kernel_db(const gm_model_params& p, int g, const DbKind& kind, 
   return db;
 }
 
-std::string write_db(const std::string& name, const gm::ComplianceDb& db) {
-  const std::string path = ::testing::TempDir() + name;
-  std::string msg;
-  EXPECT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
-  return path;
-}
-
 // ---- the contact located from geometry ----
 
 struct Located {

@@ -275,8 +275,7 @@ void fe_level(gm_model_params& p, int coupled_teeth) {
     std::string msg;
     const gm::ComplianceDb db = gm_test::smooth_db(p, g, gm_test::SmoothDbShape{}, msg);
     EXPECT_TRUE(msg.empty()) << msg;
-    paths.push_back(::testing::TempDir() + "jacobian_fe_" + std::to_string(paths.size()) + ".gcdb");
-    EXPECT_EQ(gm::write_compliance_db(paths.back().c_str(), db, msg), GM_OK) << msg;
+    paths.push_back(gm_test::write_db("jacobian_fe_" + std::to_string(paths.size()) + ".gcdb", db));
   }
   p.compliance[0] = (paths.end() - 2)->c_str();
   p.compliance[1] = paths.back().c_str();

@@ -1,5 +1,5 @@
 // Shared by the core tests: a model and its data through the C API, the gear pairs the tests
-// use, and the detection layout of a pair.
+// use, the detection layout of a pair, and compliance databases written to the test folder.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include "compliance_db.hpp"
 #include "detection.hpp"
 #include "gearmesh/gearmesh.h"
 #include "geometry.hpp"
@@ -125,6 +126,14 @@ inline Pair make_pair(const gm_model_params& p) {
 // phi_2 that holds the transmission error at te for a given phi_1 (PHYSICS 0).
 inline double phi2_for(const gm::MeshLayout& L, double te, double phi1) {
   return (te - L.base_radius[0] * phi1) / (L.sign * L.base_radius[1]);
+}
+
+// Write a compliance database into the test's temporary folder; its path.
+inline std::string write_db(const std::string& name, const gm::ComplianceDb& db) {
+  const std::string path = ::testing::TempDir() + name;
+  std::string msg;
+  EXPECT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
+  return path;
 }
 
 }  // namespace gm_test
