@@ -314,8 +314,6 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
 
   // 2. Flank grid of tooth 0, flank A.
   const auto& flank = body.flanks[0][0];
-  std::vector<double> rolls;
-  for (const auto& f : flank) rolls.push_back(f.roll);
   // Roll values from the nodes of the first face level, the end face z = -b/2: the section
   // itself, so its profile nodes (vertices and mid-edge nodes) lie exactly on the involute.
   // Face values from the nodes on the form-circle edge (smallest roll): along a twisted
@@ -398,7 +396,8 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   // (x, y, z) -> (x, -y, -z), which also flips the face coordinate): a generated body has it
   // unless a helical body's web is off mid-face. A user mesh is not assumed to have it.
   const bool mirror_sym = !user_mesh && (!helical || std::fabs(o.mesh.web_offset) < 1e-12);
-  const bool load_b = !cyclic && !mirror_sym;
+  // Without it flank B is loaded explicitly (a cyclic body then has two flank sets, mirror = 0).
+  const bool load_b = !mirror_sym;
   stats.tooth_sets = cyclic ? 1 : classes;
   if (!cyclic) {
     std::ostringstream s;
@@ -406,14 +405,23 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
       << ": loading " << classes << " distinct teeth" << (load_b ? ", both flanks" : ", flank A (flank B by the mirror)");
     say(s.str());
   }
-  // Placement of tooth t's flank f: x = A(t, f) x0 for tooth 0's flank-A grid point of index
-  // face_map(f, k).
-  const Eigen::Matrix3d mirror_m = helical ? Eigen::Vector3d(1, -1, -1).asDiagonal().toDenseMatrix()
-                                           : Eigen::Vector3d(1, -1, 1).asDiagonal().toDenseMatrix();
-  auto place = [&](int t, int f) {
-    const Eigen::Matrix3d r = Eigen::AngleAxisd(2 * kPi * t / z, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    return f == 0 ? r : Eigen::Matrix3d(r * mirror_m);
+  // Flank B of tooth 0 from flank A: the half turn H = diag(1, -1, -1) about tooth 0's radial
+  // centre line at mid-face maps flank A at face height -z onto flank B at height z (spur and
+  // helical alike: H keeps the hand). Flank B's grid point (i, j) is therefore H applied to flank
+  // A's point at roll row i moved along its helicoid from its height z_j to -z_j (the screw
+  // x -> Rot_z(hand c s) x + s e_z with s = -2 z_j, c = tan(beta_b) / r_b; a translation for a
+  // spur gear): exact on the involute helicoid, and at flank B's own heights z_j even when the
+  // face grid is not symmetric (a web off mid-face). Its normal turns the same way.
+  const Eigen::Matrix3d half_turn = Eigen::Vector3d(1, -1, -1).asDiagonal().toDenseMatrix();
+  auto to_flank_b = [&](int k, const Eigen::Vector3d& x, bool point) -> Eigen::Vector3d {
+    const double s = -2 * body.nodes[grid_node[k]].z();
+    const Eigen::Matrix3d screw =
+        Eigen::AngleAxisd(body.hand * body.twist_rate * s, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return half_turn * (screw * x + (point ? s : 0.0) * Eigen::Vector3d::UnitZ());
   };
+  // Face index of flank B's database set read through the mirror (the non-cyclic copies below):
+  // reversed for a helical gear (H flips the face), kept for a spur gear. Used only when the body
+  // has the mirror symmetry, whose face grid is then symmetric.
   auto src_index = [&](int f, int k) {
     if (f == 0 || !helical) return k;
     return (k / n_face) * n_face + (n_face - 1 - k % n_face);
@@ -423,14 +431,6 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
   const auto t_loc = Clock::now();
   say("locating points (bucket grid) ...");
   Locator loc(fm);
-  std::vector<Eigen::Vector3d> depth0(n_grid);
-  for (int k = 0; k < n_grid; ++k) {
-    // Helical: the normal has an axial component, so at a face end the depth point would leave
-    // the body; it is kept on the end face (z clamped to +-b/2).
-    Eigen::Vector3d Qb = body.nodes[grid_node[k]] + o.depth * normal[k];
-    Qb.z() = std::clamp(Qb.z(), -0.5 * body.face_width, 0.5 * body.face_width);
-    depth0[k] = Qb;
-  }
   std::map<std::pair<int, int>, std::vector<Probe>> surf_cache, depth_cache;
   std::string loc_err;
   auto points = [&](int t, int f, bool depth) -> const std::vector<Probe>* {
@@ -440,18 +440,25 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     auto it = cache.find(key);
     if (it != cache.end()) return &it->second;
     std::vector<Probe> v(n_grid);
-    const Eigen::Matrix3d A = place(t, f);
+    const Eigen::Matrix3d rot = Eigen::AngleAxisd(2 * kPi * t / z, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     for (int k = 0; k < n_grid; ++k) {
-      const int k0 = src_index(f, k);
       Probe& pr = v[k];
-      pr.n = A * normal[k0];
       if (!depth && t == 0 && f == 0) {  // the reference flank's own nodes
+        pr.n = normal[k];
         pr.nodes.fill(grid_node[k]);
         pr.weight.fill(0);
         pr.weight[0] = 1;
         continue;
       }
-      const Eigen::Vector3d X = A * (depth ? depth0[k0] : Eigen::Vector3d(body.nodes[grid_node[k0]])) * mm;
+      const Eigen::Vector3d P = body.nodes[grid_node[k]];
+      Eigen::Vector3d x = depth ? Eigen::Vector3d(P + o.depth * normal[k]) : P, n = normal[k];
+      if (f == 1) x = to_flank_b(k, x, true), n = to_flank_b(k, n, false);
+      x = rot * x;
+      pr.n = rot * n;
+      // Helical: the normal has an axial component, so at a face end the depth point would leave
+      // the body; it is kept on the end face (z clamped to +-b/2).
+      if (depth) x.z() = std::clamp(x.z(), -0.5 * body.face_width, 0.5 * body.face_width);
+      const Eigen::Vector3d X = x * mm;
       int e = -1;
       Eigen::Vector3d xi;
       const double best = loc.locate(X, e, xi);
@@ -622,11 +629,14 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     return GM_ERR_SOLVER;
   }
 
-  // The database's blocks: cyclic, one set; else z tooth sets (copies for the symmetric repeats),
+  // The database's blocks: cyclic, one tooth set (flank A, then flank B if it was loaded); else z
+  // tooth sets (copies for the symmetric repeats),
   // flank A then flank B (by the mirror: B of tooth t, offset d = A of tooth -t, offset -d, with
   // the face index flipped for helical gears).
   if (cyclic) {
     out.blocks = std::move(result[0]);
+    if (load_b)
+      for (auto& b : result[1]) out.blocks.push_back(std::move(b));
   } else {
     out.blocks.resize(std::size_t(z) * 2 * nd);
     auto set_of = [&](int t, int f) -> const std::vector<std::vector<double>>& {
@@ -649,7 +659,7 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
         }
   }
 
-  // 6. Header.
+  // 7. Header.
   record_gear(out, p, g, gear);
   out.bore_radius = body.clamped_radius;
   const int nprof = std::max(1, o.mesh.elements_along_profile);
@@ -668,7 +678,7 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     out.note = s.str();
   }
   out.cyclic = cyclic ? 1 : 0;
-  out.mirror = cyclic ? 1 : 0;
+  out.mirror = cyclic && !load_b ? 1 : 0;
   out.roll = roll;
   out.face = face;
   out.n_coupled = std::uint32_t(nc);

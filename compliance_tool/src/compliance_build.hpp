@@ -42,7 +42,8 @@
 //   mirror symmetry (spur: y -> -y through tooth 0's centre plane; helical: the half turn about
 //   tooth 0's radial centre line at mid-face, which flips the face index) gives flank B of tooth t,
 //   offset d, as flank A of tooth -t, offset -d, without solves; a helical body whose web is off
-//   mid-face and a user mesh load flank B explicitly.
+//   mid-face and a user mesh load flank B explicitly (a cyclic body then has mirror = 0 and two
+//   flank sets).
 // * Load fraction F < 1 (the paper's 50-70 %): only select_loaded()'s ceil(F n_grid) points are
 //   loaded. The other columns come from the reduction space Psi spanned by the loaded solves
 //   (the paper's Psi): u_j ~ Psi a_j with Psi^T K Psi a_j = Psi^T f_j (Galerkin), where
