@@ -85,7 +85,9 @@ T pair_stiffness(const gm_model& m, const ContactSliceT<T>& s) {
     case GM_STIFFNESS_ISO6336: {
       // c' at the middle of the path, falling parabolically towards its ends so that the mean
       // mesh stiffness is ISO's c_gamma_alpha = c'(0.75 eps_alpha + 0.25).
-      const T u = std::clamp(s.path_position, T(0.0), T(1.0)) * 2 - 1;
+      using std::fmax;
+      using std::fmin;
+      const T u = fmin(fmax(s.path_position, T(0.0)), T(1.0)) * 2 - 1;
       return m.iso_c_prime * (1 - m.iso_shape * u * u);
     }
     case GM_STIFFNESS_USER_VARIABLE:
@@ -126,7 +128,8 @@ void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>*
       law = laws[i - 1];  // the next slice of an aligned spur pair: the same law
       continue;
     }
-    const T rho1 = std::max(s.roll[0], T(rho_floor)), rho2 = std::max(s.roll[1], T(rho_floor));
+    using std::fmax;
+    const T rho1 = fmax(s.roll[0], T(rho_floor)), rho2 = fmax(s.roll[1], T(rho_floor));
     // FE: the global part is the coupled C of fe_assemble, not a per-slice compliance
     law.compliance = fe ? T(0.0)
                         : (tooth_compliance_t(m.tooth[0], rho1) +
@@ -219,7 +222,7 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
     if (F <= 0) continue;
     // contact damping on the normal approach rate, loaded slices only, never adhesive (PHYSICS 7)
     if (m.params.damping != 0)
-      F = std::max(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
+      F = fmax(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
     forces[i] = F;
     V3 on2 = F * s.normal;  // gear 1 pushes gear 2 along the normal
     if (mu != 0) {

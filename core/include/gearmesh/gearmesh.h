@@ -211,7 +211,10 @@ gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, g
  * `at` (the implicit-function theorem on the slice force laws c F + f(F) = Delta, and in
  * quasi-static mode on the load balance as well); integer outputs and solver_residual get 0.
  * Slices that are open stay open: at an active-set change (a slice just touching, a tip edge
- * entering, a clamp switching) this is the one-sided derivative of the side `at` lies on.
+ * entering, a clamp switching) this is the one-sided derivative of the side `at` lies on. Where
+ * `at` lies on both sides, on a kink (the axial overlap of equal face widths at equal axial
+ * positions shrinks whichever way gear 2 moves axially), it is the derivative along +seed,
+ * d/dt output(at + t seed) at t = 0+: what a forward difference along the seed gives.
  * Uses d's scratch; the evaluation memory (warm start) is left as it was. On error derivative
  * is left unchanged and gm_data_message(d) says why (the same input errors as gm_evaluate, or a
  * non-finite seed). Costs about three evaluations (five in quasi-static mode). */
