@@ -25,9 +25,11 @@ void split_periods(const T& x, double period, double& n, T& f) {
   if (f >= period) f = std::nextafter(period, 0.0);
 }
 
-// Tooth index in [0, z) of the tooth m periods after the reference one.
+// Tooth index in [0, z) of the tooth m periods after the reference one (n and m are whole and
+// finite: detect_impl refuses spins beyond GM_MAX_SPIN_ANGLE before they get here).
 int tooth_index(double n, double m, int sigma, int z) {
   double k = std::fmod(sigma * (m - n), static_cast<double>(z));
+  if (!(k >= 0 || k < 0)) return 0;  // NaN: never cast (unreachable with the checks above)
   if (k < 0) k += z;
   return static_cast<int>(k) % z;
 }
@@ -221,6 +223,16 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
                 std::string& msg) {
   GM_AD_USING;
   const int s = L.sign;
+  for (int i = 0; i < 2; ++i) {
+    // the period split below casts tooth counts to int: only finite spins in range get there
+    if (!(std::fabs(val(kin.phi[i])) <= GM_MAX_SPIN_ANGLE)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "gear%d.phi = %g rad: outside the allowed range [-%g, %g] rad",
+                    i + 1, val(kin.phi[i]), GM_MAX_SPIN_ANGLE, GM_MAX_SPIN_ANGLE);
+      msg = buf;
+      return -1;
+    }
+  }
   Axis<T> ax[2];
   for (int i = 0; i < 2; ++i) {
     ax[i].c = Vec3<T>(kin.u[i][0] + (i == 1 ? L.center_distance : 0.0), kin.u[i][1],

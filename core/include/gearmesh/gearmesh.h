@@ -145,11 +145,15 @@ typedef struct gm_pair_geometry {
   gm_gear_geometry gear[2];
 } gm_pair_geometry;
 
+/* Largest spin angle magnitude gm_evaluate accepts, rad: one ulp of the angle stays below
+ * 1.9e-9 rad (1.9e-9 r_b of TE); larger angles are refused with GM_ERR_INPUT. */
+#define GM_MAX_SPIN_ANGLE 1e7
+
 /* Inputs of one evaluation, in the housing frame H (PHYSICS 0). Index 0 = gear 1. */
 typedef struct gm_kinematics {
   double u[2][3];     /* centre displacement from nominal, m */
   double r[2][2];     /* small tilts about H's x and y, rad */
-  double phi[2];      /* spin angle about the gear's own axis, rad (unbounded) */
+  double phi[2];      /* spin angle about the gear's own axis, rad, |phi| <= GM_MAX_SPIN_ANGLE */
   double v[2][3];     /* centre velocity, m/s */
   double w[2][2];     /* tilt rates, rad/s */
   double omega[2];    /* spin rate, rad/s */
