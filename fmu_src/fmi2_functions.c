@@ -647,7 +647,10 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
   if (c->stop_defined && !(end <= c->stop_time + 1e-9 * fmax(1.0, fabs(c->stop_time))))
     return error(c, "fmi2DoStep: step to t = %.17g goes past stopTime = %.17g", end, c->stop_time);
   /* inputs are held over the step; the outputs published are those at tc + h */
-  if (model_evaluate(c->model, 0, end, c->msg, sizeof c->msg)) {
+  int failed = model_evaluate(c->model, 0, end, c->msg, sizeof c->msg);
+  if (failed == 2) /* a skipped tooth: the step is not taken, the instance stays usable */
+    return discard(c, "fmi2DoStep: t = %g s: %s", end, c->msg);
+  if (failed) {
     c->mode = Error; /* only fmi2SetFMUstate or fmi2Reset recover */
     return error(c, "fmi2DoStep: t = %g s: %s", end, c->msg);
   }

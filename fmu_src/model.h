@@ -41,7 +41,9 @@ void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned);
 /* (Re)build the core model if the parameters changed since the last build. */
 int model_build(fmu_model* m, char* msg, size_t msg_size);
 /* Evaluate the contact at the held inputs and publish the outputs (time only labels log
- * messages). restart forgets warm start and friction memory first. */
+ * messages). restart forgets warm start and friction memory first. Returns 2 (nothing changed,
+ * msg set) if, without restart and with prescribed spins, the TE would jump by half a base pitch
+ * or more from the last evaluation's (a skipped tooth). */
 int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t msg_size);
 /* Directional derivative of the outputs along the input direction seed (gm_directional_derivative),
  * at the inputs of the last evaluation if at_last_evaluation and there was one (stepComplete:

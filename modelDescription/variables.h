@@ -171,7 +171,7 @@ typedef enum {
   X("gear" #i ".rx", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][0], D_POSE, "tilt about H's x")  \
   X("gear" #i ".ry", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][1], D_POSE, "tilt about H's y")  \
   X("gear" #i ".phi", Real, input, continuous, exact, "rad", "deg", "", "", k.phi[n], D_SPIN,                       \
-    "spin angle about the gear's own axis (unbounded)")                                                             \
+    "spin angle about the gear's own axis, |phi| <= 1e7 rad")                                                       \
   X("gear" #i ".vx", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][0], D_RATE, "centre velocity x") \
   X("gear" #i ".vy", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][1], D_RATE, "centre velocity y") \
   X("gear" #i ".vz", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][2], D_RATE, "centre velocity z") \
