@@ -241,7 +241,7 @@ static const char* flank_name(int flank) {
   return flank >= 0 && flank <= 3 ? names[flank] : "?";
 }
 
-/* TE of prescribed spins, r_b1 phi_1 + s r_b2 phi_2 (PHYSICS 0), as gm_evaluate reports it. */
+/* TE of prescribed spins, r_b1 phi_1 + s r_b2 phi_2, as gm_evaluate reports it (mesh.te). */
 static double te_of(const fmu_model* m, const gm_kinematics* k) {
   const double s = m->v.p.pair.internal ? -1.0 : 1.0;
   return 0.5 * m->v.g.gear[0].d_b * k->phi[0] + s * 0.5 * m->v.g.gear[1].d_b * k->phi[1];

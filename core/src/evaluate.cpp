@@ -550,8 +550,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
   r.max_line_load = rt.max_line_load;
   r.pairs_in_contact = rt.pairs_in_contact;
   r.flank = rt.flank;
-  // TE from the spin angles as given, as encoders measure it (PHYSICS 0); solved in quasi-static
-  // mode.
+  // TE from the spin angles as given, as encoders measure it; solved in quasi-static mode.
   r.te = m.params.quasi_static
              ? te_out
              : L.base_radius[0] * kin_in.phi[0] + L.sign * L.base_radius[1] * kin_in.phi[1];
