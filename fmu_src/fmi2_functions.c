@@ -648,7 +648,8 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
     return error(c, "fmi2DoStep: step to t = %.17g goes past stopTime = %.17g", end, c->stop_time);
   /* inputs are held over the step; the outputs published are those at tc + h */
   const int failed = model_evaluate(c->model, 0, end, h, c->msg, sizeof c->msg);
-  if (failed == 2) /* large-step integration: nothing changed, the master may retry shorter */
+  if (failed == 2) /* a skipped tooth, or the large-step integration failed: nothing changed, the
+                      instance stays usable, the master may roll back or retry shorter */
     return discard(c, "fmi2DoStep: step from t = %g s to %g s discarded: %s", tc, end, c->msg);
   if (failed) {
     c->mode = Error; /* only fmi2SetFMUstate or fmi2Reset recover */

@@ -43,8 +43,10 @@ int model_build(fmu_model* m, char* msg, size_t msg_size);
 /* Evaluate the contact at the held inputs and publish the outputs (time only labels log
  * messages). restart forgets warm start and friction memory first. With model.dynamics = 1,
  * restart starts the spin state from the inputs gear<i>.phi/.omega and otherwise the spins are
- * integrated over step (s). Returns 0, 1 on error, 2 if the large-step integration failed
- * (nothing changed; a shorter step may succeed), with msg. */
+ * integrated over step (s). Returns 0, 1 on error, or 2 (nothing changed, msg set) if the
+ * large-step integration failed (a shorter step may succeed) or if, without restart and with
+ * prescribed spins, the TE would jump by half a base pitch or more from the last evaluation's
+ * (a skipped tooth). */
 int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t msg_size);
 /* Directional derivative of the outputs (out->y, and the spin outputs out->ds) along the input
  * direction seed (gm_directional_derivative on seed->k), at the inputs of the last evaluation if

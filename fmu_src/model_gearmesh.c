@@ -1,5 +1,6 @@
 /* GearMesh behind model.h: the variable table bound to gm_fmu_values, the core model built
  * lazily from the parameters, one gm_evaluate per call. */
+#include <math.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -246,6 +247,12 @@ static const char* flank_name(int flank) {
   return flank >= 0 && flank <= 3 ? names[flank] : "?";
 }
 
+/* TE of prescribed spins, r_b1 phi_1 + s r_b2 phi_2, as gm_evaluate reports it (mesh.te). */
+static double te_of(const fmu_model* m, const gm_kinematics* k) {
+  const double s = m->v.p.pair.internal ? -1.0 : 1.0;
+  return 0.5 * m->v.g.gear[0].d_b * k->phi[0] + s * 0.5 * m->v.g.gear[1].d_b * k->phi[1];
+}
+
 /* The spin state outputs of the prescribed-motion mode: the inputs, no shafts, no account. */
 static void prescribed_state(fmu_model* m) {
   gm_dynamics_state s;
@@ -267,6 +274,22 @@ static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r)
 
 int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t n) {
   if (model_build(m, msg, n)) return 1;
+  /* A TE jump of half a base pitch or more since the last accepted evaluation skipped a tooth
+   * (the forces repeat every base pitch, so they would look normal): refused before evaluating,
+   * nothing changes. Quasi-static mode solves the TE near the last one instead; detection's
+   * quarter-pitch range already bounds it. The large-step mode integrates the spins itself. Spins out of range are gm_evaluate's error. */
+  if (!restart && m->evaluated && !m->v.p.quasi_static && !m->v.dynamics && fabs(m->v.k.phi[0]) <= GM_MAX_SPIN_ANGLE &&
+      fabs(m->v.k.phi[1]) <= GM_MAX_SPIN_ANGLE) {
+    const double from = te_of(m, &m->k_eval), to = te_of(m, &m->v.k), bound = 0.5 * m->v.g.p_bt;
+    if (!(fabs(to - from) < bound)) {
+      snprintf(msg, n,
+               "mesh.te would jump by %g m (%.4g base pitches) in one step, from %g m to %g m "
+               "(gear1.phi = %.17g rad, gear2.phi = %.17g rad): a tooth skipped; allowed |jump| < "
+               "%g m (half a base pitch); roll back or retry a smaller step",
+               to - from, (to - from) / m->v.g.p_bt, from, to, m->v.k.phi[0], m->v.k.phi[1], bound);
+      return 2;
+    }
+  }
   if (restart) gm_data_reset(m->core, m->data);
   gm_result r;
   const gm_status status = core_step(m, restart, step, &r);

@@ -181,7 +181,7 @@ typedef enum {
   X("gear" #i ".rx", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][0], D_POSE, "tilt about H's x")  \
   X("gear" #i ".ry", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][1], D_POSE, "tilt about H's y")  \
   X("gear" #i ".phi", Real, input, continuous, exact, "rad", "deg", "", "", k.phi[n], D_SPIN,                       \
-    "spin angle about the gear's own axis (unbounded)")                                                             \
+    "spin angle about the gear's own axis, |phi| <= 1e7 rad")                                                       \
   X("gear" #i ".vx", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][0], D_RATE, "centre velocity x") \
   X("gear" #i ".vy", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][1], D_RATE, "centre velocity y") \
   X("gear" #i ".vz", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][2], D_RATE, "centre velocity z") \
@@ -210,7 +210,9 @@ typedef enum {
   X("gear" #i ".speed", Real, output, continuous, calculated, "rad/s", "rpm", "", "", ds.omega[n], D_TE,          \
     "spin speed at the end of the step (large-step mode: integrated; else the input gear" #i ".omega)")          \
   X("gear" #i ".shaft_torque", Real, output, continuous, calculated, "N.m", "", "", "", ds.shaft_torque[n], D_TE,  \
-    "large-step mode: torque of the shaft on the gear at the end of the step (its far end feels minus this)")
+    "large-step mode: torque of the shaft on the gear at the end of the step (its far end feels minus this)")       \
+  X("gear" #i ".shaft_end_angle", Real, output, continuous, calculated, "rad", "deg", "", "", ds.far_phi[n], D_TE, \
+    "large-step mode: the shaft's far end at the end of the step as the FMU moved it (shaft_phi + shaft_omega h)")
 
 /* Outputs of gear i. */
 #define GM_FMU_GEAR_OUTPUTS(X, i, n)                                                                               \
@@ -352,8 +354,12 @@ typedef enum {
     "large-step mode: energy dissipated by friction since initialization")                                         \
   X("energy.damping", Real, output, continuous, calculated, "J", "", "", "", ds.damping, D_TE,                     \
     "large-step mode: energy dissipated by the contact and shaft dampers since initialization")                   \
+  X("energy.parametric", Real, output, continuous, calculated, "J", "", "", "", ds.parametric, D_TE,               \
+    "large-step mode: work of the contact forces beyond the mesh's energy change, friction and damping (the "     \
+    "element's non-conservative part: compliance varying along the path)")                                       \
   X("energy.residual", Real, output, continuous, calculated, "J", "", "", "", ds.residual, D_TE,                   \
-    "large-step mode: work_in - work_out - (kinetic + elastic - initial) - friction - damping (0 if exact)")       \
+    "large-step mode: integration error, work_in - work_out - (kinetic + elastic - initial) - friction - damping " \
+    "- parametric")                                                                                                \
   X("dynamics.step_size", Real, output, continuous, calculated, "s", "", "", "", ds.step, D_TE,                    \
     "large-step mode: the internal step the next fmi2DoStep tries first")                                         \
   X("dynamics.steps", Integer, output, discrete, calculated, "", "", "", "", ds.steps, D_TE,                       \

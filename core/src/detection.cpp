@@ -25,9 +25,11 @@ void split_periods(const T& x, double period, double& n, T& f) {
   if (f >= period) f = std::nextafter(period, 0.0);
 }
 
-// Tooth index in [0, z) of the tooth m periods after the reference one.
+// Tooth index in [0, z) of the tooth m periods after the reference one (n and m are whole and
+// finite: detect_impl refuses spins beyond GM_MAX_SPIN_ANGLE before they get here).
 int tooth_index(double n, double m, int sigma, int z) {
   double k = std::fmod(sigma * (m - n), static_cast<double>(z));
+  if (!(k >= 0 || k < 0)) return 0;  // NaN: never cast (unreachable with the checks above)
   if (k < 0) k += z;
   return static_cast<int>(k) % z;
 }
@@ -122,8 +124,8 @@ bool make_section(const MeshLayout& L, const Axis<T> ax[2], const T& z, Section<
   const T hi2 = L.sign > 0 ? T(S.T1T2 - L.rho_form[1]) : T(L.rho_form[1] - S.T1T2);
   const T lo1 = L.rho_form[0];
   const T lo2 = L.sign > 0 ? T(S.T1T2 - L.rho_tip[1]) : T(L.rho_tip[1] - S.T1T2);
-  S.t_hi = std::min(hi1, hi2);
-  S.t_lo = std::max(lo1, lo2);
+  S.t_hi = fmin(hi1, hi2);
+  S.t_lo = fmax(lo1, lo2);
   S.tip1_ends = hi1 <= hi2;
   S.tip2_starts = lo2 >= lo1;
   const T cg = cos(S.gamma), sg = sin(S.gamma);
@@ -221,6 +223,16 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
                 std::string& msg) {
   GM_AD_USING;
   const int s = L.sign;
+  for (int i = 0; i < 2; ++i) {
+    // the period split below casts tooth counts to int: only finite spins in range get there
+    if (!(std::fabs(val(kin.phi[i])) <= GM_MAX_SPIN_ANGLE)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "gear%d.phi = %g rad: outside the allowed range [-%g, %g] rad",
+                    i + 1, val(kin.phi[i]), GM_MAX_SPIN_ANGLE, GM_MAX_SPIN_ANGLE);
+      msg = buf;
+      return -1;
+    }
+  }
   Axis<T> ax[2];
   for (int i = 0; i < 2; ++i) {
     ax[i].c = Vec3<T>(kin.u[i][0] + (i == 1 ? L.center_distance : 0.0), kin.u[i][1],
@@ -232,11 +244,12 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
   const bool aligned = identical(T(kin.r[0][0]), T(0.0)) && identical(T(kin.r[0][1]), T(0.0)) &&
                        identical(T(kin.r[1][0]), T(0.0)) && identical(T(kin.r[1][1]), T(0.0));
 
-  // Axial overlap of the two face widths, split into equal slices.
+  // Axial overlap of the two face widths, split into equal slices. Equal face ends (equal
+  // widths, aligned) are a kink: fmax/fmin give the derivative on the side the seed points to.
   const T z1lo = ax[0].c.z() + L.axial_offset[0] - 0.5 * L.face_width[0];
   const T z2lo = ax[1].c.z() + L.axial_offset[1] - 0.5 * L.face_width[1];
-  const T zlo = std::max(z1lo, z2lo);
-  const T zhi = std::min(T(z1lo + L.face_width[0]), T(z2lo + L.face_width[1]));
+  const T zlo = fmax(z1lo, z2lo);
+  const T zhi = fmin(T(z1lo + L.face_width[0]), T(z2lo + L.face_width[1]));
   if (zhi <= zlo) return 0;
   const T width = (zhi - zlo) / L.slices;
   const T z_mid = 0.5 * (zlo + zhi);

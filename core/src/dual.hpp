@@ -3,8 +3,11 @@
 //
 // Comparisons look at the value only, so branches (candidates, in/out of the path, clamps) take
 // the same decisions as the double evaluation; floor/nearbyint/fmod are applied by the callers
-// to values (val()). Templated code calls the maths functions unqualified after GM_AD_USING, so
-// that double arguments reach std:: and Dual arguments the overloads below (by ADL).
+// to values (val()). A max or min whose arguments can tie in value (a kink, such as the axial
+// overlap of equal face widths) uses fmax/fmin below, which then take the derivative of the
+// side the seed points to; std::max/std::min would take the first argument's. Templated code
+// calls the maths functions unqualified after GM_AD_USING, so that double arguments reach std::
+// and Dual arguments the overloads below (by ADL).
 #pragma once
 
 #include <cmath>
@@ -90,8 +93,17 @@ inline Dual tanh(const Dual& a) {
 }
 inline Dual fabs(const Dual& a) { return a.v < 0 ? -a : a; }
 inline Dual abs(const Dual& a) { return fabs(a); }
-inline Dual fmax(const Dual& a, const Dual& b) { return a.v < b.v ? b : a; }
-inline Dual fmin(const Dual& a, const Dual& b) { return b.v < a.v ? b : a; }
+// max and min of a tie (equal values) take the larger (smaller) derivative: the one-sided
+// derivative along +seed, d/dt max(a(x + t seed), b(x + t seed)) at t = 0+, which is what a
+// finite difference along the seed sees (gm_directional_derivative's rule at a kink).
+inline Dual fmax(const Dual& a, const Dual& b) {
+  if (a.v != b.v) return a.v < b.v ? b : a;
+  return a.d < b.d ? b : a;
+}
+inline Dual fmin(const Dual& a, const Dual& b) {
+  if (a.v != b.v) return b.v < a.v ? b : a;
+  return b.d < a.d ? b : a;
+}
 inline bool isfinite(const Dual& a) { return std::isfinite(a.v) && std::isfinite(a.d); }
 inline bool isnan(const Dual& a) { return std::isnan(a.v); }
 inline bool isinf(const Dual& a) { return std::isinf(a.v); }
@@ -127,6 +139,8 @@ inline double der(const Dual& x) { return x.d; }
   using std::log;                                                                            \
   using std::tanh;                                                                           \
   using std::fabs;                                                                           \
+  using std::fmax;                                                                           \
+  using std::fmin;                                                                           \
   using std::isfinite
 
 namespace Eigen {

@@ -60,6 +60,63 @@ bool tilts_in_range(const gm_kinematics& k, std::string& msg) {
   return true;
 }
 
+// Spin angles beyond GM_MAX_SPIN_ANGLE are refused (gearmesh.h): one ulp of |phi| <= 1e7 rad is
+// at most 2^-29 rad = 1.9e-9 rad, i.e. at most 1.9e-9 r_b of TE (0.13 nm at r_b = 70 mm) and
+// 6e-7 of the smallest angular pitch (2 pi/2000); at 1e15 rad one ulp (0.125 rad) exceeds a
+// pitch and the pose is meaningless.
+bool spins_in_range(const gm_kinematics& k, std::string& msg) {
+  for (int i = 0; i < 2; ++i) {
+    if (!(std::fabs(k.phi[i]) <= GM_MAX_SPIN_ANGLE)) {
+      char buf[300];
+      std::snprintf(buf, sizeof buf,
+                    "gear%d.phi = %g rad: outside the allowed range [-%g, %g] rad of the spin "
+                    "angles (beyond it one ulp of the angle exceeds %.2g rad, so the tooth "
+                    "position and the TE lose their precision)", i + 1, k.phi[i], GM_MAX_SPIN_ANGLE,
+                    GM_MAX_SPIN_ANGLE, std::ldexp(1.0, std::ilogb(GM_MAX_SPIN_ANGLE) - 52));
+      msg = buf;
+      return false;
+    }
+  }
+  return true;
+}
+
+// phi = n 2 pi + r with |r| <= pi and n whole, r exact to rounding: 2 pi as a double-double
+// (hi + lo) and n hi without rounding error (fma); phi - n hi is exact (Sterbenz: for n != 0,
+// phi and n hi agree within a factor of two). Detection then works on angles below a turn, where
+// one ulp is 8.9e-16 rad, whatever the spin (|phi| <= GM_MAX_SPIN_ANGLE, so |n| < 2^21).
+double reduce_turns(double phi, double& n) {
+  constexpr double kTwoPiHi = 6.283185307179586;       // 2 pi rounded to double
+  constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2 pi - kTwoPiHi
+  n = std::nearbyint(phi / kTwoPiHi);
+  if (n == 0) return phi;
+  const double p = n * kTwoPiHi;
+  const double e = std::fma(n, kTwoPiHi, -p);  // n hi = p + e exactly
+  return ((phi - p) - e) - n * kTwoPiLo;
+}
+
+// The pose detection sees: both spins reduced by whole turns (a whole turn is a whole number of
+// teeth, so tooth identities, deviations and databases are unchanged). Quasi-static mode sets
+// gear 2's spin from the TE and gear 1's spin, phi_2 = (TE - r_b1 phi_1)/(s r_b2): with phi_1 =
+// r_1 + 2 pi n_1 that is (TE - r_b1 r_1)/(s r_b2) - s 2 pi n_1 z_1/z_2 (r_b1/r_b2 = z_1/z_2, the
+// same transverse module), and the last term is, modulo a turn, -s 2 pi ((n_1 z_1) mod z_2)/z_2:
+// *phi2_offset, to be added to (TE - r_b1 r_1)/(s r_b2).
+gm_kinematics reduced_pose(const MeshLayout& L, const gm_kinematics& in, double* phi2_offset) {
+  gm_kinematics k = in;
+  double n[2];
+  for (int i = 0; i < 2; ++i) k.phi[i] = reduce_turns(in.phi[i], n[i]);
+  if (phi2_offset) {
+    const long long z1 = L.teeth[0], z2 = L.teeth[1];
+    const long long j = ((static_cast<long long>(n[0]) % z2) * z1 % z2 + z2) % z2;
+    *phi2_offset = -L.sign * 6.283185307179586 * static_cast<double>(j) / static_cast<double>(z2);
+  }
+  return k;
+}
+
+// The input checks of gm_evaluate and gm_directional_derivative (at `at`), in this order.
+bool inputs_valid(const gm_kinematics& k, std::string& msg) {
+  return inputs_finite(k, msg) && spins_in_range(k, msg) && tilts_in_range(k, msg);
+}
+
 // Table lookups over the scalar type: the double ones as they are; for dual numbers the value
 // and the table's slope.
 inline double table_stiffness(const StiffnessTable& t, double angle) { return stiffness_at(t, angle); }
@@ -85,7 +142,9 @@ T pair_stiffness(const gm_model& m, const ContactSliceT<T>& s) {
     case GM_STIFFNESS_ISO6336: {
       // c' at the middle of the path, falling parabolically towards its ends so that the mean
       // mesh stiffness is ISO's c_gamma_alpha = c'(0.75 eps_alpha + 0.25).
-      const T u = std::clamp(s.path_position, T(0.0), T(1.0)) * 2 - 1;
+      using std::fmax;
+      using std::fmin;
+      const T u = fmin(fmax(s.path_position, T(0.0)), T(1.0)) * 2 - 1;
       return m.iso_c_prime * (1 - m.iso_shape * u * u);
     }
     case GM_STIFFNESS_USER_VARIABLE:
@@ -126,7 +185,8 @@ void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>*
       law = laws[i - 1];  // the next slice of an aligned spur pair: the same law
       continue;
     }
-    const T rho1 = std::max(s.roll[0], T(rho_floor)), rho2 = std::max(s.roll[1], T(rho_floor));
+    using std::fmax;
+    const T rho1 = fmax(s.roll[0], T(rho_floor)), rho2 = fmax(s.roll[1], T(rho_floor));
     // FE: the global part is the coupled C of fe_assemble, not a per-slice compliance
     law.compliance = fe ? T(0.0)
                         : (tooth_compliance_t(m.tooth[0], rho1) +
@@ -239,7 +299,7 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
     if (F <= 0) continue;
     // contact damping on the normal approach rate, loaded slices only, never adhesive (PHYSICS 7)
     if (m.params.damping != 0) {
-      const T damped = std::max(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
+      const T damped = fmax(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
       r.damping_power += (damped - F) * s.approach_rate;  // the damper's force times its rate
       F = damped;
     }
@@ -436,12 +496,13 @@ void record_te(gm_data& d, double phi, double te, double load_torque) {
 }  // namespace
 
 gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, gm_result& res) {
-  if (!inputs_finite(kin_in, d.message)) return GM_ERR_INPUT;
-  if (!tilts_in_range(kin_in, d.message)) return GM_ERR_INPUT;
+  if (!inputs_valid(kin_in, d.message)) return GM_ERR_INPUT;
   const MeshLayout& L = m.layout;
   const double tol = m.params.solver_tolerance;
   const int max_it = m.params.solver_max_iterations;
-  gm_kinematics kin = kin_in;
+  double phi2_offset = 0;  // quasi-static: gear 2's whole-turn-reduced spin offset
+  gm_kinematics kin = reduced_pose(L, kin_in, &phi2_offset);
+  double te_out = 0;
   gm_result r{};
   const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
   int n = 0;
@@ -467,9 +528,9 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     // while the move changes what detection sees (tip edges); the estimate carries over calls.
     const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
     const double load = kin.load_torque / rb2;  // generalized force of the TE coordinate, N
-    double te = fe ? predicted_te(d, kin.phi[0], kin.load_torque) : d.te_estimate;
+    double te = fe ? predicted_te(d, kin_in.phi[0], kin.load_torque) : d.te_estimate;
     for (int pass = 0; pass < 6; ++pass) {
-      kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2);
+      kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + phi2_offset;
       n = detect_contacts(L, kin, d.slices.data(), m.slice_capacity, d.message);
       if (n < 0) return GM_ERR_INPUT;
       apply_te_excitation(m, d.slices.data(), kin, n);  // detection is redone every pass
@@ -491,9 +552,10 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
       te += fs.lambda;
       if (std::fabs(fs.lambda) <= std::max(tol, 1e-12 * L.base_pitch)) break;
     }
-    kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2);
+    kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + phi2_offset;
     d.te_estimate = te;
-    if (fe) record_te(d, kin.phi[0], te, kin.load_torque);
+    te_out = te;
+    if (fe) record_te(d, kin_in.phi[0], te, kin.load_torque);
     // The last pass ends at the solved pose; its slice forces belong to approach + gain lambda.
     for (int i = 0; i < n; ++i) d.slices[i].approach = d.approach[i];
   }
@@ -513,8 +575,10 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
   r.max_line_load = rt.max_line_load;
   r.pairs_in_contact = rt.pairs_in_contact;
   r.flank = rt.flank;
-  // TE from the spin angles, as encoders measure it (PHYSICS 0); solved in quasi-static mode.
-  r.te = L.base_radius[0] * kin.phi[0] + L.sign * L.base_radius[1] * kin.phi[1];
+  // TE from the spin angles as given, as encoders measure it; solved in quasi-static mode.
+  r.te = m.params.quasi_static
+             ? te_out
+             : L.base_radius[0] * kin_in.phi[0] + L.sign * L.base_radius[1] * kin_in.phi[1];
   r.te_angle = r.te / L.base_radius[1];
   res = r;
   d.message.clear();
@@ -773,9 +837,9 @@ class FeWarmStartGuard {
 
 }  // namespace
 
-gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinematics& at,
+gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinematics& at_in,
                                  const gm_kinematics& seed, gm_result& res) {
-  if (!inputs_finite(at, d.message) || !tilts_in_range(at, d.message)) return GM_ERR_INPUT;
+  if (!inputs_valid(at_in, d.message)) return GM_ERR_INPUT;
   if (!inputs_finite(seed, d.message)) {
     d.message = "seed: " + d.message;
     return GM_ERR_INPUT;
@@ -784,6 +848,8 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
   const FeWarmStartGuard guard(d, m.params.stiffness_level == GM_STIFFNESS_FE);
   const MeshLayout& L = m.layout;
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
+  double phi2_offset = 0;
+  const gm_kinematics at = reduced_pose(L, at_in, &phi2_offset);  // as gm_evaluate detects
   KinematicsT<Dual> kin = dual_kinematics(at, seed);
   gm_result out{};
   Dual te, te_angle;
@@ -801,11 +867,12 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
     const double warm = d.te_estimate;
     const gm_data::TeHistory history = d.te_history;
     gm_result r0;
-    const gm_status st0 = evaluate(m, d, at, r0);
+    const gm_status st0 = evaluate(m, d, at_in, r0);
     d.te_estimate = warm;
     d.te_history = history;
     if (st0 != GM_OK) return st0;
-    kin.phi[1] = Dual((r0.te - rb1 * at.phi[0]) / (s * rb2), -rb1 * seed.phi[0] / (s * rb2));
+    kin.phi[1] = Dual((r0.te - rb1 * at.phi[0]) / (s * rb2) + phi2_offset,
+                      -rb1 * seed.phi[0] / (s * rb2));
     DualPass a, b;
     gm_status st = dual_pass(m, d, kin, true, a);
     if (st != GM_OK) return st;

@@ -263,7 +263,8 @@ double tooth_compliance(const ToothSection& s, double rho) {
   // Cubic Hermite on the uniform rho grid.
   const int n = static_cast<int>(s.table_compliance.size());
   const double step = (s.rho_max - s.rho_min) / (n - 1);
-  const double t = (std::clamp(rho, s.rho_min, s.rho_max) - s.rho_min) / step;
+  double t = (std::clamp(rho, s.rho_min, s.rho_max) - s.rho_min) / step;
+  if (!(t >= 0)) t = 0;  // NaN rho: no float-to-int cast of it
   const int k = std::min(n - 2, std::max(0, static_cast<int>(t)));
   const double u = t - k, u2 = u * u, u3 = u2 * u;
   return (2 * u3 - 3 * u2 + 1) * s.table_compliance[k] +

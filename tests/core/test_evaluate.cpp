@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -233,6 +234,100 @@ TEST(Evaluate, TiltBeyondTheSmallTiltRangeIsRejected) {
   EXPECT_NE(std::string(gm_data_message(in.d)).find("gear1.ry"), std::string::npos);
   k.r[0][1] = 1e-3;  // inside the range: evaluates
   EXPECT_EQ(gm_evaluate(in.m, in.d, &k, &r), GM_OK) << gm_data_message(in.d);
+}
+
+// Spin angles beyond GM_MAX_SPIN_ANGLE (1e7 rad) are refused by gm_evaluate and
+// gm_directional_derivative alike, plain and quasi-static, whatever was evaluated before, with a
+// message naming the input, the value and the range. (Before the range existed, 1e30 gave 2 MN
+// of meaningless forces and 1e308 reached a float-to-int cast of NaN in detection.)
+TEST(Evaluate, SpinAnglesOutsideTheirRangeAreRefused) {
+  for (int quasi = 0; quasi < 2; ++quasi) {
+    gm_model_params p = paper();
+    p.quasi_static = quasi;
+    Instance in(p);
+    for (int gear = 0; gear < 2; ++gear) {
+      for (double bad : {1e308, 1e30, 1e15, -1e30, 1.0000001e7}) {
+        for (int before = 0; before < 2; ++before) {
+          if (before) in.at(5e-6, 0.01);  // another call sequence: a good pose first
+          gm_kinematics k{};
+          k.phi[1] = 5e-6 / in.rb(1);
+          k.load_torque = 100;
+          k.phi[gear] = bad;
+          gm_result r{};
+          r.te = 42;
+          EXPECT_EQ(gm_evaluate(in.m, in.d, &k, &r), GM_ERR_INPUT) << bad;
+          EXPECT_EQ(r.te, 42);
+          char name[40];
+          std::snprintf(name, sizeof name, "gear%d.phi = %g rad", gear + 1, bad);
+          const std::string msg = gm_data_message(in.d);
+          EXPECT_NE(msg.find(name), std::string::npos) << msg;
+          EXPECT_NE(msg.find("allowed range [-1e+07, 1e+07] rad"), std::string::npos) << msg;
+          gm_kinematics seed{};
+          seed.phi[0] = 1e-3;
+          EXPECT_EQ(gm_directional_derivative(in.m, in.d, &k, &seed, &r), GM_ERR_INPUT) << bad;
+          EXPECT_EQ(std::string(gm_data_message(in.d)), msg);
+        }
+      }
+      gm_kinematics k{};  // the bound itself is inside (57/57: phi_2 = -phi_1 is TE 0)
+      k.phi[gear] = gear == 0 ? GM_MAX_SPIN_ANGLE : -GM_MAX_SPIN_ANGLE;
+      k.phi[1 - gear] = -k.phi[gear];
+      k.load_torque = 100;
+      gm_result r{};
+      EXPECT_EQ(gm_evaluate(in.m, in.d, &k, &r), GM_OK) << gm_data_message(in.d);
+    }
+  }
+}
+
+// Large spins lose no precision: at phi_1 = 1e5 rad (and phi_2 near -1e5 rad) the forces are those
+// of the angles reduced by whole tooth periods (in long double, exact to ~1e-14 rad here) to 1e-9
+// relative; with
+// per-tooth deviations, by whole turns (tooth identities kept). Quasi-static: gear 1 at 1e5 rad
+// against its reduced angle, the solved TE included. Before the reduction by whole turns, the
+// period split lost ~1e-11 rad at 1e5 rad, 9e-8 of the forces.
+TEST(Evaluate, LargeSpinAnglesGiveTheForcesOfTheReducedAngles) {
+  const auto reduce = [](double phi, long double period) {
+    const long double x = phi;
+    return static_cast<double>(x - period * std::floor(x / period));
+  };
+  const long double two_pi = 6.283185307179586476925286766559L;
+  for (int c = 0; c < 3; ++c) {
+    gm_model_params p = paper();
+    p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+    p.slices = 5;
+    p.solver_tolerance = 1e-15;
+    if (c == 1) {
+      static const std::string dev = [] {
+        std::string here = __FILE__;
+        return here.substr(0, here.rfind("tests/core/")) + "scenarios/deviations_example.txt";
+      }();
+      p.gear[0].deviations = p.gear[1].deviations = dev.c_str();
+    }
+    p.quasi_static = c == 2;
+    Instance in(p);
+    for (double phi1 : {1e5, -123456.789}) {
+      gm_kinematics big{};
+      big.phi[0] = phi1;
+      big.phi[1] = (6e-6 - in.rb(0) * phi1) / in.rb(1);
+      big.load_torque = 300;
+      big.omega[0] = 10;
+      big.omega[1] = -10;
+      gm_kinematics small = big;
+      for (int i = 0; i < 2; ++i)
+        small.phi[i] = reduce(big.phi[i], c == 1 ? two_pi : two_pi / p.gear[i].teeth);
+      gm_result a{}, b{};
+      for (int k = 0; k < 3; ++k) {  // quasi-static: the warm-started TE to its floor
+        a = in.eval(big);
+        b = in.eval(small);
+      }
+      ASSERT_GT(b.normal_force, 500);
+      const double tol = 1e-9 * b.normal_force;
+      for (int i = 0; i < 2; ++i)
+        for (int x = 0; x < 3; ++x) EXPECT_NEAR(a.force[i][x], b.force[i][x], tol) << c << " " << phi1;
+      EXPECT_NEAR(a.moment[0][2], b.moment[0][2], tol * in.rb(0)) << c << " " << phi1;
+      EXPECT_NEAR(a.stiffness, b.stiffness, 1e-9 * b.stiffness);
+      if (c == 2) EXPECT_NEAR(a.te, b.te, 1e-15);
+    }
+  }
 }
 
 TEST(Evaluate, ParameterErrorsNameTheParameter) {

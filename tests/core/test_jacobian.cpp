@@ -48,6 +48,8 @@ std::vector<double> outputs(const gm_result& r) {
   return y;
 }
 
+double y0_of(const gm_result& r, int j) { return outputs(r)[j]; }
+
 // k + t s over every input.
 gm_kinematics along(const gm_kinematics& k, const gm_kinematics& s, double t) {
   gm_kinematics out = k;
@@ -441,6 +443,149 @@ TEST(Jacobian, QuasiStaticLoadDirectionFollowsTheCompliance) {
     EXPECT_NEAR(dr.normal_force, 1 / rb2, 1e-9 / rb2) << "level " << level;
     EXPECT_NEAR(dr.te, 1 / (rb2 * r.stiffness), (level == 0 ? 1e-9 : 1e-2) / (rb2 * r.stiffness))
         << "level " << level;
+  }
+}
+
+// The axial overlap of equal face widths at equal axial positions is a kink: it shrinks
+// whichever way gear 2 moves axially. The derivative there is the one along +seed (gearmesh.h),
+// the forward difference along the seed, for every output, for the seed and its opposite,
+// aligned and with gear 2 tilted by 1 mrad (where the two one-sided derivatives of the moments
+// differ), plain and quasi-static. Taking either gear's face end regardless of the seed (the tie
+// broken to gear 1's, the old behaviour) gave d(gear1.mx)/d(gear2.uz) = 0 aligned, and outside
+// the range of the one-sided differences when tilted.
+TEST(Jacobian, AtEqualFaceEndsTheAxialDerivativeIsTheOneAlongTheSeed) {
+  for (int quasi = 0; quasi < 2; ++quasi) {
+    for (double tilt : {0.0, 1e-3}) {
+      if (quasi && tilt != 0) continue;
+      gm_model_params p = gm_test::paper();
+      p.slices = 7;
+      p.solver_tolerance = 1e-15;
+      p.quasi_static = quasi;
+      Instance I(p);
+      gm_kinematics at{};
+      at.phi[0] = 0.01;
+      at.phi[1] = phi2(I, 5e-6, at.phi[0]);
+      at.r[1][0] = tilt;
+      at.load_torque = 300;
+      const auto eval = [&](const gm_kinematics& k) {
+        gm_result r = I.eval(k);
+        for (int n = 0; quasi && n < 3; ++n) r = I.eval(k);  // the TE to its floor
+        return outputs(r);
+      };
+      const std::vector<double> y0 = eval(at);
+      // one-sided steps: small enough for the curvature (Richardson removes its first order),
+      // large enough for rounding; the quasi-static TE floor (~1e-14 m) needs a larger one
+      const double h = quasi ? 1e-6 : 2e-7;
+      for (int gear = 0; gear < 2; ++gear) {
+        for (double dir : {1.0, -1.0}) {
+          gm_kinematics seed{};
+          seed.u[gear][2] = dir;
+          gm_result dr{};
+          ASSERT_EQ(gm_directional_derivative(I.m, I.d, &at, &seed, &dr), GM_OK) << gm_data_message(I.d);
+          const std::vector<double> ad = outputs(dr), y1 = eval(along(at, seed, 0.5 * h)),
+                                    y2 = eval(along(at, seed, h));
+          std::vector<double> fd(kOutputs), scale(7, 0.0);
+          for (int j = 0; j < kOutputs; ++j) {
+            // second-order one-sided (Richardson) difference along the seed
+            fd[j] = 2 * (y1[j] - y0[j]) / (0.5 * h) - (y2[j] - y0[j]) / h;
+            scale[kGroup[j]] = std::max(scale[kGroup[j]], std::fabs(fd[j]));
+          }
+          for (int j = 0; j < kOutputs; ++j) {
+            const double allowed =
+                (quasi ? 1e-4 : 1e-5) * scale[kGroup[j]] + 1e-14 * std::fabs(y0[j]) / h + 1e-9;
+            EXPECT_NEAR(ad[j], fd[j], allowed)
+                << (quasi ? "quasi-static" : "plain") << ", gear 2 tilt " << tilt << ", seed "
+                << dir << " gear" << gear + 1 << ".uz: d " << kNames[j];
+          }
+        }
+      }
+    }
+  }
+}
+
+// Level 4 with tilts and axial displacements (the slices' positions, widths and roll distances
+// all move with uz and the tilts): every input column against Richardson central differences to
+// 1e-6 of the output group's scale, spur and helical, friction and damping on. All slices stay
+// loaded and away from the path ends, so every output is smooth at the pose.
+TEST(Jacobian, Level4TiltedWithAxialDisplacementEveryColumn) {
+  for (int helical = 0; helical < 2; ++helical) {
+    gm_model_params p = gm_test::paper();
+    p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+    p.slices = 7;
+    p.solver_tolerance = 1e-15;
+    p.friction_coefficient = 0.05;
+    p.friction_velocity = 0.05;
+    p.damping = 2e3;
+    if (helical) {
+      p.pair.helix_angle = 15 * kPi / 180;
+      p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
+      p.pair.center_distance = 0.0026 / std::cos(p.pair.helix_angle) * 57 + 50e-6;
+    }
+    Instance I(p);
+    gm_kinematics at{};
+    at.phi[0] = 0.013;
+    at.phi[1] = phi2(I, 12e-6, at.phi[0]);
+    at.u[0][2] = -0.4e-3;
+    at.u[1][2] = 1.5e-3;
+    at.u[1][0] = 2e-6;
+    at.r[1][0] = 2e-4;
+    at.r[1][1] = -1e-4;
+    at.r[0][0] = 5e-5;
+    at.v[0][1] = 0.02;
+    at.w[1][0] = 0.3;
+    at.omega[0] = 100;
+    at.omega[1] = -101;
+    const gm_result r0 = I.eval(at);
+    ASSERT_GT(r0.normal_force, 0);
+    // (input, step): each input kind at ~1e-7..1e-6 of its scale
+    struct Column {
+      double* (*field)(gm_kinematics&);
+      const char* name;
+      double step;
+    };
+    const Column columns[] = {
+        {[](gm_kinematics& k) { return &k.u[0][0]; }, "gear1.ux", 1e-8},
+        {[](gm_kinematics& k) { return &k.u[0][1]; }, "gear1.uy", 1e-8},
+        {[](gm_kinematics& k) { return &k.u[0][2]; }, "gear1.uz", 1e-7},
+        {[](gm_kinematics& k) { return &k.u[1][0]; }, "gear2.ux", 1e-8},
+        {[](gm_kinematics& k) { return &k.u[1][1]; }, "gear2.uy", 1e-8},
+        {[](gm_kinematics& k) { return &k.u[1][2]; }, "gear2.uz", 1e-7},
+        {[](gm_kinematics& k) { return &k.r[0][0]; }, "gear1.rx", 1e-6},
+        {[](gm_kinematics& k) { return &k.r[0][1]; }, "gear1.ry", 1e-6},
+        {[](gm_kinematics& k) { return &k.r[1][0]; }, "gear2.rx", 1e-6},
+        {[](gm_kinematics& k) { return &k.r[1][1]; }, "gear2.ry", 1e-6},
+        {[](gm_kinematics& k) { return &k.phi[0]; }, "gear1.phi", 1e-7},
+        {[](gm_kinematics& k) { return &k.phi[1]; }, "gear2.phi", 1e-7},
+        {[](gm_kinematics& k) { return &k.v[0][0]; }, "gear1.vx", 1e-4},
+        {[](gm_kinematics& k) { return &k.v[1][2]; }, "gear2.vz", 1e-4},
+        {[](gm_kinematics& k) { return &k.w[0][1]; }, "gear1.wy", 1e-3},
+        {[](gm_kinematics& k) { return &k.w[1][0]; }, "gear2.wx", 1e-3},
+        {[](gm_kinematics& k) { return &k.omega[0]; }, "gear1.omega", 1e-2},
+        {[](gm_kinematics& k) { return &k.omega[1]; }, "gear2.omega", 1e-2},
+    };
+    double worst = 0;
+    for (const Column& c : columns) {
+      gm_kinematics seed{};
+      *c.field(seed) = 1;
+      gm_result dr{};
+      ASSERT_EQ(gm_directional_derivative(I.m, I.d, &at, &seed, &dr), GM_OK) << gm_data_message(I.d);
+      const auto y = [&](double t) { return outputs(I.eval(along(at, seed, t))); };
+      const std::vector<double> ad = outputs(dr), yp = y(c.step), ym = y(-c.step),
+                                yp2 = y(0.5 * c.step), ym2 = y(-0.5 * c.step);
+      std::vector<double> fd(kOutputs), scale(7, 0.0);
+      for (int j = 0; j < kOutputs; ++j) {
+        fd[j] = (4 * (yp2[j] - ym2[j]) / c.step - (yp[j] - ym[j]) / (2 * c.step)) / 3;
+        scale[kGroup[j]] = std::max(scale[kGroup[j]], std::fabs(fd[j]));
+      }
+      for (int j = 0; j < kOutputs; ++j) {
+        const double allowed = 1e-6 * scale[kGroup[j]] + 1e-12;
+        worst = std::max(worst, std::fabs(ad[j] - fd[j]) / allowed);
+        EXPECT_NEAR(ad[j], fd[j], allowed) << (helical ? "helical" : "spur") << ": d " << kNames[j]
+                                           << "/d " << c.name << " (value " << y0_of(r0, j) << ")";
+      }
+    }
+    std::printf("  level 4 %s tilted, uz != 0: worst error/allowed %.3g\n",
+                helical ? "helical" : "spur", worst);
   }
 }
 

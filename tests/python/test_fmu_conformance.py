@@ -538,6 +538,53 @@ def test_failed_step_enters_error_state(new):
     run(inst, 1, t0=2 * H)
 
 
+@pytest.mark.parametrize("bad", [1e308, 1e30, 1e15, -1e30])
+@pytest.mark.parametrize("gear", [1, 2])
+def test_spin_angle_out_of_range_is_refused_in_every_call_sequence(new, gear, bad):
+    """|gear<i>.phi| <= 1e7 rad (gearmesh.h GM_MAX_SPIN_ANGLE): beyond it fmi2Error with the
+    same message whether the angle is set before initialization or between steps."""
+    expected = (f"gear{gear}.phi = {bad:g} rad: outside the allowed range [-1e+07, 1e+07] rad")
+    before = new()
+    before.slave.setupExperiment(startTime=0.0)
+    before.slave.enterInitializationMode()
+    before.set({**drive(0.0), f"gear{gear}.phi": bad})
+    assert_error(before.slave.exitInitializationMode)
+    assert expected in before.log.messages("logStatusError")[-1]
+    after = new()
+    after.initialize()
+    run(after, 2)
+    after.set({f"gear{gear}.phi": bad})
+    assert_error(after.slave.doStep, 2 * H, H)
+    assert expected in after.log.messages("logStatusError")[-1]
+
+
+def test_te_jump_of_a_base_pitch_is_discarded_and_the_instance_goes_on(new):
+    """A step whose TE jumps by a whole base pitch (a skipped tooth: the forces repeat every
+    pitch) returns fmi2Discard naming the jump; time does not advance, the published outputs
+    stay, and the instance accepts the proper step afterwards."""
+    inst = new(logging_on=True)  # the message is logged as a warning (logStatusWarning)
+    inst.initialize()
+    run(inst, 3)
+    s = inst.slave
+    p_bt = inst.get("geometry.base_pitch")
+    r_b2 = 0.5 * inst.get("gear2.base_diameter")
+    published = inst.outputs()
+    for jump in (p_bt, -p_bt, 0.51 * p_bt):
+        inputs = drive(3 * H)
+        inputs["gear2.phi"] += jump / r_b2  # TE = r_b1 phi_1 + r_b2 phi_2
+        inst.set(inputs)
+        assert_error(s.doStep, 3 * H, H, status=fmi2Discard)
+        message = inst.log.messages("logStatusWarning")[-1]
+        assert f"jump by {jump:g} m ({jump / p_bt:.4g} base pitches)" in message, message
+        assert f"allowed |jump| < {0.5 * p_bt:g} m" in message, message
+        t = c_double()
+        s.fmi2GetRealStatus(s.component, fmi2LastSuccessfulTime, byref(t))
+        assert t.value == 3 * H  # the step was not taken
+        assert inst.outputs() == published
+    after = run(inst, 2, t0=3 * H)  # the proper inputs: accepted
+    assert after[0] != published and after[0][OUTPUTS_REAL.index("mesh.normal_force")] > 0
+
+
 # ---- logging -----------------------------------------------------------------------------------
 
 def test_debug_logging_categories(new):

@@ -166,6 +166,52 @@ def check_against_repeated_steps(fmu_dir, md, name: str, params: dict, quasi_ste
         f.free()
 
 
+@pytest.mark.parametrize("quasi", [False, True], ids=["plain", "quasi-static"])
+def test_axial_derivative_at_equal_face_ends_is_the_one_along_the_seed(fmu_dir, md, quasi):
+    """At the default aligned pose (equal face widths, uz = 0) the axial overlap has a kink; the
+    derivative along +-gear2.uz (and gear1.uz) is the one-sided difference of repeated steps along
+    that direction, for every output (was 0 for gear1.mx, against 2356 N of every difference)."""
+    params = {"solver.tolerance": 1e-15, "model.slices": 3}
+    if quasi:
+        params["model.quasi_static"] = 1
+    f = Fmu(fmu_dir, md, params)
+    try:
+        r_b2 = _rb2(f)
+        x0 = {"gear1.phi": 0.01, "gear2.phi": -0.01 + 5e-6 / r_b2, "mesh.load_torque": 300.0 if quasi else 0.0}
+        f.set(x0)
+        f.s.doStep(0.0, H)
+        f.s.doStep(H, H)  # quasi-static: the warm-started TE at its floor
+        state = f.s.getFMUstate()
+        f.s.doStep(2 * H, H)
+        after = f.s.getFMUstate()
+        y0 = f.out()
+        h = 1e-6 if quasi else 1e-8  # quasi-static: the load balance's TE floor (~1e-14 m)
+        for name in ("gear2.uz", "gear1.uz"):
+            for direction in (1.0, -1.0):
+                f.s.setFMUstate(after)
+                d = f.s.getDirectionalDerivative(f.vr(f.outputs), f.vr([name]), [direction])
+
+                def stepped(t):
+                    f.s.setFMUstate(state)
+                    f.set({name: direction * t})
+                    f.s.doStep(2 * H, H)
+                    return f.out()
+
+                y1, y2 = stepped(h / 2), stepped(h)
+                # second-order one-sided (Richardson) difference along the direction
+                fd = [2 * (a - y) / (h / 2) - (b - y) / h for a, b, y in zip(y1, y2, y0)]
+                scale = max(abs(v) for v in fd[:12])
+                assert abs(d[f.outputs.index("gear1.mx")]) > 1e-3 * scale
+                for n, a, b, y in zip(f.outputs, d, fd, y0):
+                    allowed = (1e-4 if quasi else 1e-6) * scale + 1e-14 * abs(y) / h + 1e-9
+                    assert abs(a - b) <= allowed, f"d {n}/d {name} along {direction}: {a}, difference {b}"
+        f.s.setFMUstate(after)
+        f.s.freeFMUstate(state)
+        f.s.freeFMUstate(after)
+    finally:
+        f.free()
+
+
 def test_parameter_as_known_is_refused(fmu_dir, md, capfd):
     f = Fmu(fmu_dir, md, {})
     try:

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gearmesh.fmu_driver import GearMeshFMU
+from gearmesh.fmu_driver import FMUError, GearMeshFMU
 
 PHI = ["gear1.phi", "gear2.phi"]
 OMEGA = ["gear1.omega", "gear2.omega"]
@@ -148,7 +148,8 @@ def simulate(fmu: GearMeshFMU, p: Drivetrain, t_end: float, h: float, implicit: 
              newton_tol: float = 1e-10, max_newton: int = 8, h_min: float = 1e-7) -> Result:
     """Integrate from rest (gears in contact at TE = 0) to t_end with steps of h. The implicit
     scheme halves a step whose Newton iteration does not converge (friction reversals, flank
-    changes) and grows back to h after a success; explicit coupling keeps h."""
+    changes) or whose iterate the FMU discards (a TE jump of a skipped tooth) and grows back to
+    h after a success; explicit coupling keeps h."""
     c = Coupled(fmu, p)
     x = np.zeros(c.size)
     times, states = [0.0], [x.copy()]
@@ -186,7 +187,12 @@ def simulate(fmu: GearMeshFMU, p: Drivetrain, t_end: float, h: float, implicit: 
             converged = False
             for it in range(max_newton):
                 fmu.fmu.setFMUstate(state)
-                out = c.mesh_step(t_fmu, step, x1)
+                try:
+                    out = c.mesh_step(t_fmu, step, x1)
+                except FMUError as exc:  # an iterate that skips a tooth: a smaller step
+                    if not exc.discarded:
+                        raise
+                    break
                 m1 = np.array([out[m] for m in c.outputs])
                 residual = x1 - x - 0.5 * step * (f0 + c.rhs(t + step, x1, m1))
                 if np.max(np.abs(residual) / scale) < newton_tol * 1e6:

@@ -10,12 +10,18 @@ from ctypes import byref
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Discard)
 from fmpy import calloc, free
 
 
 class FMUError(RuntimeError):
-    """An FMI call failed; the message carries what the FMU logged."""
+    """An FMI call failed; the message carries what the FMU logged. `discarded`: the call
+    returned fmi2Discard (fmi2DoStep refused the step, e.g. a TE jump of a skipped tooth); the
+    instance is still usable and its time did not advance."""
+
+    def __init__(self, message: str, discarded: bool = False):
+        super().__init__(message)
+        self.discarded = discarded
 
 
 @functools.lru_cache(maxsize=None)
@@ -74,9 +80,10 @@ class GearMeshFMU:
         try:
             return function(*args, **kwargs)
         except FMICallException as exc:
-            self.failed = True
+            discarded = exc.status == fmi2Discard
+            self.failed = self.failed or not discarded
             detail = self.messages[-1] if self.messages else "no message logged"
-            raise FMUError(f"{exc}: {detail}") from exc
+            raise FMUError(f"{exc}: {detail}", discarded) from exc
 
     def set(self, values: dict) -> None:
         """Set variables by name (Real, Integer or Boolean)."""

@@ -145,11 +145,15 @@ typedef struct gm_pair_geometry {
   gm_gear_geometry gear[2];
 } gm_pair_geometry;
 
+/* Largest spin angle magnitude gm_evaluate accepts, rad: one ulp of the angle stays below
+ * 1.9e-9 rad (1.9e-9 r_b of TE); larger angles are refused with GM_ERR_INPUT. */
+#define GM_MAX_SPIN_ANGLE 1e7
+
 /* Inputs of one evaluation, in the housing frame H (PHYSICS 0). Index 0 = gear 1. */
 typedef struct gm_kinematics {
   double u[2][3];     /* centre displacement from nominal, m */
   double r[2][2];     /* small tilts about H's x and y, rad */
-  double phi[2];      /* spin angle about the gear's own axis, rad (unbounded) */
+  double phi[2];      /* spin angle about the gear's own axis, rad, |phi| <= GM_MAX_SPIN_ANGLE */
   double v[2][3];     /* centre velocity, m/s */
   double w[2][2];     /* tilt rates, rad/s */
   double omega[2];    /* spin rate, rad/s */
@@ -214,7 +218,10 @@ gm_status gm_evaluate(const gm_model* m, gm_data* d, const gm_kinematics* kin, g
  * `at` (the implicit-function theorem on the slice force laws c F + f(F) = Delta, and in
  * quasi-static mode on the load balance as well); integer outputs and solver_residual get 0.
  * Slices that are open stay open: at an active-set change (a slice just touching, a tip edge
- * entering, a clamp switching) this is the one-sided derivative of the side `at` lies on.
+ * entering, a clamp switching) this is the one-sided derivative of the side `at` lies on. Where
+ * `at` lies on both sides, on a kink (the axial overlap of equal face widths at equal axial
+ * positions shrinks whichever way gear 2 moves axially), it is the derivative along +seed,
+ * d/dt output(at + t seed) at t = 0+: what a forward difference along the seed gives.
  * Uses d's scratch; the evaluation memory (warm start) is left as it was. On error derivative
  * is left unchanged and gm_data_message(d) says why (the same input errors as gm_evaluate, or a
  * non-finite seed). Costs about three evaluations (five in quasi-static mode). */
@@ -258,8 +265,13 @@ typedef struct gm_dynamics_state {
   double work_out;         /* cumulative work taken out by them (a brake, a load), J */
   double friction;         /* cumulative friction loss, J */
   double damping;          /* cumulative loss in the contact and shaft dampers, J */
-  double residual;         /* work_in - work_out - (kinetic + elastic - initial_energy) - friction
-                              - damping, J */
+  double parametric;       /* cumulative work of the contact forces beyond the change of the mesh's
+                              elastic energy, friction and damping: the element's non-conservative
+                              part, from a compliance that varies along the path, J */
+  double residual;         /* integration error: work_in - work_out - (kinetic + elastic -
+                              initial_energy) - friction - damping - parametric, J */
+  double far_phi[2];       /* each shaft's far end at the state, rad (a jump of the next step's
+                              shaft_phi from it is work done by the far end) */
   double initial_energy;   /* kinetic + elastic at gm_dynamics_start, J */
   double step;             /* internal step to try first, s */
   int steps;               /* internal steps accepted by the last gm_dynamics_advance */
