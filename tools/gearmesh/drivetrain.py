@@ -222,7 +222,9 @@ class Coupling:
         self.fmu, self.plant = fmu, plant
         self.directional = bool(fmu.model_description.coSimulation.providesDirectionalDerivative)
         self.calls = 0
-        self.read = list(dict.fromkeys(plant.outputs + RECORDED + list(plant.recorded)))
+        # the plant's optional outputs are read where the FMU has them (older builds lack some)
+        optional = [n for n in RECORDED + list(plant.recorded) if n in fmu.variables]
+        self.read = list(dict.fromkeys(plant.outputs + optional))
 
     def mesh_step(self, t: float, h: float, x: np.ndarray) -> dict:
         """Mesh outputs at t + h for the states of x, as one FMI step."""

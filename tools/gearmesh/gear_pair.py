@@ -115,14 +115,14 @@ class GearPairPlant:
             shaft_damping += shaft.damping * (shaft.rate(t) - w) ** 2
         flows["shaft_damping"] = shaft_damping
         flows["friction"] = out["mesh.friction_power"]
-        flows["mesh_damping"] = out["mesh.damping_power"]
+        flows["mesh_damping"] = out.get("mesh.damping_power", math.nan)  # NaN: FMU lacks it
         return flows
 
     def stored(self, t: float, x: np.ndarray, out: dict) -> float:
         kinetic = 0.5 * float(self.J @ (x[[1, 3]] ** 2))
         springs = sum(0.5 * s.stiffness * (s.phi(t) - x[2 * i]) ** 2
                       for i, s in enumerate(self.pair.shafts))
-        return kinetic + springs + out["mesh.elastic_energy"]
+        return kinetic + springs + out.get("mesh.elastic_energy", math.nan)
 
     def balance(self, energy: dict, T: np.ndarray, X: np.ndarray, mesh0: dict,
                 mesh_end: dict) -> dict:
