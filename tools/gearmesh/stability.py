@@ -301,3 +301,26 @@ def main(fmu: pathlib.Path, cases: list[str] | None, modes: list[str] | None,
     print(f"gearmesh: {len(rows)} runs in {time.perf_counter() - start:.1f} s: "
           f"{out / 'table.md'}, {out / 'table.csv'}, {out / 'largest_stable_step.png'}")
     return 1 if summary["unexpected"] else 0
+
+
+MAIN_JOB_CASES = ["nominal", "rattle"]
+MAIN_JOB_STEPS = [1e-4, 1e-3]
+
+
+def main_job_section(fmu: pathlib.Path, out: pathlib.Path) -> str:
+    """The main job's report section: a small subset of the suite (two cases, every mode,
+    1e-4 and 1e-3 s) with its table under out/stability/."""
+    rows = run_suite(fmu, select(MAIN_JOB_CASES), MODES, MAIN_JOB_STEPS, progress=False)
+    folder = out / "stability"
+    write_outputs(rows, folder, "Stability subset of the main job")
+    lines = ["## Stability (subset)", "",
+             f"Cases {', '.join(MAIN_JOB_CASES)} in every mode at "
+             f"{', '.join(f'{h:g}' for h in MAIN_JOB_STEPS)} s (the whole suite: "
+             "`python -m gearmesh stability`, docs/stability.md). Table: `stability/table.md`.",
+             "", "| case | mode | step (s) | result | max \\|F\\| (N) | energy residual | "
+             "TE error (um) | cost/step (ms) |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r.case} | {r.mode} | {r.step:g} | {_mark(r.passed)} | "
+                     f"{_fmt(r.max_force)} | {_fmt(r.energy)} | {_fmt(r.te_error, 1e6)} | "
+                     f"{_fmt(r.cost, 1e3)} |")
+    return "\n".join(lines + [""])
