@@ -260,7 +260,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component component) {
   CHECK_MODE(InitializationMode);
   /* outputs at the start time; on a parameter or input error the instance stays in
    * Initialization Mode so that the value can be corrected */
-  if (!model_outputs_current(c->model) && model_evaluate(c->model, 1, c->time, c->msg, sizeof c->msg))
+  if (!model_outputs_current(c->model) && model_evaluate(c->model, 1, c->time, 0.0, c->msg, sizeof c->msg))
     return error(c, "fmi2ExitInitializationMode: %s", c->msg);
   c->mode = StepComplete;
   log_event(c, "fmi2ExitInitializationMode: stepComplete at t = %g s", c->time);
@@ -320,7 +320,7 @@ static fmi2Status get_values(instance* c, const char* function, gm_fmu_type type
   /* Initialization Mode allows set/get iteration: evaluate at the current values on demand. */
   if (c->mode == InitializationMode) {
     if (outputs && !model_outputs_current(c->model) &&
-        model_evaluate(c->model, 1, c->time, c->msg, sizeof c->msg))
+        model_evaluate(c->model, 1, c->time, 0.0, c->msg, sizeof c->msg))
       return error(c, "%s: %s", function, c->msg);
     if (calculated && model_build(c->model, c->msg, sizeof c->msg)) return error(c, "%s: %s", function, c->msg);
   }
@@ -604,7 +604,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component component, const fmi2Value
   gm_fmu_values out;
   memset(&out, 0, sizeof out);
   const int at_last = c->mode != InitializationMode;
-  if (model_directional_derivative(c->model, at_last, &seed.k, &out.y, c->msg, sizeof c->msg))
+  if (model_directional_derivative(c->model, at_last, &seed, &out, c->msg, sizeof c->msg))
     return error(c, "%s: %s", __func__, c->msg);
   for (size_t i = 0; i < nUnknown; ++i)
     memcpy(&dvUnknown[i], (const char*)&out + model_variable(vUnknown_ref[i])->offset, sizeof(double));
@@ -647,7 +647,10 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
   if (c->stop_defined && !(end <= c->stop_time + 1e-9 * fmax(1.0, fabs(c->stop_time))))
     return error(c, "fmi2DoStep: step to t = %.17g goes past stopTime = %.17g", end, c->stop_time);
   /* inputs are held over the step; the outputs published are those at tc + h */
-  if (model_evaluate(c->model, 0, end, c->msg, sizeof c->msg)) {
+  const int failed = model_evaluate(c->model, 0, end, h, c->msg, sizeof c->msg);
+  if (failed == 2) /* large-step integration: nothing changed, the master may retry shorter */
+    return discard(c, "fmi2DoStep: step from t = %g s to %g s discarded: %s", tc, end, c->msg);
+  if (failed) {
     c->mode = Error; /* only fmi2SetFMUstate or fmi2Reset recover */
     return error(c, "fmi2DoStep: t = %g s: %s", end, c->msg);
   }

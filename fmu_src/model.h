@@ -41,14 +41,18 @@ void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned);
 /* (Re)build the core model if the parameters changed since the last build. */
 int model_build(fmu_model* m, char* msg, size_t msg_size);
 /* Evaluate the contact at the held inputs and publish the outputs (time only labels log
- * messages). restart forgets warm start and friction memory first. */
-int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t msg_size);
-/* Directional derivative of the outputs along the input direction seed (gm_directional_derivative),
- * at the inputs of the last evaluation if at_last_evaluation and there was one (stepComplete:
- * the inputs held over the last fmi2DoStep, to which the published outputs belong), else at the
- * current inputs. Nonzero on error, with msg. */
-int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_kinematics* seed,
-                                 gm_result* out, char* msg, size_t msg_size);
+ * messages). restart forgets warm start and friction memory first. With model.dynamics = 1,
+ * restart starts the spin state from the inputs gear<i>.phi/.omega and otherwise the spins are
+ * integrated over step (s). Returns 0, 1 on error, 2 if the large-step integration failed
+ * (nothing changed; a shorter step may succeed), with msg. */
+int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t msg_size);
+/* Directional derivative of the outputs (out->y, and the spin outputs out->ds) along the input
+ * direction seed (gm_directional_derivative on seed->k), at the inputs of the last evaluation if
+ * at_last_evaluation and there was one (stepComplete: the inputs held over the last fmi2DoStep,
+ * to which the published outputs belong), else at the current inputs. Nonzero on error, with msg
+ * (also with model.dynamics = 1, which has no derivatives in this version). */
+int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_fmu_values* seed,
+                                 gm_fmu_values* out, char* msg, size_t msg_size);
 /* Design warnings of the built core model ("" if none or not built). */
 const char* model_warnings(const fmu_model* m);
 /* 1 if the published outputs belong to the current parameters and inputs. */

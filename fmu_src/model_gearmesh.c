@@ -52,6 +52,7 @@ fmu_model* model_new(fmu_log_fn log, void* log_context) {
   gm_fmu_values defaults;
   memset(&defaults, 0, sizeof defaults); /* inputs: nominal pose, at rest */
   gm_default_params(&defaults.p);        /* parameters: the core's defaults, as in modelDescription.xml */
+  gm_dynamics_default_params(&defaults.dp);
   /* the instance owns its strings, also the start values of String parameters */
   if (values_copy(&m->start, &defaults) || set_start_values(m)) {
     model_free(m);
@@ -230,6 +231,11 @@ int model_build(fmu_model* m, char* msg, size_t n) {
   gm_model* core;
   gm_data* data;
   if (create_core(m, &m->v.p, &core, &data, msg, n)) return 1;
+  if (m->v.dynamics && gm_dynamics_check(core, &m->v.dp, msg, n) != GM_OK) {
+    gm_data_free(data);
+    gm_model_free(core);
+    return 1;
+  }
   install_core(m, core, data);
   m->outputs_current = 0;
   return 0;
@@ -240,19 +246,44 @@ static const char* flank_name(int flank) {
   return flank >= 0 && flank <= 3 ? names[flank] : "?";
 }
 
-int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t n) {
+/* The spin state outputs of the prescribed-motion mode: the inputs, no shafts, no account. */
+static void prescribed_state(fmu_model* m) {
+  gm_dynamics_state s;
+  memset(&s, 0, sizeof s);
+  for (int i = 0; i < 2; i++) {
+    s.phi[i] = m->v.k.phi[i];
+    s.omega[i] = m->v.k.omega[i];
+  }
+  m->v.ds = s;
+}
+
+/* The core's step: one evaluation at the held inputs, or in large-step mode the dynamics started
+ * (restart) or advanced by step. */
+static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r) {
+  if (!m->v.dynamics) return gm_evaluate(m->core, m->data, &m->v.k, r);
+  if (restart) return gm_dynamics_start(m->core, m->data, &m->v.dp, &m->v.k, &m->v.di, &m->v.ds, r);
+  return gm_dynamics_advance(m->core, m->data, &m->v.dp, &m->v.k, &m->v.di, step, &m->v.ds, r);
+}
+
+int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t n) {
   if (model_build(m, msg, n)) return 1;
   if (restart) gm_data_reset(m->core, m->data);
   gm_result r;
-  if (gm_evaluate(m->core, m->data, &m->v.k, &r) != GM_OK) {
+  const gm_status status = core_step(m, restart, step, &r);
+  if (status != GM_OK) {
     snprintf(msg, n, "%s", gm_data_message(m->data));
-    return 1;
+    return m->v.dynamics && status == GM_ERR_SOLVER ? 2 : 1;
   }
   if (restart || r.pairs_in_contact != m->v.y.pairs_in_contact || r.flank != m->v.y.flank)
     m->log(m->log_context, GM_LOG_CONTACT, "t = %g s: %d tooth pairs in contact, %s", time, r.pairs_in_contact,
            flank_name(r.flank));
   m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d iterations, residual %g m", time, r.solver_iterations,
          r.solver_residual);
+  if (m->v.dynamics)
+    m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d internal steps, %d rejected", time, m->v.ds.steps,
+           m->v.ds.rejected);
+  else
+    prescribed_state(m);
   m->v.y = r;
   m->outputs_current = 1;
   m->k_eval = m->v.k;
@@ -260,13 +291,24 @@ int model_evaluate(fmu_model* m, int restart, double time, char* msg, size_t n) 
   return 0;
 }
 
-int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_kinematics* seed,
-                                 gm_result* out, char* msg, size_t n) {
+int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_fmu_values* seed,
+                                 gm_fmu_values* out, char* msg, size_t n) {
   if (model_build(m, msg, n)) return 1;
+  if (m->v.dynamics) {
+    snprintf(msg, n,
+             "not available with model.dynamics = 1: the outputs are the end of the internal integration over "
+             "the step, whose sensitivities this version does not compute (docs/dynamics.md); with "
+             "model.dynamics = 0 the exact derivatives are available");
+    return 1;
+  }
   const gm_kinematics* at = at_last_evaluation && m->evaluated ? &m->k_eval : &m->v.k;
-  if (gm_directional_derivative(m->core, m->data, at, seed, out) != GM_OK) {
+  if (gm_directional_derivative(m->core, m->data, at, &seed->k, &out->y) != GM_OK) {
     snprintf(msg, n, "%s", gm_data_message(m->data));
     return 1;
+  }
+  for (int i = 0; i < 2; i++) { /* the spin outputs are the spin inputs */
+    out->ds.phi[i] = seed->k.phi[i];
+    out->ds.omega[i] = seed->k.omega[i];
   }
   return 0;
 }

@@ -154,6 +154,7 @@ int main(int argc, char** argv) {
   gm_fmu_values start;
   memset(&start, 0, sizeof start); /* inputs start at the nominal pose, at rest */
   gm_default_params(&start.p);
+  gm_dynamics_default_params(&start.dp);
   for (size_t i = 0; i < N_VARIABLES; i++) check_row(&gm_fmu_variables[i], i);
   if (failures) return 1;
 

@@ -21,10 +21,14 @@
 
 /* Every value of an FMU instance; each variable is bound to one field. */
 typedef struct gm_fmu_values {
-  gm_model_params p;  /* parameters */
-  gm_pair_geometry g; /* calculated parameters, from the core model */
-  gm_kinematics k;    /* inputs, held over a step */
-  gm_result y;        /* outputs published by the last evaluation */
+  gm_model_params p;     /* parameters */
+  int dynamics;          /* parameter model.dynamics: 0 prescribed motion, 1 large-step */
+  gm_dynamics_params dp; /* parameters of the large-step dynamics */
+  gm_pair_geometry g;    /* calculated parameters, from the core model */
+  gm_kinematics k;       /* inputs, held over a step */
+  gm_dynamics_inputs di; /* inputs of the large-step dynamics, held over a step */
+  gm_result y;           /* outputs published by the last evaluation */
+  gm_dynamics_state ds;  /* outputs: the spin state and energy account (the dynamics' state) */
 } gm_fmu_values;
 
 typedef enum { GM_FMU_Real, GM_FMU_Integer, GM_FMU_Boolean, GM_FMU_String } gm_fmu_type;
@@ -43,11 +47,12 @@ enum {
   D_SPIN = 4,  /* input: spin angle */
   D_POSE = 8,  /* input: other position (centre translation, tilt) */
   D_RATE = 16, /* input: velocity (friction and damping use them) */
+  D_DRIVE = 32, /* input: torque or shaft far end of the large-step dynamics */
   D_LOAD = 64, /* input: load torque of the quasi-static mode */
   /* TE: from the spin angles alone in the default mode; with model.quasi_static it is solved
    * from everything, so the declared dependencies cover both modes */
-  D_TE = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD,
-  D_CONTACT = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD
+  D_TE = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD | D_DRIVE,
+  D_CONTACT = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD | D_DRIVE
 };
 
 /* Unit definitions: name and SI base exponents (kg, m, s, rad). */
@@ -62,7 +67,12 @@ enum {
   U("N/m", 1, 0, -2, 0)   \
   U("N/m2", 1, -1, -2, 0) \
   U("N.s/m2", 1, -1, -1, 0) \
-  U("W", 1, 2, -3, 0)
+  U("W", 1, 2, -3, 0)     \
+  U("J", 1, 2, -2, 0)     \
+  U("s", 0, 0, 1, 0)      \
+  U("kg.m2", 1, 2, 0, 0)  \
+  U("N.m/rad", 1, 2, -2, -1) \
+  U("N.m.s/rad", 1, 2, -1, -1)
 
 /* Display units: unit, name, factor (display value = factor * SI value). */
 #define GM_FMU_DISPLAY_UNITS(D)               \
@@ -179,6 +189,29 @@ typedef enum {
   X("gear" #i ".wy", Real, input, continuous, exact, "rad/s", "", "", "", k.w[n][1], D_RATE, "tilt rate about y")   \
   X("gear" #i ".omega", Real, input, continuous, exact, "rad/s", "rpm", "", "", k.omega[n], D_RATE, "spin rate")
 
+/* Large-step dynamics of gear i (core/src/dynamics.hpp): parameters, inputs, outputs. */
+#define GM_FMU_GEAR_DYNAMICS_PARAMETERS(X, i, n)                                                                   \
+  X("gear" #i ".inertia", Real, parameter, fixed, exact, "kg.m2", "", "1e-9", "1e6", dp.inertia[n], D_SET,         \
+    "large-step mode: moment of inertia about the spin axis")                                               \
+  X("gear" #i ".shaft_stiffness", Real, parameter, fixed, exact, "N.m/rad", "", "0", "1e12", dp.shaft_stiffness[n], \
+    D_SET, "large-step mode: torsional stiffness of the shaft from the gear to its far end (0 = no shaft)")        \
+  X("gear" #i ".shaft_damping", Real, parameter, fixed, exact, "N.m.s/rad", "", "0", "1e9", dp.shaft_damping[n],   \
+    D_SET, "large-step mode: torsional damping of that shaft")
+#define GM_FMU_GEAR_DYNAMICS_INPUTS(X, i, n)                                                                       \
+  X("gear" #i ".torque", Real, input, continuous, exact, "N.m", "", "", "", di.torque[n], D_DRIVE,                 \
+    "large-step mode: external torque on the gear about its spin axis (+z), held over the step")                 \
+  X("gear" #i ".shaft_phi", Real, input, continuous, exact, "rad", "deg", "", "", di.shaft_phi[n], D_DRIVE,        \
+    "large-step mode: angle of the shaft's far end at the start of the step")                                    \
+  X("gear" #i ".shaft_omega", Real, input, continuous, exact, "rad/s", "rpm", "", "", di.shaft_omega[n], D_DRIVE,  \
+    "large-step mode: speed of the shaft's far end, which moves as shaft_phi + shaft_omega (t - t_c)")
+#define GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, i, n)                                                                      \
+  X("gear" #i ".angle", Real, output, continuous, calculated, "rad", "deg", "", "", ds.phi[n], D_TE,              \
+    "spin angle at the end of the step (large-step mode: integrated; else the input gear" #i ".phi)")            \
+  X("gear" #i ".speed", Real, output, continuous, calculated, "rad/s", "rpm", "", "", ds.omega[n], D_TE,          \
+    "spin speed at the end of the step (large-step mode: integrated; else the input gear" #i ".omega)")          \
+  X("gear" #i ".shaft_torque", Real, output, continuous, calculated, "N.m", "", "", "", ds.shaft_torque[n], D_TE,  \
+    "large-step mode: torque of the shaft on the gear at the end of the step (its far end feels minus this)")
+
 /* Outputs of gear i. */
 #define GM_FMU_GEAR_OUTPUTS(X, i, n)                                                                               \
   X("gear" #i ".fx", Real, output, continuous, calculated, "N", "kN", "", "", y.force[n][0], D_CONTACT,            \
@@ -244,6 +277,17 @@ typedef enum {
     "level 2: F_t K_A/b for ISO 6336-1's load correction of c' (0 = none)")                                       \
   X("model.quasi_static", Boolean, parameter, fixed, exact, "", "", "", "", p.quasi_static, D_SET,                 \
     "solve gear 2's spin for mesh.load_torque (gear2.phi is then ignored)")                                       \
+  X("model.dynamics", Integer, parameter, fixed, exact, "", "", "0", "1", dynamics, D_SET,                        \
+    "0 prescribed motion (spins are inputs); 1 large-step: both spins integrated inside fmi2DoStep from "          \
+    "gear<i>.torque and the shafts (gear<i>.phi/.omega are the initial state)")                                  \
+  GM_FMU_GEAR_DYNAMICS_PARAMETERS(X, 1, 0)                                                                         \
+  GM_FMU_GEAR_DYNAMICS_PARAMETERS(X, 2, 1)                                                                         \
+  X("dynamics.tolerance", Real, parameter, fixed, exact, "m", "um", "1e-14", "1e-4", dp.tolerance, D_SET,         \
+    "large-step mode: local error of r_b phi per internal step")                                                 \
+  X("dynamics.max_step", Real, parameter, fixed, exact, "s", "", "1e-9", "1", dp.max_step, D_SET,                 \
+    "large-step mode: longest internal step")                                                                     \
+  X("dynamics.min_step", Real, parameter, fixed, exact, "s", "", "1e-15", "1", dp.min_step, D_SET,                \
+    "large-step mode: shortest internal step before fmi2DoStep returns fmi2Discard (<= dynamics.max_step)")      \
   X("geometry.backlash", Real, calculatedParameter, fixed, calculated, "m", "um", "", "", g.j_bt, D_GEO,           \
     "transverse backlash along the line of action j_bt")                                                           \
   X("geometry.circumferential_backlash", Real, calculatedParameter, fixed, calculated, "m", "um", "", "", g.j_wt,  \
@@ -264,6 +308,8 @@ typedef enum {
   GM_FMU_GEAR_INPUTS(X, 2, 1)                                                                                      \
   X("mesh.load_torque", Real, input, continuous, exact, "N.m", "", "", "", k.load_torque, D_LOAD,                 \
     "quasi-static mode: torque of gear 2's load against the flank-A drive (+ loads flank A)")                      \
+  GM_FMU_GEAR_DYNAMICS_INPUTS(X, 1, 0)                                                                             \
+  GM_FMU_GEAR_DYNAMICS_INPUTS(X, 2, 1)                                                                             \
   GM_FMU_GEAR_OUTPUTS(X, 1, 0)                                                                                     \
   GM_FMU_GEAR_OUTPUTS(X, 2, 1)                                                                                     \
   X("mesh.te", Real, output, continuous, calculated, "m", "um", "", "", y.te, D_TE,                                \
@@ -285,7 +331,35 @@ typedef enum {
   X("solver.iterations", Integer, output, discrete, calculated, "", "", "", "", y.solver_iterations, D_CONTACT,    \
     "iterations of the last force solve (0 = closed form)")                                                        \
   X("solver.residual", Real, output, continuous, calculated, "m", "um", "", "", y.solver_residual, D_CONTACT,      \
-    "residual of the last force solve")
+    "residual of the last force solve")                                                                            \
+  X("mesh.elastic_energy", Real, output, continuous, calculated, "J", "", "", "", y.elastic_energy, D_CONTACT,     \
+    "elastic energy stored in the loaded slices")                                                                  \
+  X("mesh.damping_power", Real, output, continuous, calculated, "W", "", "", "", y.damping_power, D_CONTACT,       \
+    "power dissipated by the contact damping")                                                                     \
+  GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, 1, 0)                                                                            \
+  GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, 2, 1)                                                                            \
+  X("energy.kinetic", Real, output, continuous, calculated, "J", "", "", "", ds.kinetic, D_TE,                     \
+    "large-step mode: kinetic energy of the two gears' spins")                                                     \
+  X("energy.elastic", Real, output, continuous, calculated, "J", "", "", "", ds.elastic, D_TE,                     \
+    "large-step mode: elastic energy in the mesh and the shafts")                                                  \
+  X("energy.initial", Real, output, continuous, calculated, "J", "", "", "", ds.initial_energy, D_TE,              \
+    "large-step mode: kinetic + elastic energy when initialization ended")                                         \
+  X("energy.work_in", Real, output, continuous, calculated, "J", "", "", "", ds.work_in, D_TE,                     \
+    "large-step mode: work put in by the torques and the shafts' far ends since initialization")                  \
+  X("energy.work_out", Real, output, continuous, calculated, "J", "", "", "", ds.work_out, D_TE,                   \
+    "large-step mode: work taken out by them (a brake, a load) since initialization")                             \
+  X("energy.friction", Real, output, continuous, calculated, "J", "", "", "", ds.friction, D_TE,                   \
+    "large-step mode: energy dissipated by friction since initialization")                                         \
+  X("energy.damping", Real, output, continuous, calculated, "J", "", "", "", ds.damping, D_TE,                     \
+    "large-step mode: energy dissipated by the contact and shaft dampers since initialization")                   \
+  X("energy.residual", Real, output, continuous, calculated, "J", "", "", "", ds.residual, D_TE,                   \
+    "large-step mode: work_in - work_out - (kinetic + elastic - initial) - friction - damping (0 if exact)")       \
+  X("dynamics.step_size", Real, output, continuous, calculated, "s", "", "", "", ds.step, D_TE,                    \
+    "large-step mode: the internal step the next fmi2DoStep tries first")                                         \
+  X("dynamics.steps", Integer, output, discrete, calculated, "", "", "", "", ds.steps, D_TE,                       \
+    "large-step mode: internal steps accepted in the last fmi2DoStep")                                            \
+  X("dynamics.rejected", Integer, output, discrete, calculated, "", "", "", "", ds.rejected, D_TE,                 \
+    "large-step mode: internal steps rejected in the last fmi2DoStep (error, Newton, contact changes)")
 
 /* One row of the table as data, for the value-reference table and the generator. */
 typedef struct gm_fmu_variable {

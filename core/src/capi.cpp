@@ -8,6 +8,7 @@
 #include <new>
 #include <string>
 
+#include "dynamics.hpp"
 #include "evaluate.hpp"
 #include "geometry.hpp"
 #include "microgeometry.hpp"
@@ -320,6 +321,46 @@ gm_status gm_directional_derivative(const gm_model* m, gm_data* d, const gm_kine
   if (!m || !d || !at || !seed || !derivative) return GM_ERR_ARGUMENT;
   try {
     return gm::directional_derivative(*m, *d, *at, *seed, *derivative);
+  } catch (const std::exception& e) {
+    d->message = e.what();
+    return GM_ERR_ARGUMENT;
+  }
+}
+
+void gm_dynamics_default_params(gm_dynamics_params* p) {
+  if (!p) return;
+  *p = gm_dynamics_params{};
+  p->inertia[0] = p->inertia[1] = 0.02;
+  p->tolerance = 1e-8;
+  p->max_step = 1e-3;
+  p->min_step = 1e-9;
+}
+
+gm_status gm_dynamics_check(const gm_model* m, const gm_dynamics_params* p, char* msg, size_t msg_size) {
+  if (!m || !p) return GM_ERR_ARGUMENT;
+  const std::string text = gm::check_dynamics(*m, *p);
+  copy_message(text, msg, msg_size);
+  return text.empty() ? GM_OK : GM_ERR_PARAMETER;
+}
+
+gm_status gm_dynamics_start(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
+                            const gm_kinematics* pose, const gm_dynamics_inputs* in,
+                            gm_dynamics_state* s, gm_result* res) {
+  if (!m || !d || !p || !pose || !in || !s || !res) return GM_ERR_ARGUMENT;
+  try {
+    return gm::dynamics_start(*m, *d, *p, *pose, *in, *s, *res);
+  } catch (const std::exception& e) {
+    d->message = e.what();
+    return GM_ERR_ARGUMENT;
+  }
+}
+
+gm_status gm_dynamics_advance(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
+                              const gm_kinematics* pose, const gm_dynamics_inputs* in, double duration,
+                              gm_dynamics_state* s, gm_result* res) {
+  if (!m || !d || !p || !pose || !in || !s || !res) return GM_ERR_ARGUMENT;
+  try {
+    return gm::dynamics_advance(*m, *d, *p, *pose, *in, duration, *s, *res);
   } catch (const std::exception& e) {
     d->message = e.what();
     return GM_ERR_ARGUMENT;

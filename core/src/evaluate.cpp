@@ -195,8 +195,28 @@ struct ResultT {
   T force[2][3] = {};
   T moment[2][3] = {};
   T normal_force = 0, stiffness = 0, friction_power = 0, max_line_load = 0;
+  T elastic_energy = 0, damping_power = 0;
   int pairs_in_contact = 0, flank = 0;
 };
+
+// Elastic potential of the loaded slices at solved forces, J: U = sum_i int_0^Delta_i F dDelta.
+// With the complementary energy Psi(F) = F.C.F/2 + sum_i P_i(F_i) (C the coupled compliance of
+// level 5, or diag(c_i); P_i = int f_i) and C F + f(F) = Delta on the loaded set,
+// U = F.Delta - Psi(F) = sum_i [F_i (Delta_i + f_i(F_i))/2 - P_i(F_i)]: one formula for every
+// level that needs no C. It holds along the solution, so the same formula over dual numbers (with
+// the implicit derivative of F) is U's exact derivative. Forces before damping.
+template <class T>
+T elastic_energy(const ContactSliceT<T>* slices, const SliceLawT<T>* laws, const T* forces, int n) {
+  T u = 0;
+  for (int i = 0; i < n; ++i) {
+    const T& F = forces[i];
+    if (!(F > 0)) continue;
+    T f = 0, P = 0;
+    if (laws[i].local.width > 0) local_law_approach_energy(laws[i].local, F, f, P);
+    u += 0.5 * F * (slices[i].approach + f) - P;
+  }
+  return u;
+}
 
 // Forces, moments and the other outputs from solved slice forces.
 template <class T, class K>
@@ -218,8 +238,11 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
     T F = forces[i];
     if (F <= 0) continue;
     // contact damping on the normal approach rate, loaded slices only, never adhesive (PHYSICS 7)
-    if (m.params.damping != 0)
-      F = std::max(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
+    if (m.params.damping != 0) {
+      const T damped = std::max(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
+      r.damping_power += (damped - F) * s.approach_rate;  // the damper's force times its rate
+      F = damped;
+    }
     forces[i] = F;
     V3 on2 = F * s.normal;  // gear 1 pushes gear 2 along the normal
     if (mu != 0) {
@@ -475,6 +498,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     for (int i = 0; i < n; ++i) d.slices[i].approach = d.approach[i];
   }
   ResultT<double> rt;
+  r.elastic_energy = elastic_energy(d.slices.data(), d.laws.data(), d.forces.data(), n);
   resultants(m, d.slices.data(), d.forces.data(), d.slice_stiffness.data(), kin, n, rt);
   for (int i = 0; i < 2; ++i) {
     for (int a = 0; a < 3; ++a) {
@@ -485,6 +509,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
   r.normal_force = rt.normal_force;
   r.stiffness = rt.stiffness;
   r.friction_power = rt.friction_power;
+  r.damping_power = rt.damping_power;
   r.max_line_load = rt.max_line_load;
   r.pairs_in_contact = rt.pairs_in_contact;
   r.flank = rt.flank;
@@ -713,7 +738,9 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
       }
     }
   }
+  const Dual energy = elastic_energy(slices, d.dual_laws.data(), d.dual_forces.data(), n);
   resultants(m, slices, d.dual_forces.data(), d.dual_stiffness.data(), kin, n, out.r);
+  out.r.elastic_energy = energy;
   return GM_OK;
 }
 
@@ -803,6 +830,8 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
     combine(a.r.stiffness, b.r.stiffness);
     combine(a.r.friction_power, b.r.friction_power);
     combine(a.r.max_line_load, b.r.max_line_load);
+    combine(a.r.elastic_energy, b.r.elastic_energy);
+    combine(a.r.damping_power, b.r.damping_power);
     p = a;
     te = Dual(r0.te, dte);
   }
@@ -819,6 +848,8 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
   out.stiffness = p.r.stiffness.d;
   out.friction_power = p.r.friction_power.d;
   out.max_line_load = p.r.max_line_load.d;
+  out.elastic_energy = p.r.elastic_energy.d;
+  out.damping_power = p.r.damping_power.d;
   res = out;
   d.message.clear();
   return GM_OK;

@@ -178,6 +178,34 @@ void local_law_approach_slope(const LocalLawT<T>& law, const T& force, T& approa
   slope = slope_w / law.width;
 }
 
+// f and its integral P(F) = int_0^F f over a scalar type T: the closed forms of local_law_jet
+// (derivation in hertz.cpp), for the elastic energy and its derivative along the law's geometry
+// and the force. F > 0 and a local law required.
+template <class T>
+void local_law_approach_energy(const LocalLawT<T>& law, const T& force, T& approach, T& energy) {
+  using std::sqrt;
+  using std::asinh;
+  constexpr double kPi = 3.14159265358979323846;
+  const T w = force / law.width;
+  double inv_E_star = 0;
+  for (const auto& body : law.body)
+    inv_E_star += (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
+  const T b = sqrt(4.0 * w * law.reduced_radius * inv_E_star / kPi);
+  approach = 0;
+  T energy_ww = 0;
+  for (const auto& body : law.body) {
+    const double a = 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
+    const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
+    const T q = b / body.depth;
+    const T r = sqrt(1.0 + q * q);
+    const T r1 = r + 1.0;
+    const T A = asinh(1.0 / q);
+    approach += a * w * (A - k / r1);
+    energy_ww += a * (0.5 * A + ((r + 2.0) / 6.0 - k * (2.0 * r + 1.0) / 3.0) / (r1 * r1));
+  }
+  energy = energy_ww * w * w * law.width;
+}
+
 // f'(max(F, w_min L)) for a Newton matrix: finite, and never used in the merit function.
 double local_law_newton_slope(const LocalLaw& law, double force, double min_line_load);
 

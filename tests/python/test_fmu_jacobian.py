@@ -22,6 +22,7 @@ STEP = 1e-5
 
 def kind(name: str) -> str:
     tail = name.split(".")[1]
+    tail = {"shaft_phi": "phi", "shaft_omega": "omega", "torque": "load_torque"}.get(tail, tail)
     for k in ("load_torque", "omega", "phi"):
         if tail == k:
             return k
@@ -124,7 +125,7 @@ def check_against_repeated_steps(fmu_dir, md, name: str, params: dict, quasi_ste
 
                 def stepped(h):
                     f.s.setFMUstate(state)
-                    f.set({n: x0[n] + h * seed[n] for n in f.inputs})
+                    f.set({n: x0.get(n, 0.0) + h * seed[n] for n in f.inputs})
                     f.s.doStep(t, H)
                     return f.out()
 

@@ -171,6 +171,9 @@ typedef struct gm_result {
   double max_line_load;   /* largest slice line load, N/m */
   int solver_iterations;  /* iterations of the last force solve (0 = closed form) */
   double solver_residual; /* KKT residual of the last solve, m */
+  double elastic_energy;  /* elastic potential of the loaded slices, J: sum of int F dDelta at the
+                             solved forces (docs/physics.md, "Energy") */
+  double damping_power;   /* power dissipated by the contact damping, W */
 } gm_result;
 
 typedef struct gm_model gm_model;
@@ -224,6 +227,61 @@ gm_status gm_directional_derivative(const gm_model* m, gm_data* d, const gm_kine
 size_t gm_data_state_size(const gm_model* m, const gm_data* d);
 gm_status gm_data_state_save(const gm_model* m, const gm_data* d, void* buf, size_t size);
 gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, size_t size);
+
+/* ---- Large-step dynamics (core/src/dynamics.hpp; docs/dynamics.md) --------------------------
+ * The two gears' spins integrated over a communication step inside the element, for explicit
+ * masters at steps far above the mesh period: J_i domega_i/dt = torque_i + shaft_i + M_i,z, with
+ * the mesh moment M_i,z of gm_evaluate and an optional torsional shaft to a far end that moves
+ * as shaft_phi + shaft_omega (t - t_step start). TR-BDF2 (L-stable, second order, one-step) with
+ * Newton on the exact Jacobian (gm_directional_derivative) and error-controlled internal steps. */
+typedef struct gm_dynamics_params {
+  double inertia[2];         /* J_i about the spin axis, kg m^2, > 0 */
+  double shaft_stiffness[2]; /* k_i of the shaft to the far end, N m/rad, >= 0 (0 = no shaft) */
+  double shaft_damping[2];   /* c_i, N m s/rad, >= 0 */
+  double tolerance;          /* local error of r_b,i phi_i per internal step, m, > 0 */
+  double max_step;           /* largest internal step, s */
+  double min_step;           /* smallest internal step before the step fails, s */
+} gm_dynamics_params;
+
+typedef struct gm_dynamics_inputs {
+  double torque[2];      /* external torque on gear i about its spin axis (+z), N m */
+  double shaft_phi[2];   /* far end of gear i's shaft at the start of the step, rad */
+  double shaft_omega[2]; /* its speed, held over the step, rad/s */
+} gm_dynamics_inputs;
+
+typedef struct gm_dynamics_state {
+  double phi[2], omega[2]; /* spin state, rad, rad/s */
+  double shaft_torque[2];  /* torque of each shaft on its gear at the state, N m */
+  double kinetic;          /* sum J_i omega_i^2/2, J */
+  double elastic;          /* mesh elastic energy + shaft springs, J */
+  double work_in;          /* cumulative work put in by the torques and the shafts' far ends, J */
+  double work_out;         /* cumulative work taken out by them (a brake, a load), J */
+  double friction;         /* cumulative friction loss, J */
+  double damping;          /* cumulative loss in the contact and shaft dampers, J */
+  double residual;         /* work_in - work_out - (kinetic + elastic - initial_energy) - friction
+                              - damping, J */
+  double initial_energy;   /* kinetic + elastic at gm_dynamics_start, J */
+  double step;             /* internal step to try first, s */
+  int steps;               /* internal steps accepted by the last gm_dynamics_advance */
+  int rejected;            /* internal steps rejected by it (error, Newton, events) */
+} gm_dynamics_state;
+
+/* Defaults: J = 0.02 kg m^2, no shafts, tolerance 1e-8 m, steps 1e-9 ... 1e-3 s. */
+void gm_dynamics_default_params(gm_dynamics_params* p);
+/* GM_OK, or GM_ERR_PARAMETER with msg naming the parameter and its allowed range (also when m is
+ * in quasi-static mode, which the dynamics replace). */
+gm_status gm_dynamics_check(const gm_model* m, const gm_dynamics_params* p, char* msg, size_t msg_size);
+/* The state at the spins pose->phi, pose->omega: energies zeroed, res the evaluation there. */
+gm_status gm_dynamics_start(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
+                            const gm_kinematics* pose, const gm_dynamics_inputs* in,
+                            gm_dynamics_state* s, gm_result* res);
+/* Advance s by duration > 0 with the inputs held (pose: every field but phi and omega, which
+ * come from s). res: the evaluation at the end. On error s and res are unchanged and
+ * gm_data_message(d) says why: GM_ERR_INPUT for a bad input, GM_ERR_SOLVER when the internal
+ * step fell below min_step (the caller may retry with a shorter duration). */
+gm_status gm_dynamics_advance(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
+                              const gm_kinematics* pose, const gm_dynamics_inputs* in, double duration,
+                              gm_dynamics_state* s, gm_result* res);
 
 /* Last error message of d ("" if none). */
 const char* gm_data_message(const gm_data* d);

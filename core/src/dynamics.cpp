@@ -1,0 +1,331 @@
+// Large-step dynamics: TR-BDF2 over the two gear spins (the method and why: dynamics.hpp).
+#include "dynamics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "evaluate.hpp"
+
+namespace gm {
+namespace {
+
+// TR-BDF2 as an ESDIRK (Hosea and Shampine 1996): stage 1 at t (the step's start), stage 2 the
+// trapezoidal rule to t + gamma h, stage 3 BDF2 to t + h; both implicit stages have the diagonal
+// coefficient d. The solution is stage 3 (stiffly accurate); its quadrature weights (w, w, d)
+// also integrate the powers of the energy account.
+constexpr double kSqrt2 = 1.41421356237309504880;
+constexpr double kGamma = 2.0 - kSqrt2;
+constexpr double kD = kGamma / 2.0;
+constexpr double kW = kSqrt2 / 4.0;
+// the embedded third-order solution minus the solution, per unit h, on (f1, f2, f3)
+constexpr double kE1 = (1.0 - 4.0 * kW) / 3.0, kE2 = 1.0 / 3.0, kE3 = -2.0 * kD / 3.0;
+constexpr int kMaxNewton = 10;
+constexpr double kNewtonFraction = 1e-2;  // Newton stops at this fraction of the tolerance
+constexpr double kEventFraction = 0.25;   // error allowed over a step where the contact changed
+
+// A state (spins) with what the equations give there, at time t into the call.
+struct Point {
+  double phi[2] = {0, 0}, omega[2] = {0, 0};
+  double accel[2] = {0, 0};         // domega/dt, rad/s^2
+  double shaft_torque[2] = {0, 0};  // N m
+  double power_in = 0, power_out = 0;  // put in / taken out at the torques and far ends, W
+  double power_friction = 0;        // W
+  double power_damping = 0;         // contact and shaft dampers, W
+  double elastic = 0;               // mesh + shafts, J
+  gm_result res{};
+};
+
+struct Stepper {
+  const gm_model& m;
+  gm_data& d;
+  const gm_dynamics_params& p;
+  const gm_kinematics& pose;
+  const gm_dynamics_inputs& in;
+  double a_phi[2][2] = {}, a_omega[2][2] = {};  // d(accel)/d(phi), d(accel)/d(omega) at the step start
+  int newton_failures = 0;
+
+  double far_angle(int i, double t) const { return in.shaft_phi[i] + in.shaft_omega[i] * t; }
+
+  gm_status evaluate_at(double t, const double phi[2], const double omega[2], Point& out) {
+    gm_kinematics k = pose;
+    for (int i = 0; i < 2; ++i) {
+      k.phi[i] = phi[i];
+      k.omega[i] = omega[i];
+      out.phi[i] = phi[i];
+      out.omega[i] = omega[i];
+    }
+    const gm_status st = gm::evaluate(m, d, k, out.res);
+    if (st != GM_OK) return st;
+    out.power_in = out.power_out = out.power_damping = out.elastic = 0;
+    for (int i = 0; i < 2; ++i) {
+      const double twist = far_angle(i, t) - phi[i], slip = in.shaft_omega[i] - omega[i];
+      out.shaft_torque[i] = p.shaft_stiffness[i] * twist + p.shaft_damping[i] * slip;
+      out.accel[i] = (in.torque[i] + out.shaft_torque[i] + out.res.moment[i][2]) / p.inertia[i];
+      for (const double port : {in.torque[i] * omega[i], out.shaft_torque[i] * in.shaft_omega[i]})
+        (port > 0 ? out.power_in : out.power_out) += std::fabs(port);
+      out.power_damping += p.shaft_damping[i] * slip * slip;
+      out.elastic += 0.5 * p.shaft_stiffness[i] * twist * twist;
+    }
+    out.power_friction = out.res.friction_power;
+    out.power_damping += out.res.damping_power;
+    out.elastic += out.res.elastic_energy;
+    return GM_OK;
+  }
+
+  // The exact Jacobian of the accelerations at x (the mesh through gm_directional_derivative).
+  gm_status jacobian(const Point& x) {
+    gm_kinematics at = pose;
+    for (int i = 0; i < 2; ++i) {
+      at.phi[i] = x.phi[i];
+      at.omega[i] = x.omega[i];
+    }
+    for (int j = 0; j < 2; ++j) {
+      for (int which = 0; which < 2; ++which) {
+        gm_kinematics seed{};
+        (which == 0 ? seed.phi : seed.omega)[j] = 1.0;
+        gm_result dr;
+        const gm_status st = gm::directional_derivative(m, d, at, seed, dr);
+        if (st != GM_OK) return st;
+        for (int i = 0; i < 2; ++i) {
+          const double own = i == j ? (which == 0 ? p.shaft_stiffness[i] : p.shaft_damping[i]) : 0.0;
+          (which == 0 ? a_phi : a_omega)[i][j] = (dr.moment[i][2] - own) / p.inertia[i];
+        }
+      }
+    }
+    return GM_OK;
+  }
+
+  // Solve (I - hd B) x = r in place, B = hd A_phi + A_omega (the stage Newton matrix). False if
+  // singular.
+  bool newton_solve(double hd, double r[2]) const {
+    double n[2][2];
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) n[i][j] = (i == j ? 1.0 : 0.0) - hd * (hd * a_phi[i][j] + a_omega[i][j]);
+    const double det = n[0][0] * n[1][1] - n[0][1] * n[1][0];
+    if (!(std::fabs(det) > 0) || !std::isfinite(det)) return false;
+    const double x0 = (n[1][1] * r[0] - n[0][1] * r[1]) / det;
+    const double x1 = (n[0][0] * r[1] - n[1][0] * r[0]) / det;
+    r[0] = x0;
+    r[1] = x1;
+    return std::isfinite(x0) && std::isfinite(x1);
+  }
+
+  // One implicit stage at time t: z_omega - hd a(t, r_phi + hd z_omega, z_omega) = r_omega,
+  // Newton from the guess in omega. GM_ERR_SOLVER if it does not converge (the step is retried
+  // shorter); GM_ERR_INPUT passes through.
+  gm_status stage(double t, double hd, const double r_phi[2], const double r_omega[2],
+                  double omega[2], Point& out) {
+    const double* rb = m.layout.base_radius;
+    double previous = INFINITY;
+    for (int it = 0; it < kMaxNewton; ++it) {
+      double phi[2] = {r_phi[0] + hd * omega[0], r_phi[1] + hd * omega[1]};
+      const gm_status st = evaluate_at(t, phi, omega, out);
+      if (st == GM_ERR_INPUT) return st;
+      if (st != GM_OK) break;
+      double g[2], size = 0;
+      for (int i = 0; i < 2; ++i) {
+        g[i] = omega[i] - hd * out.accel[i] - r_omega[i];
+        size = std::max(size, rb[i] * hd * std::fabs(g[i]));  // the residual as rim motion, m
+      }
+      if (!std::isfinite(size)) break;
+      if (size <= kNewtonFraction * p.tolerance) return GM_OK;
+      if (it >= 3 && size > 0.9 * previous) break;  // not contracting
+      previous = size;
+      if (!newton_solve(hd, g)) break;
+      omega[0] -= g[0];
+      omega[1] -= g[1];
+    }
+    ++newton_failures;
+    return GM_ERR_SOLVER;
+  }
+
+  // The filtered error of a step of h from x1 over stages x2, x3, as a fraction of the tolerance.
+  double error_fraction(double h, const Point& x1, const Point& x2, const Point& x3) const {
+    const double* rb = m.layout.base_radius;
+    double e_phi[2], e_omega[2];
+    for (int i = 0; i < 2; ++i) {
+      e_phi[i] = h * (kE1 * x1.omega[i] + kE2 * x2.omega[i] + kE3 * x3.omega[i]);
+      e_omega[i] = h * (kE1 * x1.accel[i] + kE2 * x2.accel[i] + kE3 * x3.accel[i]);
+    }
+    // (I - hd J) e' = e with J = [[0, I], [A_phi, A_omega]]: e'_omega = N^-1 (e_omega + hd A_phi e_phi)
+    const double hd = h * kD;
+    double r[2];
+    for (int i = 0; i < 2; ++i) r[i] = e_omega[i] + hd * (a_phi[i][0] * e_phi[0] + a_phi[i][1] * e_phi[1]);
+    if (!newton_solve(hd, r)) return INFINITY;
+    // a speed error counts by the rim motion it makes over the longest step
+    double fraction = 0;
+    for (int i = 0; i < 2; ++i) {
+      const double phi_error = e_phi[i] + hd * r[i];
+      fraction = std::max({fraction, rb[i] * std::fabs(phi_error) / p.tolerance,
+                           rb[i] * std::fabs(r[i]) * p.max_step / p.tolerance});
+    }
+    return std::isfinite(fraction) ? fraction : INFINITY;
+  }
+
+  // One TR-BDF2 step of h from x1 (evaluated at t). On GM_OK x3 is the end and *fraction its
+  // error; GM_ERR_SOLVER: a stage did not converge.
+  gm_status step(double t, double h, const Point& x1, Point& x2, Point& x3, double* fraction) {
+    const double hd = h * kD;
+    double r_phi[2], r_omega[2], omega[2];
+    for (int i = 0; i < 2; ++i) {
+      r_phi[i] = x1.phi[i] + hd * x1.omega[i];
+      r_omega[i] = x1.omega[i] + hd * x1.accel[i];
+      omega[i] = x1.omega[i] + kGamma * h * x1.accel[i];
+    }
+    gm_status st = stage(t + kGamma * h, hd, r_phi, r_omega, omega, x2);
+    if (st != GM_OK) return st;
+    for (int i = 0; i < 2; ++i) {
+      r_phi[i] = x1.phi[i] + h * kW * (x1.omega[i] + x2.omega[i]);
+      r_omega[i] = x1.omega[i] + h * kW * (x1.accel[i] + x2.accel[i]);
+      omega[i] = x2.omega[i] + (1.0 - kGamma) * h * x2.accel[i];
+    }
+    st = stage(t + h, hd, r_phi, r_omega, omega, x3);
+    if (st != GM_OK) return st;
+    *fraction = error_fraction(h, x1, x2, x3);
+    return GM_OK;
+  }
+};
+
+bool contact_changed(const gm_result& a, const gm_result& b) {
+  return a.flank != b.flank || a.pairs_in_contact != b.pairs_in_contact;
+}
+
+// The next step from the error fraction of the last (order 2: local error ~ h^3).
+double step_factor(double fraction) {
+  if (!(fraction > 0)) return 4.0;
+  return std::clamp(0.9 * std::cbrt(1.0 / fraction), 0.2, 4.0);
+}
+
+void finish_state(const gm_dynamics_params& p, const Point& x, gm_dynamics_state& s) {
+  s.kinetic = 0;
+  for (int i = 0; i < 2; ++i) {
+    s.phi[i] = x.phi[i];
+    s.omega[i] = x.omega[i];
+    s.shaft_torque[i] = x.shaft_torque[i];
+    s.kinetic += 0.5 * p.inertia[i] * x.omega[i] * x.omega[i];
+  }
+  s.elastic = x.elastic;
+  s.residual = s.work_in - s.work_out - (s.kinetic + s.elastic - s.initial_energy) - s.friction - s.damping;
+}
+
+std::string number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", x);
+  return buf;
+}
+
+}  // namespace
+
+std::string check_dynamics(const gm_model& m, const gm_dynamics_params& p) {
+  if (m.params.quasi_static)
+    return "model.quasi_static = true with the large-step dynamics: the dynamics integrate gear 2's spin "
+           "themselves; allowed: one of the two";
+  for (int i = 0; i < 2; ++i) {
+    const std::string g = "gear" + std::to_string(i + 1);
+    if (!(p.inertia[i] >= 1e-9 && p.inertia[i] <= 1e6))
+      return g + ".inertia = " + number(p.inertia[i]) + " kg m^2; allowed range [1e-9, 1e6] kg m^2";
+    if (!(p.shaft_stiffness[i] >= 0 && p.shaft_stiffness[i] <= 1e12))
+      return g + ".shaft_stiffness = " + number(p.shaft_stiffness[i]) + " N m/rad; allowed range [0, 1e12] N m/rad";
+    if (!(p.shaft_damping[i] >= 0 && p.shaft_damping[i] <= 1e9))
+      return g + ".shaft_damping = " + number(p.shaft_damping[i]) + " N m s/rad; allowed range [0, 1e9] N m s/rad";
+  }
+  if (!(p.tolerance >= 1e-14 && p.tolerance <= 1e-4))
+    return "dynamics.tolerance = " + number(p.tolerance) + " m; allowed range [1e-14, 1e-4] m";
+  if (!(p.max_step >= 1e-9 && p.max_step <= 1.0))
+    return "dynamics.max_step = " + number(p.max_step) + " s; allowed range [1e-9, 1] s";
+  if (!(p.min_step >= 1e-15 && p.min_step <= p.max_step))
+    return "dynamics.min_step = " + number(p.min_step) + " s; allowed range [1e-15 s, dynamics.max_step = " +
+           number(p.max_step) + " s]";
+  return "";
+}
+
+gm_status dynamics_start(const gm_model& m, gm_data& d, const gm_dynamics_params& p,
+                         const gm_kinematics& pose, const gm_dynamics_inputs& in,
+                         gm_dynamics_state& s, gm_result& res) {
+  if ((d.message = check_dynamics(m, p)).size()) return GM_ERR_PARAMETER;
+  Stepper st{m, d, p, pose, in};
+  Point x;
+  const gm_status status = st.evaluate_at(0.0, pose.phi, pose.omega, x);
+  if (status != GM_OK) return status;
+  gm_dynamics_state out{};
+  finish_state(p, x, out);
+  out.initial_energy = out.kinetic + out.elastic;
+  out.residual = 0;
+  out.step = std::min(p.max_step, 1e-5);
+  s = out;
+  res = x.res;
+  d.message.clear();
+  return GM_OK;
+}
+
+gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_params& p,
+                           const gm_kinematics& pose, const gm_dynamics_inputs& in, double duration,
+                           gm_dynamics_state& s_io, gm_result& res) {
+  if ((d.message = check_dynamics(m, p)).size()) return GM_ERR_PARAMETER;
+  if (!(duration > 0 && std::isfinite(duration))) {
+    d.message = "large-step dynamics: step of " + number(duration) + " s; allowed: finite and > 0";
+    return GM_ERR_ARGUMENT;
+  }
+  for (int i = 0; i < 2; ++i) {
+    if (!std::isfinite(in.torque[i]) || !std::isfinite(in.shaft_phi[i]) || !std::isfinite(in.shaft_omega[i])) {
+      d.message = "gear" + std::to_string(i + 1) + ".torque, .shaft_phi, .shaft_omega must be finite";
+      return GM_ERR_INPUT;
+    }
+  }
+  gm_dynamics_state s = s_io;
+  Stepper st{m, d, p, pose, in};
+  Point x1, x2, x3;
+  gm_status status = st.evaluate_at(0.0, s.phi, s.omega, x1);
+  if (status != GM_OK) return status;
+  s.steps = s.rejected = 0;
+  double t = 0, h = std::clamp(s.step, p.min_step, p.max_step);
+  bool jacobian_current = false;
+  while (t < duration) {
+    const double remaining = duration - t;
+    double h_try = h;
+    if (h_try >= remaining) h_try = remaining;
+    else if (2 * h_try > remaining) h_try = 0.5 * remaining;  // no sliver at the end
+    if (!jacobian_current) {
+      if ((status = st.jacobian(x1)) != GM_OK) return status;
+      jacobian_current = true;
+    }
+    double fraction = INFINITY;
+    status = st.step(t, h_try, x1, x2, x3, &fraction);
+    if (status == GM_ERR_INPUT) return status;
+    const bool event = status == GM_OK && contact_changed(x1.res, x3.res);
+    const double allowed = event ? kEventFraction : 1.0;
+    if (status == GM_OK && fraction <= allowed) {
+      s.work_in += h_try * (kW * (x1.power_in + x2.power_in) + kD * x3.power_in);
+      s.work_out += h_try * (kW * (x1.power_out + x2.power_out) + kD * x3.power_out);
+      s.friction += h_try * (kW * (x1.power_friction + x2.power_friction) + kD * x3.power_friction);
+      s.damping += h_try * (kW * (x1.power_damping + x2.power_damping) + kD * x3.power_damping);
+      t = h_try >= remaining ? duration : t + h_try;
+      x1 = x3;
+      ++s.steps;
+      jacobian_current = false;
+      h = std::min(p.max_step, std::max(h, h_try) * step_factor(fraction / allowed));
+      continue;
+    }
+    ++s.rejected;
+    h = h_try * (status == GM_OK ? std::min(0.5, step_factor(fraction / allowed)) : 0.25);
+    if (h < p.min_step) {
+      d.message = "large-step dynamics: the internal step fell below dynamics.min_step = " + number(p.min_step) +
+                  " s at " + number(t) + " s into a step of " + number(duration) + " s (" +
+                  (status == GM_OK ? "local error " + number(fraction) + " x dynamics.tolerance"
+                                   : "Newton did not converge: " + (d.message.empty() ? "no contraction"
+                                                                                    : d.message)) +
+                  "); retry with a shorter communication step or a larger dynamics.tolerance";
+      return GM_ERR_SOLVER;
+    }
+  }
+  s.step = h;
+  finish_state(p, x1, s);
+  s_io = s;
+  res = x1.res;
+  d.message.clear();
+  return GM_OK;
+}
+
+}  // namespace gm
