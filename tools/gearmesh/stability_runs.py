@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from fmpy.fmi1 import FMICallException
+
 from gearmesh.drivetrain import Integrator
 from gearmesh.fmu_driver import FMUError, GearMeshFMU, _unpacked
 from gearmesh.gear_pair import GearPair, GearPairPlant, Shaft
@@ -58,6 +60,7 @@ class Run:
     t: np.ndarray = field(default_factory=lambda: np.zeros(0))
     te: np.ndarray = field(default_factory=lambda: np.zeros(0))
     phi1: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    omega: tuple = ()                 # (gear-1 speeds, gear-2 speeds) at the samples
     force: np.ndarray = field(default_factory=lambda: np.zeros(0))
     flank: np.ndarray = field(default_factory=lambda: np.zeros(0))
     residual: float = math.nan        # J
@@ -126,12 +129,15 @@ def prepare(case: Case, generic_fmu: pathlib.Path, workdir: pathlib.Path) -> Pre
 
 def quasi_static_te(fmu_path, params, inputs, load, phi1, omega1, omega2) -> np.ndarray:
     """The quasi-static TE of the same FMU (model.quasi_static, mesh.load_torque) at each gear-1
-    angle, the speeds giving the friction direction."""
+    angle and the run's own speeds there (the sliding speed the friction sees includes the
+    elastic TE rate)."""
     out = []
+    omega1, omega2 = np.broadcast_to(omega1, phi1.shape), np.broadcast_to(omega2, phi1.shape)
     with GearMeshFMU(fmu_path, {**params, "model.quasi_static": True}) as f:
-        f.set({**inputs, "mesh.load_torque": load, "gear1.omega": omega1, "gear2.omega": omega2})
-        for a in phi1:
-            f.step({"gear1.phi": float(a)}, 1e-3)
+        f.set({**inputs, "mesh.load_torque": load})
+        for a, w1, w2 in zip(phi1, omega1, omega2):
+            f.step({"gear1.phi": float(a), "gear1.omega": float(w1), "gear2.omega": float(w2)},
+                   1e-3)
             out.append(f.get(["mesh.te"])["mesh.te"])
     return np.array(out)
 
@@ -162,9 +168,8 @@ def run(prep: Prepared, mode: str, h: float) -> Run:
     r.seconds = time.perf_counter() - start
     r.nan_count += int(np.count_nonzero(~np.isfinite(r.te)) + np.count_nonzero(~np.isfinite(r.force)))
     if prep.case.te_check and not r.error and len(r.phi1):
-        w1 = prep.case.speed_rpm * 2 * math.pi / 60
         r.te_ref = quasi_static_te(prep.fmu_path, prep.params, prep.inputs, prep.load, r.phi1,
-                                   w1, prep.geo.ratio * w1)
+                                   *r.omega)
     return r
 
 
@@ -198,6 +203,7 @@ def _run_master(prep: Prepared, h: float, implicit: bool, r: Run) -> None:
             r.steps = len(res.t) - 1
             if r.steps:
                 r.t, r.phi1 = res.t[1:], res.x[1:, 0]
+                r.omega = (res.x[1:, 1], res.x[1:, 3])
                 r.te, r.force = res.mesh["mesh.te"], res.mesh["mesh.normal_force"]
                 r.flank = res.mesh["mesh.flank"]
                 r.nan_count = int(np.count_nonzero(~np.isfinite(res.x)))
@@ -246,21 +252,25 @@ def _run_signals(prep: Prepared, h: float, r: Run) -> None:
     unzip, md = _unpacked(str(pathlib.Path(prep.fmu_path).resolve()))
     n = int(round(case.t_end / h))
     t = np.arange(n + 1) * h
-    names = ["gear1.torque", "gear2.torque", "gear1.shaft_phi", "gear1.shaft_omega",
-             "gear2.shaft_phi", "gear2.shaft_omega"]
+    start = {**large_step_parameters(prep, pair.shafts), **prep.inputs}
+    # every Real input is a signal (fmpy warns of each missing one): held ones at their start
+    names = [v.name for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
     signal = np.zeros(n + 1, dtype=[("time", float)] + [(k, float) for k in names])
     signal["time"] = t
+    for k in names:
+        signal[k] = start.pop(k, 0.0)
     for i, (torque, shaft) in enumerate(zip(pair.torques, pair.shafts), start=1):
         signal[f"gear{i}.torque"] = [torque(x) for x in t]
         signal[f"gear{i}.shaft_phi"] = [shaft.phi(x) for x in t]
         signal[f"gear{i}.shaft_omega"] = [shaft.rate(x) for x in t]
-    start = {**large_step_parameters(prep, pair.shafts), **prep.inputs}
     messages = []
-    res = simulate_fmu(unzip, model_description=md, start_values=start, input=signal,
-                       output=OUT, step_size=h, output_interval=h, stop_time=t[-1],
-                       fmi_type="CoSimulation", validate=False,
-                       logger=lambda *a: messages.append(a[-1].decode(errors="replace")
-                                                         if isinstance(a[-1], bytes) else str(a[-1])))
+    try:
+        res = _simulate(simulate_fmu, unzip, md, start, signal, h, t, messages)
+    except FMICallException as exc:
+        r.error = f"{exc}: {messages[-1] if messages else 'no message'}"
+        if "converge" in r.error or "Discard" in r.error or "discard" in r.error:
+            r.unconverged += 1
+        return
     r.steps = len(res) - 1
     if res["time"][-1] < t[-1] - 0.5 * h:
         r.error = f"simulate_fmu stopped at t = {res['time'][-1]:g} s: {messages[-1] if messages else ''}"
@@ -269,8 +279,18 @@ def _run_signals(prep: Prepared, h: float, r: Run) -> None:
     _collect(r, res, pair.torques, res["time"], rates)
 
 
+def _simulate(simulate_fmu, unzip, md, start, signal, h, t, messages):
+    return simulate_fmu(unzip, model_description=md, start_values=start, input=signal,
+                        output=OUT, step_size=h, output_interval=h, stop_time=t[-1],
+                        fmi_type="CoSimulation", validate=False,
+                        debug_logging=True,
+                        logger=lambda *a: messages.append(a[-1].decode(errors="replace")
+                                                          if isinstance(a[-1], bytes) else str(a[-1])))
+
+
 def _collect(r: Run, res, torques, t, far_rates) -> None:
     r.t, r.phi1 = np.asarray(t[1:]), np.asarray(res["gear1.angle"][1:])
+    r.omega = (np.asarray(res["gear1.speed"][1:]), np.asarray(res["gear2.speed"][1:]))
     r.te, r.force = np.asarray(res["mesh.te"][1:]), np.asarray(res["mesh.normal_force"][1:])
     r.flank = np.asarray(res["mesh.flank"][1:])
     r.residual = float(res["energy.residual"][-1])
@@ -298,6 +318,10 @@ def _run_chain(prep: Prepared, h: float, r: Run) -> None:
     chain_pair = dataclasses.replace(pair, torque2=lambda t: 0.0, shaft2=shaft2)
     params = large_step_parameters(dataclasses.replace(prep, pair=chain_pair),
                                    (s1 if drive else Shaft(), shaft2))
+    # the far ends' start state before initialization (the FMU's initial energy counts it)
+    params.update({"gear1.torque": pair.torque1(0.0), "gear1.shaft_phi": m[0] if drive else 0.0,
+                   "gear1.shaft_omega": m[1] if drive else 0.0, "gear2.shaft_phi": L[0],
+                   "gear2.shaft_omega": L[1]})
     sizes = step_sizes(h) if case.random_steps else None
     rows = {k: [] for k in OUT}
     times = [0.0]
@@ -316,14 +340,16 @@ def _run_chain(prep: Prepared, h: float, r: Run) -> None:
                      "gear2.shaft_phi": L[0], "gear2.shaft_omega": L[1]})
             fmu._call(fmu.fmu.doStep, currentCommunicationPoint=t, communicationStepSize=dt)
             out = fmu.get(OUT)
-            # Python side, symplectic Euler with the shaft torques at the end of the FMU step
+            # Python side, symplectic Euler: the angles with the speeds the FMU held over the
+            # step (so the far ends do not jump between steps), then the speeds from the shaft
+            # torques at the end of the step
             if drive:
-                T_m = CHAIN_KP * (w_ref - m[1]) + CHAIN_KI * m[2]
-                m[1] += dt * (T_m - out["gear1.shaft_torque"]) / CHAIN_J
                 m[0] += dt * m[1]
                 m[2] += dt * (w_ref - m[1])
-            L[1] += dt * (load_torque(t) - out["gear2.shaft_torque"]) / CHAIN_J
+                T_m = CHAIN_KP * (w_ref - m[1]) + CHAIN_KI * m[2]
+                m[1] += dt * (T_m - out["gear1.shaft_torque"]) / CHAIN_J
             L[0] += dt * L[1]
+            L[1] += dt * (load_torque(t + dt) - out["gear2.shaft_torque"]) / CHAIN_J
             rates[0].append(m[1] if drive else 0.0)
             rates[1].append(L[1])
             return out
