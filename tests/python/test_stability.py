@@ -43,7 +43,7 @@ def test_every_expected_outcome_holds(quick_rows):
 
 def test_explicit_master_diverges_at_large_steps(quick_rows):
     big = [r for r in quick_rows if r.mode == "explicit" and r.step >= 1e-3
-           and r.case != "free_in_backlash"]
+           and r.case not in ("free_in_backlash", "zero_load_contact")]
     assert big and not any(r.stable for r in big)
 
 

@@ -70,6 +70,7 @@ class Case:
     pair: Callable[["Case", Geometry, float], GearPair] | None = None  # custom setup
     flanks: tuple = ()                              # mesh.flank values the run must show
     contact: bool = True                            # False: the run must never touch
+    loaded: bool = True                             # False: contact without load
     random_steps: bool = False
     rollback: bool = False
     resources: dict = field(default_factory=dict)   # resource name -> file (scene FMU)
@@ -188,7 +189,7 @@ def all_cases() -> list[Case]:
     level = lambda n, **p: {"model.stiffness": n, "model.slices": 5, **p}
     cases = [
         Case("zero_load_contact", "no load, gear 2 pushed along in contact at 10 rpm", load=0.0,
-             te0=0.0, quick=True),
+             te0=0.0, loaded=False, quick=True),
         Case("free_in_backlash", "no drive or load, conjugate 100 rpm mid-backlash", load=0.0,
              speed_rpm=0.0, t_end=FAST_END, te_check=False, contact=False, pair=free_pair,
              quick=True),
