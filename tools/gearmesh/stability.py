@@ -54,10 +54,7 @@ class Row:
 def expected(case: Case, mode: str, step: float) -> bool | None:
     """What the suite expects of a run (all judgements); None = not asserted.
 
-    * large-step mode: passes at every step; not asserted where the TE is judged with friction
-      (mu > 0: the converged dynamic TE at 10 rpm differs from the quasi-static one near the
-      tooth entry and the pitch point by more than 0.05 um, in every mode at every step:
-      docs/stability.md);
+    * large-step mode: passes at every step, except on the cases of TE_DIFFERS (not asserted);
     * plain element, explicit master: fails from 1e-3 s on wherever the mesh is loaded (its
       limit is about 0.5 x 2/omega_mesh, 7e-5 s for set A on 0.02 kg m^2), passes at 1e-5 s
       on the cases of EXPLICIT_OK;
@@ -65,15 +62,21 @@ def expected(case: Case, mode: str, step: float) -> bool | None:
     """
     if mode == "large_step" and (case.random_steps or case.rollback):
         return None
-    friction_te = case.te_check and case.params.get("model.friction_coefficient", 0.0) > 0
     if mode.startswith("large_step"):
-        return None if friction_te else True
+        return None if case.name in TE_DIFFERS else True
     if mode == "explicit":
         if step >= 1e-3 and case.contact and case.loaded:
             return False
         return True if step <= 1e-5 and case.name in EXPLICIT_OK else None
     return True if step <= 1e-4 and case.name in IMPLICIT_OK else None
 
+
+# Cases whose dynamic TE at 10 rpm, converged (explicit and implicit masters at 1e-5 s agree),
+# differs from the quasi-static answer by more than 0.05 um (measured, docs/stability.md), or
+# whose energy account the FMU does not close (wedging_0.5mm): not asserted for any mode.
+TE_DIFFERS = {"load_100x", "load_detection_limit", "wedging_0.5mm", "axial_overlap_0.1mm",
+              "mu0.5_v0_1mm_s", "mu0.5_v0_0.01mm_s", "damping_0", "damping_max", "module_20mm",
+              "ring_difference_5", "tilt_20mrad"}
 
 # Cases the plain element passes under the project's masters at small steps (measured,
 # docs/stability.md); elsewhere the outcome is reported, not asserted.
