@@ -297,11 +297,10 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   Point x1, x2, x3;
   gm_status status = st.evaluate_at(0.0, s.phi, s.omega, x1);
   if (status != GM_OK) return status;
-  for (int i = 0; i < 2; ++i) {  // a far end moved between steps did work on its shaft's spring
-    const double k = p.shaft_stiffness[i];
-    const double jump = 0.5 * k * (std::pow(in.shaft_phi[i] - s.phi[i], 2) - std::pow(s.far_phi[i] - s.phi[i], 2));
-    (jump > 0 ? s.work_in : s.work_out) += std::fabs(jump);
-  }
+  // Inputs that jumped between steps (a far end set elsewhere than where this FMU moved it, a
+  // new pose) changed the stored elastic energy without motion of the spins: their work.
+  const double jump = x1.elastic - s.elastic;
+  (jump > 0 ? s.work_in : s.work_out) += std::fabs(jump);
   s.steps = s.rejected = 0;
   double t = 0, h = std::clamp(s.step, p.min_step, p.max_step);
   // The Jacobian (Newton matrix and error filter) is taken at every step's start: kept over

@@ -42,8 +42,28 @@ def main(argv: list[str] | None = None) -> int:
     p_comp.add_argument("--tool", type=pathlib.Path, help="compliance_tool binary")
     p_comp.add_argument("--threads", type=int, default=1, help="threads of the tool (1..256)")
     p_comp.add_argument("--force", action="store_true", help="rebuild even if cached")
+    p_stab = sub.add_parser("stability", help="stiff and extreme cases x modes x communication "
+                            "steps, judged (docs/stability.md)")
+    p_stab.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
+    p_stab.add_argument("--cases", nargs="+", help="case names (default: all; --quick: the CI "
+                        "subset)")
+    p_stab.add_argument("--modes", nargs="+", help="explicit, implicit, large_step, "
+                        "large_step_chain (default: all)")
+    p_stab.add_argument("--steps", nargs="+", help="communication steps in s, 1e-7..0.1 "
+                        "(default 1e-6 1e-5 1e-4 1e-3 1e-2; --quick: 1e-5 1e-3 1e-2)")
+    p_stab.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "stability")
+    p_stab.add_argument("--quick", action="store_true", help="the CI subset")
     args = parser.parse_args(argv)
 
+    if args.command == "stability":
+        from gearmesh import stability
+
+        try:
+            return stability.main(args.fmu, args.cases, args.modes, args.steps, args.out,
+                                  args.quick)
+        except ValueError as exc:
+            print(f"gearmesh: {exc}", file=sys.stderr)
+            return 2
     try:
         scenes = [load_scene(p) for p in (args.scenes or DEFAULT_SCENES)]
     except (SceneError, OSError) as exc:

@@ -179,6 +179,9 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
 def run_main(scenes: list[Scene], fmu_path: pathlib.Path, out: pathlib.Path) -> pathlib.Path:
     out.mkdir(parents=True, exist_ok=True)
     sections = [run_scene(s, fmu_path, out) for s in scenes]
+    from gearmesh.stability import main_job_section
+
+    sections.append(main_job_section(fmu_path, out))
     report = out / "report.md"
     report.write_text("# GearMesh main job\n\n" + "\n".join(sections), encoding="utf-8")
     return report

@@ -261,7 +261,8 @@ typedef struct gm_dynamics_state {
   double shaft_torque[2];  /* torque of each shaft on its gear at the state, N m */
   double kinetic;          /* sum J_i omega_i^2/2, J */
   double elastic;          /* mesh elastic energy + shaft springs, J */
-  double work_in;          /* cumulative work put in by the torques and the shafts' far ends, J */
+  double work_in;          /* cumulative work put in by the torques and the shafts' far ends (and
+                              by inputs that jump between steps: the elastic energy they change), J */
   double work_out;         /* cumulative work taken out by them (a brake, a load), J */
   double friction;         /* cumulative friction loss, J */
   double damping;          /* cumulative loss in the contact and shaft dampers, J */
@@ -270,8 +271,7 @@ typedef struct gm_dynamics_state {
                               part, from a compliance that varies along the path, J */
   double residual;         /* integration error: work_in - work_out - (kinetic + elastic -
                               initial_energy) - friction - damping - parametric, J */
-  double far_phi[2];       /* each shaft's far end at the state, rad (a jump of the next step's
-                              shaft_phi from it is work done by the far end) */
+  double far_phi[2];       /* each shaft's far end at the state, rad */
   double initial_energy;   /* kinetic + elastic at gm_dynamics_start, J */
   double step;             /* internal step to try first, s */
   int steps;               /* internal steps accepted by the last gm_dynamics_advance */

@@ -1,0 +1,106 @@
+"""The stability suite's CI subset (`gearmesh stability --quick`, docs/stability.md): every run
+whose outcome the suite expects (gearmesh.stability.expected) comes out that way — the plain
+element under the explicit master diverges at 1e-3 and 1e-2 s and passes at 1e-5 s, the implicit
+master passes at 1e-5 s, the large-step mode passes at every step — and the large-step mode is
+stable (finite, no error, converged, energy balance) on every quick case at 1e-3 and 1e-2 s.
+The judgements themselves are checked on made-up runs, so that a judgement that could not fail
+would show here.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gearmesh import stability
+from gearmesh.stability_cases import select
+from gearmesh.stability_runs import Run
+
+
+@pytest.fixture(scope="module")
+def quick_rows(fmu_path, tmp_path_factory):
+    cases = select(None, quick=True)
+    rows = stability.run_suite(fmu_path, cases, stability.parse_modes(None),
+                               stability.QUICK_STEPS, progress=False)
+    stability.write_outputs(rows, tmp_path_factory.mktemp("stability"))
+    return rows
+
+
+def test_quick_subset_has_every_mode_and_step(quick_rows):
+    assert len(select(None, quick=True)) >= 6
+    assert {(r.mode, r.step) for r in quick_rows} == {
+        (m, h) for m in stability.parse_modes(None) for h in stability.QUICK_STEPS}
+
+
+def test_every_expected_outcome_holds(quick_rows):
+    asserted = [r for r in quick_rows if r.expected is not None]
+    assert len(asserted) >= 40
+    wrong = [f"{r.case} {r.mode} {r.step:g}: {r.passed} (expected {r.expected}) {r.failed}"
+             for r in asserted if r.passed != r.expected]
+    assert not wrong, "\n".join(wrong)
+
+
+def test_explicit_master_diverges_at_large_steps(quick_rows):
+    big = [r for r in quick_rows if r.mode == "explicit" and r.step >= 1e-3
+           and r.case not in ("free_in_backlash", "zero_load_contact")]
+    assert big and not any(r.stable for r in big)
+
+
+def test_large_step_mode_stable_at_large_steps(quick_rows):
+    rows = [r for r in quick_rows if r.mode.startswith("large_step") and r.step >= 1e-3
+            and r.stable is not None]
+    assert len(rows) >= 2 * len(select(None, quick=True))
+    bad = [f"{r.case} {r.mode} {r.step:g}: {r.failed}" for r in rows if not r.stable]
+    assert not bad, "\n".join(bad)
+
+
+def _run(**kw) -> Run:
+    t = np.linspace(0.02, 0.1, 50)
+    base = dict(case="nominal", mode="explicit", step=1e-3, t=t, te=np.full(50, 5e-6),
+                phi1=t, force=np.full(50, 1e3), flank=np.ones(50), residual=0.0, work_in=10.0,
+                steps=50, te_ref=np.full(50, 5e-6))
+    base.update(kw)
+    return Run(**base)
+
+
+@pytest.mark.parametrize("change, why", [
+    (dict(error="fmi2DoStep failed"), "error"),
+    (dict(nan_count=1), "non-finite"),
+    (dict(unconverged=1), "unconverged"),
+    (dict(residual=0.2), "energy residual"),
+    (dict(te=np.full(50, 5.06e-6)), "TE"),
+    (dict(te=5e-6 + 0.06e-6 * np.sin(np.linspace(0, 6, 50))), "TE"),
+])
+def test_each_judgement_can_fail(change, why):
+    case = select(["nominal"])[0]
+    ok, stable, _ = stability.judge(case, _run())
+    assert ok and stable
+    ok, _, text = stability.judge(case, _run(**change))
+    assert not ok and why in text
+
+
+def test_case_checks_can_fail():
+    rattle, free, roll = select(["rattle", "free_in_backlash", "rollback"])
+    assert not stability.judge(rattle, _run(case="rattle"))[0]           # flank 2 never hit
+    assert stability.judge(rattle, _run(flank=np.r_[np.ones(25), 2 * np.ones(25)]))[0]
+    assert not stability.judge(free, _run(case="free_in_backlash"))[0]   # it touched
+    assert not stability.judge(roll, _run(rollback_gap=1e-9))[0]
+    assert stability.judge(roll, _run(rollback_gap=0.0))[0]
+
+
+def test_largest_stable_step():
+    mk = lambda h, ok: stability.Row("c", "m", h, ok, ok, None, 0, 0, 0, 0, 0, 0, 0, 0, "")
+    rows = [mk(1e-5, True), mk(1e-4, True), mk(1e-3, False), mk(1e-2, True)]
+    assert stability.largest_stable(rows)[("c", "m")] == 1e-4
+    assert stability.largest_stable([mk(1e-5, False)])[("c", "m")] == 0.0
+
+
+def test_bad_options_are_named():
+    with pytest.raises(ValueError, match="--modes: unknown mode"):
+        stability.parse_modes(["bogus"])
+    with pytest.raises(ValueError, match=r"allowed range \[1e-07, 0.1\]"):
+        stability.parse_steps(["1"], False)
+    with pytest.raises(ValueError, match="--cases: unknown case"):
+        select(["no_such_case"])
+    assert math.isclose(stability.parse_steps(["1e-3,1e-4"], False)[0], 1e-4)
