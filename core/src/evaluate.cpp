@@ -271,9 +271,9 @@ T elastic_energy(const ContactSliceT<T>* slices, const SliceLawT<T>* laws, const
   for (int i = 0; i < n; ++i) {
     const T& F = forces[i];
     if (!(F > 0)) continue;
-    T f = 0, P = 0;
-    if (laws[i].local.width > 0) local_law_approach_energy(laws[i].local, F, f, P);
-    u += 0.5 * F * (slices[i].approach + f) - P;
+    LocalLawValueT<T> local;  // zero without a local law
+    if (laws[i].local.width > 0) local = local_law_value(laws[i].local, F);
+    u += 0.5 * F * (slices[i].approach + local.approach) - local.energy;
   }
   return u;
 }

@@ -150,10 +150,16 @@ inline double local_law_energy_change(const LocalLawKernel& kern, double force, 
 }
 
 
-// f and f' of evaluate_local_law over a scalar type T (the Jacobian: dual numbers carry the
-// derivatives along the law's geometry and the force). F > 0 and a local law required.
+// f, f' and the integral P(F) = int_0^F f of evaluate_local_law over a scalar type T (the
+// Jacobian: dual numbers carry the derivatives along the law's geometry and the force; the closed
+// forms as in local_law_jet, derived in hertz.cpp). F > 0 and a local law required.
 template <class T>
-void local_law_approach_slope(const LocalLawT<T>& law, const T& force, T& approach, T& slope) {
+struct LocalLawValueT {
+  T approach = 0, slope = 0, energy = 0;
+};
+
+template <class T>
+LocalLawValueT<T> local_law_value(const LocalLawT<T>& law, const T& force) {
   using std::sqrt;
   using std::asinh;
   constexpr double kPi = 3.14159265358979323846;
@@ -162,8 +168,8 @@ void local_law_approach_slope(const LocalLawT<T>& law, const T& force, T& approa
   for (const auto& body : law.body)
     inv_E_star += (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
   const T b = sqrt(4.0 * w * law.reduced_radius * inv_E_star / kPi);
-  approach = 0;
-  T slope_w = 0;
+  LocalLawValueT<T> v;
+  T slope_w = 0, energy_ww = 0;
   for (const auto& body : law.body) {
     const double a = 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
     const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
@@ -172,38 +178,21 @@ void local_law_approach_slope(const LocalLawT<T>& law, const T& force, T& approa
     const T r1 = r + 1.0;
     const T A = asinh(1.0 / q);
     const T bracket = A - k / r1;
-    approach += a * w * bracket;
+    v.approach += a * w * bracket;
     slope_w += a * (bracket - (1.0 - k * q * q / (r1 * r1)) / (2.0 * r));
-  }
-  slope = slope_w / law.width;
-}
-
-// f and its integral P(F) = int_0^F f over a scalar type T: the closed forms of local_law_jet
-// (derivation in hertz.cpp), for the elastic energy and its derivative along the law's geometry
-// and the force. F > 0 and a local law required.
-template <class T>
-void local_law_approach_energy(const LocalLawT<T>& law, const T& force, T& approach, T& energy) {
-  using std::sqrt;
-  using std::asinh;
-  constexpr double kPi = 3.14159265358979323846;
-  const T w = force / law.width;
-  double inv_E_star = 0;
-  for (const auto& body : law.body)
-    inv_E_star += (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
-  const T b = sqrt(4.0 * w * law.reduced_radius * inv_E_star / kPi);
-  approach = 0;
-  T energy_ww = 0;
-  for (const auto& body : law.body) {
-    const double a = 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
-    const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
-    const T q = b / body.depth;
-    const T r = sqrt(1.0 + q * q);
-    const T r1 = r + 1.0;
-    const T A = asinh(1.0 / q);
-    approach += a * w * (A - k / r1);
     energy_ww += a * (0.5 * A + ((r + 2.0) / 6.0 - k * (2.0 * r + 1.0) / 3.0) / (r1 * r1));
   }
-  energy = energy_ww * w * w * law.width;
+  v.slope = slope_w / law.width;
+  v.energy = energy_ww * w * w * law.width;
+  return v;
+}
+
+// f and f' alone (the implicit derivative of the slice forces).
+template <class T>
+void local_law_approach_slope(const LocalLawT<T>& law, const T& force, T& approach, T& slope) {
+  const LocalLawValueT<T> v = local_law_value(law, force);
+  approach = v.approach;
+  slope = v.slope;
 }
 
 // f'(max(F, w_min L)) for a Newton matrix: finite, and never used in the merit function.
