@@ -55,7 +55,8 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
     for s in accuracy_settings.settings(preset, tuple(coupled_dbs)):
         values = s.parameters()
         if s.level == 0:
-            values["model.user_stiffness"] = iso.c_gamma_alpha
+            values["model.user_stiffness"] = (iso.c_gamma_alpha if s.constant == "c_ga"
+                                              else iso.c_prime)
         elif s.level == 1:
             values["model.stiffness_table"] = TABLE
         elif s.level == 5:
@@ -63,7 +64,7 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
                 values[f"gear{i}.compliance"] = f"accuracy_{path.stem[:16]}.gcdb"
         plan.append((s, values))
     notes.append(f"{scene.name}: level 0 at c_gamma_alpha = {iso.c_gamma_alpha / 1e9:.4g} "
-                 f"N/(mm µm), level 1 with the level-2 curve ({table.name}; c' = "
+                 f"N/(mm µm) (L0(c_ga)) or c' (L0(c')), level 1 with the level-2 curve ({table.name}; c' = "
                  f"{iso.c_prime / 1e9:.4g} N/(mm µm), eps_alpha = {iso.contact_ratio:.4g})")
     return fmu, plan
 

@@ -62,11 +62,14 @@ def per_setting(rows: list[dict]) -> list[dict]:
     return out
 
 
+SCORE_RESOLUTION = 1e-6  # scores closer than this are equal (settings that differ in cost only)
+
+
 def pareto_front(entries: list[dict], cost: str = "plain_us") -> list[dict]:
     """The entries no other entry beats in both cost and score, cheapest first."""
     front, best = [], math.inf
     for e in sorted(entries, key=lambda e: (e[cost], e["score"])):
-        if e["score"] < best:
+        if e["score"] < best - SCORE_RESOLUTION:
             front.append(e)
             best = e["score"]
     return front

@@ -18,6 +18,10 @@ QUICK_LEVELS = (2, 3, 4)
 QUICK_SLICES = (10,)
 QUICK_TORQUES = (50.0, 350.0)
 PRESETS = ("quick", "full")
+# Level 0's constant (model.user_stiffness, one tooth pair per unit face width) as a user would
+# take it from ISO 6336-1: the mean mesh stiffness c_gamma_alpha, or the single stiffness c' that
+# the README ("Contact detection", slices) names as the parameter's meaning.
+LEVEL0_CONSTANTS = ("c_ga", "c'")
 
 
 @dataclass(frozen=True)
@@ -25,10 +29,12 @@ class Setting:
     level: int
     slices: int
     coupled: int | None = None  # level 5 only
+    constant: str | None = None  # level 0 only: one of LEVEL0_CONSTANTS
 
     @property
     def label(self) -> str:
-        text = f"L{self.level} s{self.slices}"
+        level = f"L0({self.constant})" if self.constant else f"L{self.level}"
+        text = f"{level} s{self.slices}"
         return text if self.coupled is None else f"{text} c{self.coupled}"
 
     def parameters(self) -> dict:
@@ -44,7 +50,8 @@ def settings(preset: str, level5_coupled: tuple[int, ...] = ()) -> list[Setting]
         return [Setting(level, s) for level in QUICK_LEVELS for s in QUICK_SLICES]
     if preset != "full":
         raise ValueError(f"--settings {preset}: unknown; allowed: {', '.join(PRESETS)}")
-    out = [Setting(level, s) for level in range(5) for s in SLICES]
+    out = [Setting(0, s, constant=c) for c in LEVEL0_CONSTANTS for s in SLICES]
+    out += [Setting(level, s) for level in range(1, 5) for s in SLICES]
     out += [Setting(5, s, c) for c in level5_coupled for s in SLICES]
     return out
 
