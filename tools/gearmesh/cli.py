@@ -53,6 +53,20 @@ def main(argv: list[str] | None = None) -> int:
                         "(default 1e-6 1e-5 1e-4 1e-3 1e-2; --quick: 1e-5 1e-3 1e-2)")
     p_stab.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "stability")
     p_stab.add_argument("--quick", action="store_true", help="the CI subset")
+    p_acc = sub.add_parser("accuracy", help="error of every stiffness setting against the FE "
+                           "reference, with its time per evaluation (docs/validation.md)")
+    p_acc.add_argument("scenes", nargs="+", type=pathlib.Path, help="scene files (TOML)")
+    p_acc.add_argument("--out", type=pathlib.Path, required=True, help="output folder")
+    p_acc.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
+    p_acc.add_argument("--tolerance", default="5%", help="error allowed for the cheapest "
+                       "setting, e.g. 5%% or 0.05; (0, 100%%] (default 5%%)")
+    p_acc.add_argument("--settings", default="full", choices=("quick", "full"),
+                       help="quick: levels 2-4 at 10 slices, 50 and 350 N m (the CI ledger); "
+                       "full: levels 0-5 x slices 1/3/10/20/40 x coupled teeth 0-3, every "
+                       "reference torque (default)")
+    p_acc.add_argument("--reference", type=pathlib.Path, help="folder of the "
+                       "<scene>.reference_fe.summary.csv files (default: reference/ next to "
+                       "each scene)")
     args = parser.parse_args(argv)
 
     if args.command == "stability":
@@ -75,6 +89,16 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.command == "compliance":
         return _compliance(scenes, args)
+    if args.command == "accuracy":
+        from gearmesh import accuracy, accuracy_report
+
+        try:
+            tolerance = accuracy_report.parse_tolerance(args.tolerance)
+            return accuracy.main(scenes, args.fmu, args.out, args.reference, args.settings,
+                                 tolerance)
+        except ValueError as exc:
+            print(f"gearmesh: {exc}", file=sys.stderr)
+            return 2
     if args.command == "batch":
         from gearmesh import batch
 

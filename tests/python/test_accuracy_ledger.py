@@ -1,0 +1,148 @@
+"""The accuracy ledger (issue 11 item 5, docs/validation.md): `gearmesh accuracy --settings quick`
+recomputed against the committed ledger, failing when any error grows by more than 1 percentage
+point; and the pieces of `gearmesh accuracy` (band error, reference reader, ISO inputs of levels
+0 and 1, Pareto front, tolerance, CLI errors)."""
+from __future__ import annotations
+
+import copy
+import pathlib
+import re
+
+import numpy as np
+import pytest
+
+from gearmesh import accuracy, accuracy_iso, accuracy_ledger, accuracy_report, cli
+from gearmesh.accuracy_reference import ReferenceError, band_error, read_summary
+from gearmesh.accuracy_sweep import sweep
+from gearmesh.scene import load_scene
+from gearmesh.scene_fmu import build_scene_fmu
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+FIXTURES = REPO / "tests" / "python" / "fixtures" / "accuracy"
+# The committed ledger. Until the FE reference of scenarios/reference/ is committed, the ledger
+# made from the hand-made fixture summary (FIXTURES, labelled there); then
+# scenarios/reference/ledger_small.csv (`python -m gearmesh accuracy scenarios/paper_setA_3U4U.toml
+# --settings quick --out DIR`, its accuracy.csv).
+LEDGER = FIXTURES / "ledger_small.fixture.csv"
+
+
+def _recompute(ledger: pathlib.Path, fmu_path: pathlib.Path, out: pathlib.Path) -> list[dict]:
+    made = accuracy_ledger.provenance(ledger)
+    scenes = [load_scene(REPO / s) for s in made["scenes"]]
+    rows, _ = accuracy.run(scenes, fmu_path, out, REPO / made["reference"], made["settings"],
+                           progress=False)
+    return rows
+
+
+def test_ledger_holds(fmu_path, tmp_path):
+    committed = accuracy_report.read_csv(LEDGER)
+    assert committed, f"{LEDGER}: empty ledger"
+    problems = accuracy_ledger.compare(committed, _recompute(LEDGER, fmu_path, tmp_path))
+    assert not problems, "errors grew against the ledger:\n" + "\n".join(problems)
+
+
+def test_ledger_check_fails_on_growth():
+    committed = accuracy_report.read_csv(LEDGER)
+    new = copy.deepcopy(committed)
+    assert accuracy_ledger.compare(committed, new) == []
+    # 0.5 percentage point more is allowed, 1.5 is not; each error column is checked
+    for column in accuracy_report.ERROR_COLUMNS:
+        grown = copy.deepcopy(committed)
+        r = grown[3]
+        r[column] = (abs(r[column]) + 0.005) * (1 if r[column] >= 0 else -1)
+        assert accuracy_ledger.compare(committed, grown) == []
+        r[column] = (abs(r[column]) + 0.010) * (1 if r[column] >= 0 else -1)
+        problems = accuracy_ledger.compare(committed, grown)
+        assert len(problems) == 1 and column in problems[0], problems
+    assert len(accuracy_ledger.compare(committed, new[1:])) == 1  # a row not recomputed
+
+
+def test_band_error():
+    assert band_error(2.0, 1.0, 3.0) == 0.0
+    assert band_error(0.9, 1.0, 3.0) == pytest.approx(-0.1)
+    assert band_error(3.3, 1.0, 3.0) == pytest.approx(0.1)
+
+
+def test_reference_reader(tmp_path):
+    ref = read_summary(FIXTURES / "paper_setA_3U4U.reference_fe.summary.csv")
+    assert ref.scene == "paper_setA_3U4U" and ref.n_positions == 20
+    assert ref.torques == [50.0, 150.0, 350.0]
+    assert ref.band(50.0, "mean") == (1.90e-6, 2.05e-6)
+    text = (FIXTURES / "paper_setA_3U4U.reference_fe.summary.csv").read_text().splitlines()
+    cases = {
+        "model = 'plane'": [text[1], text[2].replace("plane_strain", "plane")],
+        "has no plane_stress row": text[:3],
+        "missing column(s) order3_m": [text[1].replace(",order3_m", ""),
+                                       text[2].rsplit(",", 1)[0]],
+    }
+    for message, lines in cases.items():
+        path = tmp_path / "x.reference_fe.summary.csv"
+        path.write_text("\n".join(lines) + "\n")
+        with pytest.raises(ReferenceError, match=re.escape(message)):
+            read_summary(path)
+
+
+def test_level1_table_reproduces_level2(fmu_path, tmp_path):
+    """Level 1 with the table made from the level-2 curve gives level 2's loaded TE: its mean
+    within 0.2 %, each position within 1.5 % (beyond the path's ends, where a loaded tip edge
+    touches, level 1 holds the table's end value and level 2 does not), and level 0 at c_gamma_alpha / eps_alpha gives level 3's mean
+    (both a constant per unit contact line)."""
+    scene = load_scene(REPO / "scenarios" / "paper_setA_3U4U.toml")
+    iso = accuracy_iso.iso_stiffness(fmu_path, scene.parameters)
+    assert np.degrees([iso.roll_start, iso.roll_end]) == pytest.approx([17.65, 28.20], abs=0.01)
+    table = accuracy_iso.write_table(iso, tmp_path / accuracy.TABLE)
+    fmu = build_scene_fmu(fmu_path, scene.parameters, {accuracy.TABLE: table}, tmp_path / "s.fmu")
+    te = {}
+    for name, values in {
+            "L1": {"model.stiffness": 1, "model.stiffness_table": accuracy.TABLE},
+            "L2": {"model.stiffness": 2},
+            "L0": {"model.stiffness": 0,
+                   "model.user_stiffness": iso.c_gamma_alpha / iso.contact_ratio},
+            "L3": {"model.stiffness": 3}}.items():
+        te[name] = sweep(fmu, values, [350.0], 20, repeats=1).te[350.0]
+    assert np.mean(te["L1"]) == pytest.approx(np.mean(te["L2"]), rel=2e-3)
+    assert te["L1"] == pytest.approx(te["L2"], rel=1.5e-2)
+    assert np.mean(te["L0"]) == pytest.approx(np.mean(te["L3"]), rel=2e-3)
+
+
+def test_pareto_and_cheapest():
+    def entry(name, us, score):
+        return {"setting": name, "plain_us": us, "quasi_static_us": us, "score": score}
+
+    entries = [entry("a", 1.0, 0.5), entry("b", 2.0, 0.1), entry("c", 3.0, 0.2),
+               entry("d", 4.0, 0.01), entry("e", 1.5, 0.5 + 1e-9)]
+    assert [e["setting"] for e in accuracy_report.pareto_front(entries)] == ["a", "b", "d"]
+    assert accuracy_report.cheapest_within(entries, 0.15)["setting"] == "b"
+    assert accuracy_report.cheapest_within(entries, 0.005) is None
+
+
+def test_tolerance():
+    assert accuracy_report.parse_tolerance("5%") == pytest.approx(0.05)
+    assert accuracy_report.parse_tolerance(" 0.2 ") == pytest.approx(0.2)
+    for bad in ("abc", "0", "150%", "-1%", "nan"):
+        with pytest.raises(ValueError, match="--tolerance"):
+            accuracy_report.parse_tolerance(bad)
+
+
+def test_cli_errors(fmu_path, tmp_path, capsys):
+    scene = str(REPO / "scenarios" / "paper_setA_3U4U.toml")
+    assert cli.main(["accuracy", scene, "--out", str(tmp_path), "--tolerance", "200%",
+                     "--fmu", str(fmu_path)]) == 2
+    assert "outside the allowed range (0, 100%]" in capsys.readouterr().err
+    # no reference summary for the scene: a note, and nothing compared
+    assert cli.main(["accuracy", scene, "--out", str(tmp_path), "--settings", "quick",
+                     "--reference", str(tmp_path), "--fmu", str(fmu_path)]) == 1
+    err = capsys.readouterr().err
+    assert "paper_setA_3U4U: skipped, no reference summary" in err and "nothing compared" in err
+
+
+def test_cli_writes_table_csv_and_plot(fmu_path, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["accuracy", str(REPO / "scenarios" / "paper_setA_3U4U.toml"), "--out",
+                     str(out), "--settings", "quick", "--tolerance", "100%",
+                     "--reference", str(FIXTURES), "--fmu", str(fmu_path)]) == 0
+    assert "cheapest within 100 %: L" in capsys.readouterr().out
+    text = (out / "accuracy.md").read_text()
+    assert text.count("| L") == 3 and "Cheapest setting within 100 %: **L" in text
+    assert len(accuracy_report.read_csv(out / "accuracy.csv")) == 3 * 2 * 5
+    assert (out / "accuracy_pareto.png").stat().st_size > 10_000

@@ -1,0 +1,132 @@
+"""`gearmesh accuracy`: the error of every setting (stiffness level, slices, coupled teeth) against
+the FE reference of scenarios/reference/ (reference_fe/README.md), with its cost per evaluation
+measured in the same run. Writes accuracy.md, accuracy.csv and accuracy_pareto.png to the output
+folder (docs/validation.md)."""
+from __future__ import annotations
+
+import pathlib
+import sys
+
+from tqdm import tqdm
+
+from gearmesh import accuracy_iso, accuracy_ledger, accuracy_report, accuracy_settings
+from gearmesh.accuracy_reference import ReferenceError, errors, read_summary, summary_path
+from gearmesh.accuracy_sweep import sweep
+from gearmesh.accuracy_timing import round_trip
+from gearmesh.scene import Scene
+from gearmesh.scene_fmu import build_scene_fmu
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+TABLE = "accuracy_iso_stiffness.txt"  # level 1's table inside the scene FMU's resources/
+# Start values replaced per setting (a stiffness table or database at another level is refused).
+_PER_SETTING = ("model.stiffness", "model.slices", "model.coupled_teeth", "model.user_stiffness",
+                "model.stiffness_table", "gear1.compliance", "gear2.compliance",
+                "model.quasi_static", "model.friction_coefficient")
+
+
+def default_reference_dir(scene: Scene) -> pathlib.Path:
+    return scene.path.parent / "reference"
+
+
+def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, preset: str,
+              notes: list[str]):
+    """The scene's FMU with level 1's table and the cached level-5 databases as resources, and
+    per setting the start values that select it. Returns (fmu path, [(Setting, values)])."""
+    base = {k: v for k, v in scene.parameters.items() if k not in _PER_SETTING}
+    iso = accuracy_iso.iso_stiffness(generic_fmu, base)
+    table = accuracy_iso.write_table(iso, folder / f"{scene.name}.{TABLE}")
+    resources = {**scene.resources, TABLE: table}
+    coupled_dbs = {}
+    if preset == "full":
+        for c in accuracy_settings.COUPLED:
+            dbs = accuracy_settings.cached_databases(scene, c)
+            if dbs:
+                coupled_dbs[c] = dbs
+                for i, path in dbs.items():
+                    resources[f"accuracy_{path.stem[:16]}.gcdb"] = path
+        missing = [c for c in accuracy_settings.COUPLED if c not in coupled_dbs]
+        if missing:
+            notes.append(f"{scene.name}: level 5 skipped for coupled teeth "
+                         f"{', '.join(map(str, missing))}: no cached compliance databases "
+                         f"(build them with `python -m gearmesh compliance` on the scene at "
+                         f"stiffness_level = 5, coupled_teeth = 3)")
+    fmu = build_scene_fmu(generic_fmu, base, resources, folder / f"{scene.name}.accuracy.fmu")
+    plan = []
+    for s in accuracy_settings.settings(preset, tuple(coupled_dbs)):
+        values = s.parameters()
+        if s.level == 0:
+            values["model.user_stiffness"] = (iso.c_gamma_alpha if s.constant == "c_ga"
+                                              else iso.c_prime)
+        elif s.level == 1:
+            values["model.stiffness_table"] = TABLE
+        elif s.level == 5:
+            for i, path in coupled_dbs[s.coupled].items():
+                values[f"gear{i}.compliance"] = f"accuracy_{path.stem[:16]}.gcdb"
+        plan.append((s, values))
+    notes.append(f"{scene.name}: level 0 at c_gamma_alpha = {iso.c_gamma_alpha / 1e9:.4g} "
+                 f"N/(mm µm) (L0(c_ga)) or c' (L0(c')), level 1 with the level-2 curve ({table.name}; c' = "
+                 f"{iso.c_prime / 1e9:.4g} N/(mm µm), eps_alpha = {iso.contact_ratio:.4g})")
+    return fmu, plan
+
+
+def run(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
+        reference_dir: pathlib.Path | None, preset: str, repeats: int = 2,
+        progress: bool = True) -> tuple[list[dict], list[str]]:
+    """The tidy rows (accuracy_report.COLUMNS) of every scene with a reference, and the notes."""
+    notes: list[str] = []
+    rows: list[dict] = []
+    base = round_trip(generic_fmu)
+    notes.append(f"bare fmpy round trip (fmi2DoStep without contact work): {base * 1e6:.1f} µs")
+    for scene in scenes:
+        path = summary_path(reference_dir or default_reference_dir(scene), scene.name)
+        if not path.is_file():
+            notes.append(f"{scene.name}: skipped, no reference summary {path.name} in "
+                         f"{path.parent}")
+            continue
+        reference = read_summary(path)
+        if reference.scene != scene.name:
+            raise ReferenceError(f"{path}: rows of scene {reference.scene!r}, not {scene.name!r}")
+        torques = accuracy_settings.torques(preset, reference.torques)
+        folder = out / scene.name
+        folder.mkdir(parents=True, exist_ok=True)
+        fmu, plan = scene_fmu(scene, generic_fmu, folder, preset, notes)
+        for setting, values in tqdm(plan, desc=scene.name, disable=not progress, leave=False):
+            result = sweep(fmu, values, torques, reference.n_positions, repeats)
+            cost = {"plain_us": (result.plain_step - base) * 1e6,
+                    "plain_raw_us": result.plain_step * 1e6,
+                    "quasi_static_us": (result.qs_step - base) * 1e6,
+                    "quasi_static_raw_us": result.qs_step * 1e6, "round_trip_us": base * 1e6}
+            for torque in torques:
+                for e in errors(reference, torque, result.summary[torque]):
+                    rows.append({"scene": scene.name, "setting": setting.label,
+                                 "level": setting.level, "slices": setting.slices,
+                                 "coupled_teeth": "" if setting.coupled is None else setting.coupled,
+                                 "torque_Nm": torque, **e, **cost})
+    return rows, notes
+
+
+def main(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
+         reference_dir: pathlib.Path | None, preset: str, tolerance: float) -> int:
+    out.mkdir(parents=True, exist_ok=True)
+    rows, notes = run(scenes, generic_fmu, out, reference_dir, preset)
+    for n in notes:
+        print(f"gearmesh accuracy: {n}", file=sys.stderr)
+    if not rows:
+        print("gearmesh accuracy: no scene has a reference summary; nothing compared",
+              file=sys.stderr)
+        return 1
+    entries = accuracy_report.per_setting(rows)
+    first = accuracy_ledger.header([s.path for s in scenes],
+                                   reference_dir or default_reference_dir(scenes[0]), preset, REPO)
+    csv_path = accuracy_report.write_csv(out / "accuracy.csv", rows, first)
+    md_path = out / "accuracy.md"
+    md_path.write_text(accuracy_report.markdown(entries, tolerance, notes))
+    png = accuracy_report.plot(out / "accuracy_pareto.png", entries)
+    for scene in dict.fromkeys(e["scene"] for e in entries):
+        best = accuracy_report.cheapest_within([e for e in entries if e["scene"] == scene],
+                                               tolerance)
+        print(f"{scene}: cheapest within {100 * tolerance:g} %: "
+              + (f"{best['setting']} ({100 * best['score']:.1f} %, {best['plain_us']:.1f} µs "
+                 "plain)" if best else "none"))
+    print(f"gearmesh accuracy: {md_path}, {csv_path}, {png}")
+    return 0

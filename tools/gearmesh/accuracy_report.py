@@ -1,0 +1,158 @@
+"""The outputs of `gearmesh accuracy`: the tidy CSV (one row per scene, setting, torque and
+quantity), the per-setting summary (worst error against the band, cost), the markdown table, the
+Pareto plot, and the cheapest setting within a tolerance."""
+from __future__ import annotations
+
+import csv
+import math
+import pathlib
+from collections import defaultdict
+
+from gearmesh.accuracy_reference import QUANTITIES
+
+COLUMNS = ["scene", "setting", "level", "slices", "coupled_teeth", "torque_Nm", "quantity",
+           "product_m", "plane_stress_m", "plane_strain_m", "band_error", "error_plane_stress",
+           "error_plane_strain", "plain_us", "plain_raw_us", "quasi_static_us",
+           "quasi_static_raw_us", "round_trip_us"]
+ERROR_COLUMNS = ("band_error", "error_plane_stress", "error_plane_strain")
+TIME_COLUMNS = ("plain_us", "plain_raw_us", "quasi_static_us", "quasi_static_raw_us",
+                "round_trip_us")
+# A setting's error: the largest |band error| over the torques and these quantities.
+SCORE_QUANTITIES = QUANTITIES
+
+
+def write_csv(path: pathlib.Path, rows: list[dict], first_line: str = "") -> pathlib.Path:
+    """`first_line`: a comment (starting with '#') written before the header, if given."""
+    with pathlib.Path(path).open("w", newline="") as fh:
+        if first_line:
+            fh.write(first_line + "\n")
+        writer = csv.DictWriter(fh, COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v)
+                             for k, v in row.items()})
+    return pathlib.Path(path)
+
+
+def read_csv(path: pathlib.Path) -> list[dict]:
+    with pathlib.Path(path).open(newline="") as fh:
+        rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
+    for row in rows:
+        for key in ("torque_Nm", "product_m", "plane_stress_m", "plane_strain_m", *ERROR_COLUMNS,
+                    *TIME_COLUMNS):
+            row[key] = float(row[key])
+    return rows
+
+
+def per_setting(rows: list[dict]) -> list[dict]:
+    """One entry per (scene, setting): the worst signed band error per quantity, the score and
+    the cost (from the rows, which repeat a setting's cost)."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for row in rows:
+        groups[(row["scene"], row["setting"])].append(row)
+    out = []
+    for (scene, setting), group in groups.items():
+        entry = {"scene": scene, "setting": setting, "level": group[0]["level"],
+                 **{k: group[0][k] for k in TIME_COLUMNS}}
+        for q in QUANTITIES:
+            errors = [r["band_error"] for r in group if r["quantity"] == q]
+            entry[q] = max(errors, key=abs)
+        entry["score"] = max(abs(entry[q]) for q in SCORE_QUANTITIES)
+        out.append(entry)
+    return out
+
+
+SCORE_RESOLUTION = 1e-6  # scores closer than this are equal (settings that differ in cost only)
+
+
+def pareto_front(entries: list[dict], cost: str = "plain_us") -> list[dict]:
+    """The entries no other entry beats in both cost and score, cheapest first."""
+    front, best = [], math.inf
+    for e in sorted(entries, key=lambda e: (e[cost], e["score"])):
+        if e["score"] < best - SCORE_RESOLUTION:
+            front.append(e)
+            best = e["score"]
+    return front
+
+
+def cheapest_within(entries: list[dict], tolerance: float, cost: str = "plain_us") -> dict | None:
+    inside = [e for e in entries if e["score"] <= tolerance]
+    return min(inside, key=lambda e: (e[cost], e["quasi_static_us"])) if inside else None
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:+.1f} %" if x else "0"
+
+
+def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
+    lines = ["# Accuracy against run time", "",
+             "Error of the loaded TE against the FE reference band [plane stress, plane strain] "
+             "(reference_fe/README.md): 0 inside the band, else the signed distance to the nearer "
+             "edge relative to it; per quantity the worst over the torques. Score: the largest "
+             f"|error| over {', '.join(SCORE_QUANTITIES)}. Cost: median time per fmi2DoStep "
+             "through fmpy minus the bare fmpy round trip (raw: without the subtraction), plain "
+             "mode (prescribed spins) and quasi-static mode. The error against each model is in "
+             "accuracy.csv.", ""]
+    lines += [f"* {n}" for n in notes]
+    for scene in dict.fromkeys(e["scene"] for e in entries):
+        group = [e for e in entries if e["scene"] == scene]
+        front = {id(e) for e in pareto_front(group)}
+        lines += ["", f"## {scene}", "",
+                  "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | score | plain µs "
+                  "(raw) | quasi-static µs (raw) | front |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        for e in group:
+            lines.append(
+                f"| {e['setting']} | " + " | ".join(_pct(e[q]) for q in QUANTITIES)
+                + f" | {100 * e['score']:.1f} % | {e['plain_us']:.1f} ({e['plain_raw_us']:.1f})"
+                f" | {e['quasi_static_us']:.1f} ({e['quasi_static_raw_us']:.1f}) | "
+                + ("yes" if id(e) in front else "") + " |")
+        best = cheapest_within(group, tolerance)
+        lines += ["", f"Cheapest setting within {100 * tolerance:g} %: "
+                  + (f"**{best['setting']}** (score {100 * best['score']:.1f} %, "
+                     f"{best['plain_us']:.1f} µs plain)" if best else "none")]
+    return "\n".join(lines) + "\n"
+
+
+def plot(path: pathlib.Path, entries: list[dict], floor_us: float = 0.1) -> pathlib.Path:
+    """Score against plain-mode µs per evaluation (log x), one point per setting and scene, the
+    front of each scene drawn as a line; costs below `floor_us` (the round trip's noise) are
+    drawn at the floor."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for scene in dict.fromkeys(e["scene"] for e in entries):
+        group = [e for e in entries if e["scene"] == scene]
+        x = [max(e["plain_us"], floor_us) for e in group]
+        points = ax.scatter(x, [100 * e["score"] for e in group], s=18, alpha=0.6,
+                            label=f"{scene}: settings")
+        front = pareto_front(group)
+        ax.plot([max(e["plain_us"], floor_us) for e in front], [100 * e["score"] for e in front],
+                "o-", color=points.get_facecolor()[0][:3], lw=2, label=f"{scene}: front")
+        for e in front:
+            ax.annotate(e["setting"], (max(e["plain_us"], floor_us), 100 * e["score"]),
+                        fontsize=7, xytext=(3, 3), textcoords="offset points")
+    ax.set(xscale="log", xlabel="µs per evaluation, plain mode (fmi2DoStep minus the fmpy round "
+           "trip)", ylabel="largest |error| against the FE band, %",
+           title="Accuracy against run time")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return pathlib.Path(path)
+
+
+def parse_tolerance(text: str) -> float:
+    """'5%' or '0.05' -> 0.05; allowed (0, 100 %]."""
+    stripped = text.strip()
+    try:
+        value = float(stripped[:-1]) / 100 if stripped.endswith("%") else float(stripped)
+    except ValueError:
+        raise ValueError(f"--tolerance {text!r}: not a number; allowed: e.g. 5% or 0.05") from None
+    if not 0 < value <= 1:
+        raise ValueError(f"--tolerance {text!r}: outside the allowed range (0, 100%]")
+    return value
