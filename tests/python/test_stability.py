@@ -94,7 +94,7 @@ def test_converged_chain_starts_in_equilibrium(fmu_path, tmp_path):
                                            plant.p.J_load])
     assert abs(m["gear2.mz"]) > 100.0
     assert np.max(np.abs(torques)) < 1e-3 * abs(m["gear2.mz"]), torques
-    assert dx[2] == 0.0
+    assert abs(dx[2]) < 1e-12  # machine at its set speed
 
 
 def test_converged_reference_is_sampled_at_the_run_times(fmu_path, tmp_path):
