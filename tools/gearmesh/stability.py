@@ -78,7 +78,7 @@ def expected(case: Case, mode: str, step: float) -> bool | None:
 CHAIN_TE_OPEN = {
     "load_detection_limit": "0.24 um at 1e-3 s, 2.6 um at 1e-2 s off the converged chain, while "
                             "within 0.03 um of the quasi-static TE at its own mesh load: the "
-                            "explicit cut's error in the mesh load (TE ~1.3 mm here)",
+                            "explicit cut's error in the mesh load (TE ~0.5 mm here)",
     "wedging_0.5mm": "1.6-6.8 um off the converged chain and 0.4-4.9 um off the quasi-static TE "
                      "at its own load: not explained yet",
 }
