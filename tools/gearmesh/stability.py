@@ -6,8 +6,8 @@ mode and step, a markdown and CSV table, and a plot of the largest stable step p
 Judgement of a run: every output finite; no error status (FMI error, discarded step, failed
 master); no unconverged solve; |energy residual| <= 1 % of the work in (initial energy + the
 positive work of each source); for the cases at 10 rpm the TE against the quasi-static TE of
-the same FMU at the same gear-1 angles, after the first 10 ms: mean and peak-to-peak within
-0.05 um; and the case's own checks (flanks hit, no contact, equal continuations after a
+the same FMU at the same gear-1 angles (or the converged dynamics, Case.te_reference), after the
+first 10 ms: mean and peak-to-peak within 0.05 um; and the case's own checks (flanks hit, no contact, equal continuations after a
 rollback).
 """
 from __future__ import annotations
@@ -54,13 +54,15 @@ class Row:
 def expected(case: Case, mode: str, step: float) -> bool | None:
     """What the suite expects of a run (all judgements); None = not asserted.
 
-    * large-step mode: passes at every step (on the cases of TE_NOT_COMPARED without the TE);
+    * large-step mode: passes at every step (large_step_chain: not asserted on CHAIN_TE_OPEN);
     * plain element, explicit master: fails from 1e-3 s on wherever the mesh is loaded (its
       limit is about 0.5 x 2/omega_mesh, 7e-5 s for set A on 0.02 kg m^2), passes at 1e-5 s
       on the cases of EXPLICIT_OK;
     * plain element, implicit master: passes at 1e-4 s and below on the cases of IMPLICIT_OK.
     """
     if mode == "large_step" and (case.random_steps or case.rollback):
+        return None
+    if mode == "large_step_chain" and case.name in CHAIN_TE_OPEN:
         return None
     if mode.startswith("large_step"):
         return True
@@ -71,15 +73,14 @@ def expected(case: Case, mode: str, step: float) -> bool | None:
     return True if step <= 1e-4 and case.name in IMPLICIT_OK else None
 
 
-# Cases where the quasi-static answer is not the large-step mode's reference for the TE (every
-# other judgement applies): measured, docs/stability.md; the reasons as the table prints them.
-TE_NOT_COMPARED = {
-    "damping_max": "the quasi-static mode balances the elastic slice forces only, the dynamics "
-                   "also the damping forces, which at 1e9 N s/m^2 move the TE by 2 um",
-    "wedging_0.5mm": "both flanks at ~2.5e5 N: 0.08-5 um off, not explained yet",
-    "load_detection_limit": "0.056 um at 1e-3 s whatever the tolerance: the mesh's own dynamics "
-                            "at the kinks of a TE curve under 4.7e5 N (not yet confirmed)",
-    "module_20mm": "0.13 um at 1e-2 s whatever the tolerance, 0.02 um at 1e-3 s (not explained yet)",
+# large_step_chain against the converged chain (te_reference "converged"): not asserted where it
+# is off, measured (docs/stability.md), with the reason as far as known.
+CHAIN_TE_OPEN = {
+    "load_detection_limit": "0.24 um at 1e-3 s, 2.6 um at 1e-2 s off the converged chain, while "
+                            "within 0.03 um of the quasi-static TE at its own mesh load: the "
+                            "explicit cut's error in the mesh load (TE ~0.5 mm here)",
+    "wedging_0.5mm": "1.6-6.8 um off the converged chain and 0.4-4.9 um off the quasi-static TE "
+                     "at its own load: not explained yet",
 }
 
 # Cases the plain element passes under the project's masters at small steps (measured,
@@ -107,11 +108,8 @@ def judge(case: Case, r: Run) -> tuple[bool | None, bool | None, str]:
         elif not rel <= ENERGY_TOL:
             unstable.append(f"energy residual {rel:.3g} of the work in")
         if case.te_check and not te_error(r) <= TE_TOL:
-            if r.mode.startswith("large_step") and case.name in TE_NOT_COMPARED:
-                notes.append(f"TE {te_error(r) * 1e6:.3g} um off the quasi-static (not judged: "
-                             f"{TE_NOT_COMPARED[case.name]})")
-            else:
-                inaccurate.append(f"TE {te_error(r) * 1e6:.3g} um off the quasi-static")
+            inaccurate.append(f"TE {te_error(r) * 1e6:.3g} um off the "
+                              f"{r.te_ref_kind or 'reference'}")
         seen = set(np.unique(r.flank).astype(int)) if len(r.flank) else set()
         if case.flanks and not set(case.flanks) <= seen:
             inaccurate.append(f"flanks seen {sorted(seen)}, expected {list(case.flanks)}")
@@ -124,7 +122,7 @@ def judge(case: Case, r: Run) -> tuple[bool | None, bool | None, str]:
 
 
 def te_error(r: Run) -> float:
-    """The larger of |mean difference| and |peak-to-peak difference| from the quasi-static TE
+    """The larger of |mean difference| and |peak-to-peak difference| from the reference TE
     over the judged window (after SETTLE)."""
     if r.te_ref is None or not len(r.te):
         return math.nan

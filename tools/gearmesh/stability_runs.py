@@ -29,13 +29,14 @@ import numpy as np
 
 from fmpy.fmi1 import FMICallException
 
-from gearmesh.drivetrain import Integrator
+from gearmesh.drivetrain import Drivetrain, DrivetrainPlant, Integrator
 from gearmesh.fmu_driver import FMUError, GearMeshFMU, _unpacked
 from gearmesh.gear_pair import GearPair, GearPairPlant, Shaft
 from gearmesh.stability_cases import SETTLE, SHAFT_C, SHAFT_K, Case, Geometry, driven_pair
 
 MODES = ["explicit", "implicit", "large_step", "large_step_chain"]
 CHAIN_J, CHAIN_KP, CHAIN_KI = 2.0, 50.0, 500.0
+REFERENCE_STEP = 5e-6   # s: the converged dynamics (implicit master) of te_reference "converged"
 LARGE_STEP = {"dynamics.tolerance": 1e-9, "dynamics.max_step": 1e-3, "dynamics.min_step": 1e-12}
 
 
@@ -49,6 +50,7 @@ class Prepared:
     geo: Geometry
     load: float
     pair: GearPair
+    converged: dict = field(default_factory=dict)  # plant -> (t, TE) of the converged dynamics
 
 
 @dataclass
@@ -74,7 +76,8 @@ class Run:
     rejected: int = 0
     rollback_gap: float = math.nan    # rollback case: largest difference of the continuations
     load: np.ndarray = field(default_factory=lambda: np.zeros(0))  # mesh load on gear 2, N m
-    te_ref: np.ndarray | None = None  # quasi-static TE at phi1 and that load (te_check cases)
+    te_ref: np.ndarray | None = None  # the reference TE at the samples (te_check cases)
+    te_ref_kind: str = ""             # "quasi-static" or "converged dynamics"
 
 
 def _value(v, geo):
@@ -172,10 +175,58 @@ def run(prep: Prepared, mode: str, h: float) -> Run:
     r.seconds = time.perf_counter() - start
     r.nan_count += int(np.count_nonzero(~np.isfinite(r.te)) + np.count_nonzero(~np.isfinite(r.force)))
     if prep.case.te_check and not r.error and len(r.phi1):
-        r.te_ref = quasi_static_te(prep.fmu_path, prep.params, prep.inputs,
-                                   r.load if len(r.load) == len(r.phi1) else prep.load, r.phi1,
-                                   *r.omega)
+        if prep.case.te_reference == "converged":
+            r.te_ref = converged_te(prep, "chain" if mode == "large_step_chain" else "pair", r.t)
+            r.te_ref_kind = "converged dynamics"
+        else:
+            r.te_ref = quasi_static_te(prep.fmu_path, prep.params, prep.inputs,
+                                       r.load if len(r.load) == len(r.phi1) else prep.load,
+                                       r.phi1, *r.omega)
+            r.te_ref_kind = "quasi-static"
     return r
+
+
+def converged_te(prep: Prepared, plant: str, times: np.ndarray) -> np.ndarray:
+    """The TE of the converged dynamics of the same system at the given times: the plain element
+    (model.dynamics 0) under the implicit master (gearmesh.drivetrain, trapezoidal rule, Newton)
+    at REFERENCE_STEP, an integrator and code path independent of the large-step mode. plant:
+    "pair" (the case's GearPair: the modes explicit, implicit, large_step) or "chain" (the
+    machine and load inertia of large_step_chain, as gearmesh.drivetrain's DrivetrainPlant).
+    Computed once per case and plant."""
+    if plant not in prep.converged:
+        with GearMeshFMU(prep.fmu_path, prep.params) as fmu:
+            fmu.set(prep.inputs)
+            model = chain_plant(prep, fmu) if plant == "chain" else GearPairPlant(prep.pair)
+            master = Integrator(fmu, model, REFERENCE_STEP, True)
+            master.advance(prep.case.t_end)
+            res = master.result()
+        prep.converged[plant] = (res.t[1:], np.asarray(res.mesh["mesh.te"], float))
+    t, te = prep.converged[plant]
+    return np.interp(times, t, te)
+
+
+def chain_plant(prep: Prepared, fmu: GearMeshFMU) -> DrivetrainPlant:
+    """large_step_chain's system (_run_chain) as a plant of the implicit master: machine (PI),
+    drive shaft, gear 1, mesh, gear 2, shaft, load inertia with the load torque; the same start
+    state. Cases with a speed-driven gear 1 and a constant load only."""
+    case, pair = prep.case, prep.pair
+    s1 = pair.shaft1
+    if not s1.stiffness > 0 or pair.torque1(0.0) != 0.0:
+        raise ValueError(f"{case.name}: the converged chain needs a speed-driven gear 1")
+    scale = s1.stiffness / SHAFT_K
+    load_torque = pair.torque2(0.0)
+    p = Drivetrain(speed_rpm=s1.omega * 60 / (2 * math.pi), brake_torque=abs(load_torque),
+                   J_motor=CHAIN_J * scale, J1=pair.J1, J2=pair.J2, J_load=CHAIN_J,
+                   k1=s1.stiffness, c1=s1.damping, k2=SHAFT_K, c2=SHAFT_C, kp=CHAIN_KP * scale,
+                   ki=CHAIN_KI * scale, spin_up=0.0)
+    plant = DrivetrainPlant(fmu, p)
+    if not math.isclose(p.brake_torque * plant._brake_sign(), load_torque, abs_tol=1e-12):
+        raise ValueError(f"{case.name}: the load torque {load_torque:g} N m does not resist the "
+                         "flank-A drive")
+    x0 = pair.x0
+    plant.x0[:9] = [s1.phi0, x0[1], s1.stiffness * s1.phi0 / p.ki, x0[0], x0[1], x0[2], x0[3],
+                    x0[2] + load_torque / SHAFT_K, x0[3]]
+    return plant
 
 
 # ---- (a), (b): the project's masters --------------------------------------------------------
