@@ -25,8 +25,8 @@ def quasi_static(fmu_path, mu):
     return GearMeshFMU(fmu_path, {**BASE, "model.friction_coefficient": mu, "model.quasi_static": True})
 
 
-def qs_te(qs, angle1, speed1, speed2, load=LOAD):
-    qs.step({"gear1.phi": angle1, "gear1.omega": speed1, "gear2.omega": speed2, "mesh.load_torque": load})
+def qs_te(qs, angle1, speed1, speed2):
+    qs.step({"gear1.phi": angle1, "gear1.omega": speed1, "gear2.omega": speed2, "mesh.load_torque": LOAD})
     return qs.get(["mesh.te"])["mesh.te"]
 
 
@@ -43,12 +43,13 @@ def start_values(fmu_path, mu):
             "gear1.shaft_omega": W1, "gear1.shaft_phi": -out["gear1.mz"] / SHAFT_K, "gear2.torque": LOAD}
 
 
-def judge(fmu_path, mu, t, te, angle1, speed1, speed2, energy, loads=None):
+def judge(fmu_path, mu, t, te, angle1, speed1, speed2, energy):
+    """TE against the quasi-static TE at the brake's constant load (not the run's own mesh
+    moment, which an element without mass would reproduce by construction)."""
     settled = t > 0.1
-    loads = np.full(len(t), LOAD) if loads is None else loads
     with quasi_static(fmu_path, mu) as qs:
-        ref = np.array([qs_te(qs, a, w1, w2, q) for a, w1, w2, q in
-                        zip(angle1[settled], speed1[settled], speed2[settled], loads[settled])])
+        ref = np.array([qs_te(qs, a, w1, w2) for a, w1, w2 in
+                        zip(angle1[settled], speed1[settled], speed2[settled])])
     te = te[settled]
     assert np.all(np.isfinite(te))
     assert np.ptp(ref) > 5e-6  # the comparison sees the mesh's TE variation
@@ -102,9 +103,9 @@ def test_explicit_chain_with_motor_and_load_outside(fmu_path, h):
     """Both gears on flexible couplings (k 2000 N m/rad): the stiff mesh stays inside the FMU,
     the soft coupling modes (~60-100 rad/s) cross the explicit cut. The load's coupling mode
     (~10 Hz) sits on the mesh frequency at 10 rpm (9.5 Hz), so the chain rings (gear speed
-    +-15 %) as the physics says: the run must stay bounded, and since the mesh itself (~2.5 kHz)
-    is still quasi-static, its TE at each point must match the quasi-static answer at that
-    point's mesh moment and speeds."""
+    +-15 %) as the physics says: the run must stay finite and bounded and close its energy
+    account. (Its TE is judged by the stability suite against the converged chain; a quasi-static
+    TE at each point's own mesh moment would match any undamped run by construction.)"""
     mu = 0.4
     start = start_values(fmu_path, mu)
     k = 2000.0
@@ -135,9 +136,7 @@ def test_explicit_chain_with_motor_and_load_outside(fmu_path, h):
     assert np.all(np.isfinite(a))
     n = len(a)
     assert np.ptp(a[-n // 3:, 3]) <= 1.1 * np.ptp(a[n // 3: 2 * n // 3, 3])  # no growth
-    # TE within 0.05 um of the quasi-static answer once the coupling transient has decayed
-    late = a[:, 0] > 0.3
-    judge(fmu_path, mu, a[late, 0], a[late, 1], a[late, 2], a[late, 3], a[late, 4], energy, a[late, 5])
+    assert abs(energy["energy.residual"]) <= 0.01 * energy["energy.work_in"]
 
 
 def test_discarded_step_leaves_the_instance_usable(fmu_path):

@@ -72,7 +72,7 @@ class Case:
     # gearmesh.stability_runs.converged_te): where the contact damping forces move the TE by
     # more than the tolerance, the quasi-static mode, which balances the elastic forces only
     # against a mesh load that includes them, is not the answer (docs/stability.md)
-    te_reference: str = "quasi_static"
+    te_reference: str = "converged"
     J: tuple = (0.02, 0.02)
     pair: Callable[["Case", Geometry, float], GearPair] | None = None  # custom setup
     flanks: tuple = ()                              # mesh.flank values the run must show
