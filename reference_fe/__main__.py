@@ -159,6 +159,46 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
     log(f"wrote {out_dir / stem}.te.csv, .summary.csv, .json")
 
 
+def _read_csv(path):
+    with open(path) as f:
+        return list(csv.DictReader(line for line in f if not line.startswith("#")))
+
+
+def compare(summary_csv, product_csv, teeth1: int, log=print):
+    """The product's TE curve (columns torque_Nm, gear1_phi_rad, te_m over whole pitches,
+    e.g. scenarios/<scene>.reference_te.csv) against the FE band: mean, p-p and mesh orders
+    1-3 per torque, and the product's value relative to plane strain and plane stress."""
+    fe = {}
+    for r in _read_csv(summary_csv):
+        if int(r["mesh_level"]) == 0:
+            fe[(r["model"], float(r["torque_Nm"]))] = r
+    prod = {}
+    for r in _read_csv(product_csv):
+        prod.setdefault(float(r["torque_Nm"]), []).append(
+            (float(r["gear1_phi_rad"]), float(r["te_m"])))
+    tau = 2 * np.pi / teeth1
+    rows = []
+    for T in sorted(prod):
+        pts = sorted(prod[T])
+        te = np.array([t for _, t in pts])
+        pitches = round((pts[-1][0] - pts[0][0] + (pts[1][0] - pts[0][0])) / tau)
+        X = np.fft.rfft(te)
+        ours = {"mean_te_m": te.mean(), "pp_te_m": te.max() - te.min()}
+        ours.update({f"order{k}_m": 2 * abs(X[k * pitches]) / len(te) for k in (1, 2, 3)})
+        for q in ("mean_te_m", "pp_te_m", "order1_m", "order2_m", "order3_m"):
+            band = [float(fe[(m, T)][q]) for m in analysis.MODELS if (m, T) in fe]
+            if len(band) != 2:
+                continue
+            lo, hi = min(band), max(band)
+            v = ours[q]
+            where = "inside" if lo <= v <= hi else ("below" if v < lo else "above")
+            rows.append((T, q, v, band[0], band[1], where))
+            log(f"{T:6g} N m {q:10s} product {v * 1e6:8.4f} um  FE plane strain "
+                f"{band[0] * 1e6:8.4f}  plane stress {band[1] * 1e6:8.4f}  -> {where} "
+                f"({(v / band[0] - 1) * 100:+.1f} % / {(v / band[1] - 1) * 100:+.1f} %)")
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m reference_fe")
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -174,7 +214,14 @@ def main(argv=None):
     r.add_argument("--penalty-factor", type=float, default=10.0)
     r.add_argument("--friction", type=float, default=0.0, help="Coulomb mu (0: frictionless)")
     r.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
+    c = sub.add_parser("compare", help="a product TE curve against the FE band")
+    c.add_argument("summary_csv", help="<scene>.reference_fe.summary.csv")
+    c.add_argument("product_csv", help="torque_Nm, gear1_phi_rad, te_m over whole pitches")
+    c.add_argument("--teeth1", type=int, required=True, help="gear 1's tooth count")
     a = ap.parse_args(argv)
+    if a.cmd == "compare":
+        compare(a.summary_csv, a.product_csv, a.teeth1)
+        return
     torques = [float(t) for t in a.torques.split(",")]
     models = a.models.split(",")
     for m in models + a.study_models.split(","):
