@@ -35,6 +35,28 @@ def _git_commit(path: pathlib.Path) -> str:
         return "unknown"
 
 
+def _portable_args(args):
+    """The command line without machine paths: --cache DIR dropped (it does not change results),
+    scene and output paths relative to the current directory."""
+    out, skip = [], False
+    for a in args:
+        if skip:
+            skip = False
+            continue
+        if a == "--cache":
+            skip = True
+            continue
+        if a.startswith("--cache="):
+            continue
+        if os.path.isabs(a):
+            try:
+                a = os.path.relpath(a)
+            except ValueError:
+                pass
+        out.append(a)
+    return out
+
+
 def _changes(base, other, torques):
     """Relative change (other - base) / base of mean and p-p TE at the same positions."""
     rows = []
@@ -123,7 +145,7 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
     prov = {
         "scene": spec.name,
         "scene_file": pathlib.Path(path).name,
-        "command": "python -m reference_fe " + " ".join(sys.argv[1:]),
+        "command": "python -m reference_fe " + " ".join(_portable_args(sys.argv[1:])),
         "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "git_commit": _git_commit(repo),
         "ccx_version": ccx.ccx_version(),
