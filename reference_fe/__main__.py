@@ -90,7 +90,7 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
         cases[f"{model}"] = (case, analysis.run_case(spec, base_model, case, range(n), n, torques,
                                                      cache, log))
     studies = {}
-    fine_model = None
+    fine_model = coarse_model = None
     subset = list(range(0, n, study_every)) if study_every else []
     for model in (study_models if subset else []):
         case0, res0 = cases[model]
@@ -100,12 +100,17 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
         res_k = analysis.run_case(spec, base_model, stiff, subset, n, torques, cache, log)
         if fine_model is None:
             fine_model = analysis.Model(spec, 1)
+            coarse_model = analysis.Model(spec, -1)
+        coarse = analysis.Case(model=model, level=-1, friction=friction)
+        res_c = analysis.run_case(spec, coarse_model, coarse, subset, n, torques, cache, log)
         fine = analysis.Case(model=model, level=1, friction=friction)
         res_f = analysis.run_case(spec, fine_model, fine, subset, n, torques, cache, log)
         studies[model] = {
             "positions": subset,
-            "mesh_convergence": {"levels": [0, 1], "changes": _changes(base_sub, res_f, torques),
-                                 "cost_level1": _cost(res_f)},
+            "mesh_convergence": {"levels": [-1, 0, 1],
+                                 "changes_level0_to_1": _changes(base_sub, res_f, torques),
+                                 "changes_level-1_to_0": _changes(res_c, base_sub, torques),
+                                 "cost_level1": _cost(res_f), "cost_level-1": _cost(res_c)},
             "penalty": {"penalties_Pa_per_m": [case0.penalty, stiff.penalty],
                         "changes": _changes(base_sub, res_k, torques),
                         "cost_stiff": _cost(res_k)},
@@ -169,7 +174,8 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
             "contact_ratio": pr.eps_alpha,
         },
         "mesh": {"level0": base_model.stats(),
-                 "level1": fine_model.stats() if fine_model else None},
+                 "level1": fine_model.stats() if fine_model else None,
+                 "level-1": coarse_model.stats() if coarse_model else None},
         "summary": summaries,
         "studies": studies,
         "cost": {label: _cost(res) for label, (case, res) in cases.items()},

@@ -37,7 +37,8 @@ class MeshSize:
 
 
 def default_size(m: float, level: int = 0) -> MeshSize:
-    """Mesh sizes in modules; level 1, 2 halve the sizes once, twice (h / 2^level)."""
+    """Mesh sizes in modules at refinement level L: h / 2^L (level 1 halves every size,
+    level -1 doubles it)."""
     base = MeshSize(h_contact=0.03 * m, h_tooth=0.2 * m, h_far=0.8 * m, h_body=2.5 * m,
                     grad=0.4)
     return base.refined(2.0 ** level) if level else base
