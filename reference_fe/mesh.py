@@ -78,7 +78,9 @@ def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> Ge
     prof = modified_profile(g)
     z = g.z
     fine = sorted({k % z for k in fine})
-    gmsh.initialize(["-noenv"]) if not gmsh.isInitialized() else None
+    own = not gmsh.isInitialized()
+    if own:
+        gmsh.initialize(["-noenv"])
     try:
         gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
         gmsh.model.add(f"gear{g.index}")
@@ -197,4 +199,6 @@ def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> Ge
         return GearMesh(nodes=xy, tri6=tri, bore=bore, contact_faces=np.array(faces),
                         contact_teeth=fine)
     finally:
-        gmsh.finalize()
+        gmsh.model.remove()
+        if own:
+            gmsh.finalize()
