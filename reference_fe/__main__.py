@@ -35,6 +35,11 @@ def _git_commit(path: pathlib.Path) -> str:
         return "unknown"
 
 
+def _g(x) -> str:
+    """A number for the CSV: shortest round-trip text of the float."""
+    return repr(float(x))
+
+
 def _portable_args(args):
     """The command line without machine paths: --cache DIR dropped (it does not change results),
     scene and output paths relative to the current directory."""
@@ -129,7 +134,7 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
                 for T, te in zip(r.torques, r.te):
                     w.writerow([spec.name, case.model, case.level, f"{case.penalty:.3g}",
                                 case.friction, f"{T:g}", r.position, r.n_positions,
-                                repr(r.dphi1), repr(te)])
+                                _g(r.dphi1), _g(te)])
     summaries = []
     with open(out_dir / f"{stem}.summary.csv", "w", newline="") as f:
         f.write("# per case and torque: mean, peak-to-peak and mesh orders 1-3 (amplitude) of "
@@ -142,9 +147,9 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
                 s = analysis.summary(res, ti)
                 summaries.append({"model": case.model, "torque_Nm": T, **s})
                 w.writerow([spec.name, case.model, case.level, f"{case.penalty:.3g}",
-                            case.friction, f"{T:g}", s["n_positions"], repr(s["mean_te_m"]),
-                            repr(s["pp_te_m"]), repr(s["order1_m"]), repr(s["order2_m"]),
-                            repr(s["order3_m"])])
+                            case.friction, f"{T:g}", s["n_positions"], _g(s["mean_te_m"]),
+                            _g(s["pp_te_m"]), _g(s["order1_m"]), _g(s["order2_m"]),
+                            _g(s["order3_m"])])
     pr = base_model.pair
     repo = pathlib.Path(__file__).resolve().parents[1]
     prov = {

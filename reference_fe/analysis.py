@@ -129,8 +129,8 @@ class Model:
         if res.returncode != 0 or len(ends) != len(torques):
             raise RuntimeError(f"ccx failed at position {k} (exit {res.returncode}, "
                                f"{len(ends)}/{len(torques)} steps):\n{res.log_tail}")
-        te = [pr.g1.rb * (theta0 + ends[s + 1]) for s in range(len(torques))]
-        return PositionResult(position=k, n_positions=n, dphi1=dphi, te=te,
+        te = [float(pr.g1.rb * (theta0 + ends[s + 1])) for s in range(len(torques))]
+        return PositionResult(position=k, n_positions=n, dphi1=float(dphi), te=te,
                               torques=list(torques), wall_s=res.wall_s,
                               max_rss_MiB=res.max_rss_MiB)
 
