@@ -241,7 +241,7 @@ def main(argv=None):
     r.add_argument("--positions", type=int, default=20, help="positions per pitch (>= 20)")
     r.add_argument("--models", default="plane_strain,plane_stress")
     r.add_argument("--torques", default="50,150,250,350", help="N m")
-    r.add_argument("--study-every", type=int, default=4,
+    r.add_argument("--study-every", type=int, default=5,
                    help="convergence/penalty studies at every k-th position (0: none)")
     r.add_argument("--study-models", default="plane_strain,plane_stress")
     r.add_argument("--penalty-factor", type=float, default=10.0)
