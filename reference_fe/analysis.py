@@ -1,0 +1,186 @@
+"""Loaded transmission error of a scene's spur pair by CalculiX, over positions in one pitch.
+
+Position k of n: gear 1 turned dphi1 = k (2 pi / z1) / n from position 0, where flank A of
+tooth 0 of both gears touches at the pitch point (unloaded, unmodified), gear 2 turned
+conjugately (-dphi1 z1 / z2) and clamped at its bore. Gear 1 is placed turned a further
+theta0 = (unloaded TE + engage) / r_b1 (so that the contact is closed from the first iteration),
+then the torques are applied one step each. TE = r_b1 (theta0 + theta_FE): gear 1's rotation
+past the rigid-body kinematic angle along the line of action, positive = approach on flank A,
+the product's sign convention (repository README, "FMU interface"; with gear 2 held, its
+TE = r_b1 phi1 + r_b2 phi2 reduces to r_b1 times gear 1's extra rotation).
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import os
+import tempfile
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from . import ccx, mesh
+from .geometry import Pair
+from .scene import PairSpec
+
+MODELS = ("plane_strain", "plane_stress")
+DEFAULT_PENALTY = 1.0e16   # Pa/m: 0.06 um overclosure at 600 MPa contact pressure
+ENGAGE = 0.3e-6            # m, initial closure past the first touch
+
+
+@dataclass
+class Case:
+    model: str = "plane_strain"
+    level: int = 0                     # mesh refinement level (sizes / 2^level)
+    penalty: float = DEFAULT_PENALTY   # Pa/m
+    friction: float = 0.0              # Coulomb mu (0: frictionless)
+    element: str = "CPE6"              # CPE6 (plane stress by the equivalent material) / CPS6
+
+    def key(self) -> str:
+        return f"{self.model}|L{self.level}|K{self.penalty:.3g}|mu{self.friction:g}|{self.element}"
+
+
+@dataclass
+class PositionResult:
+    position: int
+    n_positions: int
+    dphi1: float
+    te: list[float]             # m, one per torque
+    torques: list[float]
+    wall_s: float
+    max_rss_MiB: float
+    iterations_note: str = ""
+
+
+def fine_teeth(pair: Pair) -> tuple[list[int], list[int]]:
+    """Teeth that can touch while gear 1 turns one pitch from position 0 (pairs within the
+    path of contact, plus one tooth of margin for tip-corner contact under load): gear 1's
+    tooth j meshes gear 2's tooth -j."""
+    js = []
+    ext = 0.15 * pair.pb          # extension of the path under load (margin)
+    for j in range(-3, 4):
+        lo = pair.rho_pitch1 + pair.g1.rb * j * pair.g1.tau
+        hi = lo + pair.pb
+        if hi >= pair.rho_sap1 - ext and lo <= pair.rho_tip1 + ext:
+            js.append(j)
+    return js, [-j for j in js]
+
+
+def place(m: mesh.GearMesh, phi: float, cx: float) -> mesh.GearMesh:
+    out = copy.copy(m)
+    c, s = math.cos(phi), math.sin(phi)
+    x, y = m.nodes[:, 0], m.nodes[:, 1]
+    out.nodes = np.column_stack([c * x - s * y + cx, s * x + c * y])
+    return out
+
+
+class Model:
+    """The two meshed gears of a scene at one refinement level (meshed once, placed per
+    position)."""
+
+    def __init__(self, spec: PairSpec, level: int, size: mesh.MeshSize | None = None):
+        self.spec = spec
+        self.pair = Pair(spec)
+        self.level = level
+        self.size = size or mesh.default_size(spec.module, level)
+        f1, f2 = fine_teeth(self.pair)
+        self.m1 = mesh.build(self.pair.g1, self.size, f1)
+        self.m2 = mesh.build(self.pair.g2, self.size, f2)
+
+    def stats(self) -> dict:
+        return {"gear1": self.m1.stats, "gear2": self.m2.stats,
+                "size_m": asdict(self.size), "fine_teeth_gear1": self.m1.contact_teeth,
+                "fine_teeth_gear2": self.m2.contact_teeth}
+
+    def materials(self, case: Case):
+        mats = [ccx.Material(self.pair.g1.E, self.pair.g1.nu),
+                ccx.Material(self.pair.g2.E, self.pair.g2.nu)]
+        if case.model == "plane_stress" and case.element == "CPE6":
+            mats = [ccx.plane_stress_equivalent(m) for m in mats]
+        return mats
+
+    def element(self, case: Case) -> str:
+        if case.element == "CPS6" and case.model != "plane_stress":
+            raise ValueError("CPS6 is plane stress")
+        return case.element
+
+    def solve_position(self, case: Case, k: int, n: int, torques, workdir) -> PositionResult:
+        pr = self.pair
+        dphi = k * pr.g1.tau / n
+        phi1, phi2 = pr.rotations(dphi)
+        te0 = pr.unloaded_te(dphi)
+        if not math.isfinite(te0):
+            raise RuntimeError(f"position {k}: no tooth pair on the path of contact")
+        theta0 = (te0 + ENGAGE) / pr.g1.rb
+        b1 = place(self.m1, phi1 + theta0, 0.0)
+        b2 = place(self.m2, phi2, pr.a)
+        os.makedirs(workdir, exist_ok=True)
+        ccx.write_deck(os.path.join(workdir, "gears.inp"), [b1, b2], pr.g1.b,
+                       self.materials(case), list(torques), case.penalty,
+                       friction=case.friction, element=self.element(case))
+        res = ccx.run(workdir)
+        ends = {}
+        for t, rot in res.rotations:        # the last increment of step s ends at time s
+            s = round(t)
+            if abs(t - s) < 1e-6 and s >= 1:
+                ends[s] = rot
+        if res.returncode != 0 or len(ends) != len(torques):
+            raise RuntimeError(f"ccx failed at position {k} (exit {res.returncode}, "
+                               f"{len(ends)}/{len(torques)} steps):\n{res.log_tail}")
+        te = [float(pr.g1.rb * (theta0 + ends[s + 1])) for s in range(len(torques))]
+        return PositionResult(position=k, n_positions=n, dphi1=float(dphi), te=te,
+                              torques=list(torques), wall_s=res.wall_s,
+                              max_rss_MiB=res.max_rss_MiB)
+
+
+def orders(te: np.ndarray, count: int = 3) -> list[float]:
+    """Amplitudes of mesh orders 1..count of TE sampled at n equidistant positions over one
+    pitch (periodic, end point excluded): 2 |X_k| / n of numpy's FFT."""
+    X = np.fft.rfft(np.asarray(te))
+    n = len(te)
+    return [float(2 * abs(X[k]) / n) if k < len(X) else float("nan")
+            for k in range(1, count + 1)]
+
+
+def summary(positions: list[PositionResult], torque_index: int) -> dict:
+    te = np.array([p.te[torque_index] for p in sorted(positions, key=lambda p: p.position)])
+    full = len(te) == positions[0].n_positions
+    out = {"n_positions": len(te), "mean_te_m": float(te.mean()),
+           "pp_te_m": float(te.max() - te.min())}
+    o = orders(te) if full else [float("nan")] * 3
+    out.update({f"order{k}_m": o[k - 1] for k in (1, 2, 3)})
+    return out
+
+
+def cache_key(spec: PairSpec, model: Model, case: Case, k: int, n: int, torques) -> str:
+    """A run is redone only if something that changes its deck changed."""
+    blob = json.dumps({"scene": open(spec.path, "rb").read().decode(), "case": case.key(),
+                       "size": asdict(model.size), "k": k, "n": n, "torques": list(torques),
+                       "version": 1}, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def run_case(spec: PairSpec, model: Model, case: Case, positions, n: int, torques,
+             cache_dir: str | None = None, log=print) -> list[PositionResult]:
+    """Solve the given positions (indices of n) of one case, reusing cached runs."""
+    cache_dir = cache_dir or os.path.join(tempfile.gettempdir(), "reference_fe_cache")
+    os.makedirs(cache_dir, exist_ok=True)
+    out = []
+    for k in positions:
+        key = cache_key(spec, model, case, k, n, torques)
+        path = os.path.join(cache_dir, key + ".json")
+        if os.path.exists(path):
+            with open(path) as f:
+                out.append(PositionResult(**json.load(f)))
+            continue
+        with tempfile.TemporaryDirectory(prefix="reference_fe_") as wd:
+            r = model.solve_position(case, k, n, torques, wd)
+        with open(path, "w") as f:
+            json.dump(asdict(r), f)
+        log(f"{spec.name} {case.key()} position {k}/{n}: TE "
+            + " ".join(f"{t * 1e6:.3f}" for t in r.te) + f" um, {r.wall_s:.1f} s, "
+            f"{r.max_rss_MiB:.0f} MiB")
+        out.append(r)
+    return out

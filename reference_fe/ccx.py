@@ -1,0 +1,191 @@
+"""CalculiX (ccx) input deck of the two-gear contact model, the run, and the result parser.
+
+Model (units in the deck: mm, N, MPa, N mm; converted from SI here and only here):
+
+* both gears as CPE6 (plane strain, 6-node triangles; CalculiX expands them into one layer of
+  15-node wedges of the face width's thickness with the out-of-plane displacement held);
+  plane stress is the same plane-strain model with the exactly equivalent material
+  E' = E (1 + 2 nu) / (1 + nu)^2, nu' = nu / (1 + nu) (for isotropic linear elasticity the
+  2-D equations of plane stress with (E, nu) are those of plane strain with (E', nu'):
+  S. Timoshenko, J. N. Goodier, "Theory of Elasticity", 3rd ed., section 16). Option
+  `native_plane_stress` uses CalculiX's own CPS6 instead, for comparison.
+* gear 2's bore nodes clamped; gear 1's bore nodes turn rigidly about gear 1's axis with one
+  rotation theta, linear multi-point constraints u_x = -theta y, u_y = theta x (*EQUATION; the
+  rotation is ~1e-4 rad, the neglected second-order term ~1e-10 m), theta the first DOF of an
+  extra node that carries the torque as its force (work-conjugate: sum f . du = M dtheta).
+  (CalculiX's own *RIGID BODY, a nonlinear MPC, made the matrix singular once the torque was
+  applied to the expanded plane elements: tried, dropped.)
+* frictionless (optionally Coulomb) surface-to-surface penalty contact, linear
+  pressure-overclosure with slope `penalty` (N/mm^3 in the deck): slave = flank A and tips of
+  gear 1's fine teeth, master = the same of gear 2;
+* one step per torque (moment about z on the rotation node, totals, not increments); gear 1
+  is placed (by the caller) turned a little past the rigid contact so that the contact is
+  closed from the first iteration (a rigid body without contact has no static equilibrium
+  under a torque); *NODE PRINT of the rotation node's rotation at the end of every increment.
+"""
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+MM = 1e3  # m -> mm
+
+
+@dataclass
+class Material:
+    E: float    # Pa
+    nu: float
+
+
+def plane_stress_equivalent(mat: Material) -> Material:
+    """Plane-strain constants that give the plane-stress solution of (E, nu)."""
+    return Material(E=mat.E * (1 + 2 * mat.nu) / (1 + mat.nu) ** 2, nu=mat.nu / (1 + mat.nu))
+
+
+def _fmt_rows(rows, per_line=8):
+    out = []
+    for r in rows:
+        for i in range(0, len(r), per_line):
+            out.append(", ".join(str(v) for v in r[i:i + per_line]) +
+                       ("," if i + per_line < len(r) else ""))
+    return "\n".join(out)
+
+
+def write_deck(path, bodies, thickness, materials, torques, penalty,
+               friction=0.0, element="CPE6"):
+    """bodies: two GearMesh-like objects already placed (nodes in the housing frame, m).
+
+    thickness: face width (m); materials: two Material; torques: N m list (one step each);
+    penalty: pressure per overclosure, Pa/m. Returns the number of the rotation node."""
+    lines = ["** GearMesh reference_fe: two spur gears in contact (units mm, N, MPa)",
+             "*NODE, NSET=NALL"]
+    offsets, eoffsets = [], []
+    n0 = e0 = 0
+    for b in bodies:
+        offsets.append(n0)
+        eoffsets.append(e0)
+        for i, (x, y) in enumerate(b.nodes * MM):
+            lines.append(f"{n0 + i + 1}, {x:.12e}, {y:.12e}, 0.0")
+        n0 += len(b.nodes)
+        e0 += len(b.tri6)
+    rot = n0 + 1   # carries gear 1's rotation (rad) as its DOF 1, the moment (N mm) as its force
+    lines.append(f"{rot}, 0.0, 0.0, 0.0")
+    for gi, b in enumerate(bodies):
+        lines.append(f"*ELEMENT, TYPE={element}, ELSET=G{gi + 1}")
+        conn = b.tri6 + 1 + offsets[gi]
+        ids = np.arange(len(b.tri6)) + 1 + eoffsets[gi]
+        lines.append(_fmt_rows(np.column_stack([ids, conn]).tolist(), per_line=16))
+    for gi, b in enumerate(bodies):
+        lines.append(f"*NSET, NSET=BORE{gi + 1}")
+        lines.append(_fmt_rows([(b.bore + 1 + offsets[gi]).tolist()], per_line=16))
+        lines.append(f"*SURFACE, NAME=FLANK{gi + 1}, TYPE=ELEMENT")
+        for e, j in b.contact_faces:
+            lines.append(f"{e + 1 + eoffsets[gi]}, S{j}")
+    lines += [f"*NSET, NSET=ROT\n{rot}"]
+    for gi, mat in enumerate(materials):
+        lines += [f"*MATERIAL, NAME=M{gi + 1}", "*ELASTIC", f"{mat.E / 1e6:.9e}, {mat.nu:.9f}",
+                  f"*SOLID SECTION, ELSET=G{gi + 1}, MATERIAL=M{gi + 1}",
+                  f"{thickness * MM:.9e}"]
+    # gear 1's bore turns rigidly about the axis: u = theta e_z x r, linear (small rotation:
+    # theta ~ 1e-4 rad, the neglected second-order term theta^2 r ~ 1e-10 m)
+    lines.append("*EQUATION")
+    b = bodies[0]
+    for k in b.bore:
+        x, y = b.nodes[k] * MM
+        n = k + 1 + offsets[0]
+        lines += ["2", f"{n}, 1, 1.0, {rot}, 1, {y:.12e}", "2", f"{n}, 2, 1.0, {rot}, 1, {-x:.12e}"]
+    lines += ["*SURFACE INTERACTION, NAME=SI",
+              "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR",
+              f"{penalty / 1e6 / MM:.6e}, 1.0e-3"]
+    if friction > 0:
+        # stick slope: a tangential stiffness per area of the same order as the penalty
+        lines += ["*FRICTION", f"{friction:.6f}, {penalty / 1e6 / MM / 10:.6e}"]
+    lines += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "FLANK1, FLANK2"]
+    fixed = ["BORE2, 1, 2", "ROT, 2, 3"]
+    lines += ["*BOUNDARY"] + fixed
+    for T in torques:
+        lines += ["*STEP, INC=1000", "*STATIC", "1.0, 1.0, 1e-6, 1.0",
+                  "*CLOAD", f"ROT, 1, {T * 1e3:.9e}",
+                  "*NODE PRINT, NSET=ROT", "U",
+                  "*END STEP"]
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return rot
+
+
+@dataclass
+class RunResult:
+    rotations: list[float]   # rotation of gear 1 (rad) at the end of each step
+    wall_s: float
+    max_rss_MiB: float
+    returncode: int
+    log_tail: str
+
+
+def ccx_version() -> str:
+    exe = shutil.which("ccx")
+    if exe is None:
+        return "not installed"
+    try:
+        out = subprocess.run([exe, "-v"], capture_output=True, text=True, timeout=30).stdout
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    m = re.search(r"[Vv]ersion\s*([0-9.]+)", out)
+    return m.group(1) if m else out.strip()[:80]
+
+
+def run(workdir, job="gears", timeout=3600) -> RunResult:
+    """Run ccx on workdir/job.inp single-threaded; wall time and peak resident memory."""
+    exe = shutil.which("ccx")
+    if exe is None:
+        raise RuntimeError("ccx (CalculiX) not found: install the Debian package calculix-ccx "
+                           "(tools/bootstrap.sh does)")
+    env = dict(os.environ, OMP_NUM_THREADS="1", CCX_NPROC_EQUATION_SOLVER="1",
+               CCX_NPROC_RESULTS="1", CCX_NPROC_STIFFNESS="1")
+    t0 = time.perf_counter()
+    with open(os.path.join(workdir, "ccx.log"), "w") as log:
+        proc = subprocess.Popen([exe, "-i", job], cwd=workdir, stdout=log,
+                                stderr=subprocess.STDOUT, env=env)
+        deadline = t0 + timeout
+        while True:
+            pid, status, rusage = os.wait4(proc.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() > deadline:
+                proc.kill()
+                pid, status, rusage = os.wait4(proc.pid, 0)
+                break
+            time.sleep(0.05)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.perf_counter() - t0
+    with open(os.path.join(workdir, "ccx.log")) as f:
+        tail = f.read()[-3000:]
+    rot = parse_rotations(os.path.join(workdir, job + ".dat"))
+    return RunResult(rotations=rot, wall_s=wall, max_rss_MiB=rusage.ru_maxrss / 1024.0,
+                     returncode=proc.returncode, log_tail=tail)
+
+
+_BLOCK = re.compile(r"displacements \(vx,vy,vz\) for set ROT and time\s+([0-9.Ee+-]+)")
+
+
+def parse_rotations(dat_path) -> list[float]:
+    """(time, rotation) of the rotation node at the end of every increment, in order."""
+    if not os.path.exists(dat_path):
+        return []
+    text = open(dat_path).read().splitlines()
+    out = []
+    for i, line in enumerate(text):
+        hit = _BLOCK.search(line)
+        if hit:
+            for row in text[i + 1:i + 4]:
+                parts = row.split()
+                if len(parts) == 4:
+                    out.append((float(hit.group(1)), float(parts[1])))
+                    break
+    return out
