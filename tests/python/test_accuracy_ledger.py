@@ -19,11 +19,10 @@ from gearmesh.scene_fmu import build_scene_fmu
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "tests" / "python" / "fixtures" / "accuracy"
-# The committed ledger. Until the FE reference of scenarios/reference/ is committed, the ledger
-# made from the hand-made fixture summary (FIXTURES, labelled there); then
-# scenarios/reference/ledger_small.csv (`python -m gearmesh accuracy scenarios/paper_setA_3U4U.toml
-# --settings quick --out DIR`, its accuracy.csv).
-LEDGER = FIXTURES / "ledger_small.fixture.csv"
+# The committed ledger against the committed FE reference (scenarios/reference/):
+# `python -m gearmesh accuracy scenarios/paper_setA_3U4U.toml --settings quick --out DIR`, its
+# accuracy.csv; regenerated only on purpose, with the reason in the commit message.
+LEDGER = REPO / "scenarios" / "reference" / "ledger_small.csv"
 
 
 def _recompute(ledger: pathlib.Path, fmu_path: pathlib.Path, out: pathlib.Path) -> list[dict]:
