@@ -57,24 +57,27 @@ def test_large_step_mode_stable_at_large_steps(quick_rows):
 
 
 def test_large_step_mode_passes_at_large_steps(quick_rows):
-    """Every judgement, TE included, on every quick case at 1e-3 and 1e-2 s (the rollback case
-    is not applicable to simulate_fmu's fixed steps, so n/a there)."""
+    """Every judgement, TE against the converged dynamics included, on every quick case at 1e-3
+    and 1e-2 s: through simulate_fmu always (the rollback case is not applicable to its fixed
+    steps, so n/a there); in the chain except the cases of CHAIN_TE_OPEN, whose stability and
+    energy must still hold."""
     rows = [r for r in quick_rows if r.mode.startswith("large_step") and r.step >= 1e-3
             and r.passed is not None]
     assert len(rows) >= 2 * (2 * len(select(None, quick=True)) - 1)
-    bad = [f"{r.case} {r.mode} {r.step:g}: {r.failed}" for r in rows if not r.passed]
+    open_ = [r for r in rows if r.mode == "large_step_chain" and r.case in stability.CHAIN_TE_OPEN]
+    bad = [f"{r.case} {r.mode} {r.step:g}: {r.failed}" for r in rows
+           if not (r.stable if r in open_ else r.passed)]
     assert not bad, "\n".join(bad)
+    assert all(r.mode == "large_step_chain" for r in open_)
 
 
 def test_te_references():
-    """The cases whose TE the contact damping moves off the quasi-static answer are judged
-    against the converged dynamics (docs/stability.md); every other TE case against the
-    quasi-static mode."""
+    """Every TE case is judged against the converged dynamics (docs/stability.md: the
+    quasi-static TE at a run's own mesh moment would reproduce an undamped run by construction);
+    the chain's open cases are TE cases."""
     refs = {c.name: c.te_reference for c in select(None) if c.te_check}
-    assert set(refs.values()) == {"quasi_static", "converged"}
-    assert {n for n, v in refs.items() if v == "converged"} == {
-        "load_detection_limit", "wedging_0.5mm", "damping_max", "module_20mm"}
-    assert set(stability.CHAIN_TE_OPEN) <= {n for n, v in refs.items() if v == "converged"}
+    assert len(refs) >= 20 and set(refs.values()) == {"converged"}
+    assert set(stability.CHAIN_TE_OPEN) <= set(refs)
 
 
 def test_converged_chain_starts_in_equilibrium(fmu_path, tmp_path):
