@@ -79,6 +79,9 @@ CHAIN_TE_OPEN = {
     "load_detection_limit": "0.24 um at 1e-3 s, 2.6 um at 1e-2 s off the converged chain, while "
                             "within 0.03 um of the quasi-static TE at its own mesh load: the "
                             "explicit cut's error in the mesh load (TE ~0.5 mm here)",
+    "load_100x": "0.15 um at 1e-3 s, 1.6 um at 1e-2 s off the converged chain (20 000 N m): the "
+                 "explicit cut's error in the mesh load; simulate_fmu passes",
+    "mu0.5_v0_0.01mm_s": "0.45 um at 1e-2 s off the converged chain: as mu0.5_v0_1mm_s",
     "mu0.5_v0_1mm_s": "0.35 um at 1e-2 s off the converged chain (the quick subset, converged "
                       "reference): the explicit cut holds the shaft torques over 10 ms, which "
                       "moves the mesh load; the same FMU under simulate_fmu passes",
