@@ -109,7 +109,7 @@ typedef enum {
   GM_LOG_COUNT
 } gm_log_category;
 
-/* Micro-geometry of gear i (PHYSICS 2), one set per gear for BOTH flanks: the rows are bound to
+/* Micro-geometry of gear i (docs/physics.md §2), one set per gear for BOTH flanks: the rows are bound to
  * flank A, p.gear[n].flank[0], and the model binding copies flank[0] to flank[1] just before
  * gm_model_create (model_gearmesh.c, core_params). Asymmetric or per-tooth deviations come
  * through the deviation file (gear<i>.deviations). One line per variable:
@@ -173,7 +173,7 @@ typedef enum {
   X("gear" #i ".form_diameter", Real, calculatedParameter, fixed, calculated, "m", "mm", "", "", g.gear[n].d_Ff,   \
     D_GEO, "root form diameter d_Ff")
 
-/* Inputs of gear i, in the housing frame H (PHYSICS 0). */
+/* Inputs of gear i, in the housing frame H (docs/physics.md §0). */
 #define GM_FMU_GEAR_INPUTS(X, i, n)                                                                                 \
   X("gear" #i ".ux", Real, input, continuous, exact, "m", "um", "", "", k.u[n][0], D_POSE, "centre displacement x") \
   X("gear" #i ".uy", Real, input, continuous, exact, "m", "um", "", "", k.u[n][1], D_POSE, "centre displacement y") \

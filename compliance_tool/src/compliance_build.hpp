@@ -1,4 +1,4 @@
-// Compliance database builder of compliance_tool (PHYSICS 5, FE level; DESIGN "compliance_tool"):
+// Compliance database builder of compliance_tool (docs/physics.md §5, FE level; docs/design.md "compliance_tool"):
 // one gear of validated parameters -> gear-body mesh (gear_mesh.hpp) -> bore clamped -> TET10
 // stiffness, one CHOLMOD factorization (fe_elasticity.hpp) -> unit normal loads on the flank grid
 // of the reference tooth -> normal displacements at depth h on that tooth and its +-n_c
@@ -29,7 +29,7 @@
 // * Bore: clamped (all its nodes' displacements zero). With the gear centre held fixed, tying the
 //   bore rigidly to the centre (an RBE2 spider) is the same constraint: a rigid bore whose centre
 //   does not move cannot move at all. So there is no separate "rigid tie" option.
-// * Symmetry (PHYSICS 5; paper 2.2): a generated body without lightening holes is cyclic per
+// * Symmetry (docs/physics.md §5; paper 2.2): a generated body without lightening holes is cyclic per
 //   tooth; with N equally spaced holes (hole 0 on tooth 0's centre line) its rotational symmetry
 //   order is g = gcd(z, N), a user-supplied mesh is taken as g = 1. If g = z (and every_tooth is
 //   not set) tooth 0's flank A is loaded and the database is cyclic = 1, mirror = 1 (flank B =

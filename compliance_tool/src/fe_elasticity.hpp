@@ -1,4 +1,4 @@
-// Linear elastic finite elements for compliance_tool (PHYSICS 5, FE level): quadratic
+// Linear elastic finite elements for compliance_tool (docs/physics.md §5, FE level): quadratic
 // tetrahedra, isotropic material, global sparse stiffness, Dirichlet constraints by
 // elimination, one CHOLMOD factorization reused for many load cases, and the flank
 // compliance C(k, j) = n_k · u_k under a unit load at node j along n_j.

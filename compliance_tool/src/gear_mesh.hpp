@@ -1,15 +1,15 @@
-// Gear-body mesher of compliance_tool (DESIGN.md "compliance_tool"; PHYSICS 1 and 5): one gear of
+// Gear-body mesher of compliance_tool (docs/design.md "compliance_tool"; docs/physics.md §1 and 5): one gear of
 // a scene -> gmsh model of the whole gear -> 3-D quadratic tetrahedral mesh plus the node sets the
 // FE stage needs (the clamped surface; per tooth and flank the flank surface nodes with their roll
 // distance and face coordinate). Or, with GearBodyOptions::mesh_file, the same from a user's mesh.
 //
 // Geometry (body frame of the gear): z along the gear axis, z = 0 at mid-face (the face
-// coordinate of PHYSICS 1 and the core's micro-geometry), the face from -b/2 to +b/2. Tooth k's
+// coordinate of docs/physics.md §1 and the core's micro-geometry), the face from -b/2 to +b/2. Tooth k's
 // centre line (internal ring: the centre line of SPACE k) in the section z lies at angle
 //   theta_k(z) = 2 pi k / |z| + hand * z * tan(beta_b) / r_b
 // (hand +1 right, -1 left, 0 spur: gear 1 takes the sign of pair.helix_angle, gear 2 of an
 // external pair the opposite one, the ring of an internal pair the same one), i.e. the section at
-// z is the section at 0 turned by z tan(beta_b)/r_b as PHYSICS 1 says. Flank A is the
+// z is the section at 0 turned by z tan(beta_b)/r_b as docs/physics.md §1 says. Flank A is the
 // counter-clockwise (+theta) side of each tooth, flank B the clockwise side (see
 // tooth_outline.hpp). Internal ring: "tooth k" is space k, as in the core's detection
 // (detection.hpp: the ring's "tooth" is the space, flank sigma = +1 at theta_c + eta_b - inv

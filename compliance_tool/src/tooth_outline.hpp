@@ -15,7 +15,7 @@
 // slightly different (trochoidal) fillet; the arc is documented as an approximation.
 //
 // Frame of the tooth: x along the tooth centre line (radial), y across it. Flank A is the +y side
-// (counter-clockwise side of the tooth; PHYSICS 0: the flank that carries load when gear 1 turns
+// (counter-clockwise side of the tooth; docs/physics.md §0: the flank that carries load when gear 1 turns
 // in +phi and drives; by detection.hpp's rho_i = r_b (sigma (theta_c - ...) + eta + alpha_w) the
 // same side for both gears of an external pair), flank B the -y side.
 #pragma once

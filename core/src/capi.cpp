@@ -111,7 +111,7 @@ gm_status build_user_tables(const gm_model_params& p, const gm_pair_geometry& g,
   return GM_OK;
 }
 
-// Design facts that do not stop the model but that a user must hear of (PHYSICS 1).
+// Design facts that do not stop the model but that a user must hear of (docs/physics.md §1).
 std::string design_warnings(const gm_pair_geometry& g) {
   std::string w;
   const auto add = [&](const std::string& text) { w += (w.empty() ? "" : "; ") + text; };
@@ -192,7 +192,7 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
       copy_message(text, msg, msg_size);
       return st;
     }
-    // Stiffness data of the level (PHYSICS 5).
+    // Stiffness data of the level (docs/physics.md §5).
     gm::IsoStiffness iso{};
     gm::ToothSection tooth[2];
     if (p->stiffness_level == GM_STIFFNESS_ISO6336 || p->stiffness_level == GM_STIFFNESS_TIME_VARYING) {

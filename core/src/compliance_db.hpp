@@ -1,4 +1,4 @@
-// Compliance database of one gear body (DESIGN.md "compliance_tool", PHYSICS.md section 5, FE
+// Compliance database of one gear body (docs/design.md "compliance_tool", docs/physics.md §5, FE
 // level): written by compliance_tool, read by the core at gm_model_create.
 //
 // FILE FORMAT, version 1 (extension .gcdb). Binary, every number in explicit little-endian byte
@@ -31,7 +31,7 @@
 //   129     mesh_order          u32    element order used, 1 or 2
 //   133     mesh_face_layers    u32    element layers across the face width, >= 1
 //   137     depth               f64    h, depth below the flank at which displacements are
-//                                      taken (PHYSICS 5), m, > 0
+//                                      taken (docs/physics.md §5), m, > 0
 //   145     note                str    free text (tool version, mesh file, date, ...)
 //   then (offsets now depend on the note's length):
 //           cyclic              u32    1: cyclically symmetric body, one tooth set serves every

@@ -1,4 +1,4 @@
-// Normal slice forces from approaches (paper section 2.2, eq. 1-4; PHYSICS.md sections 5-6).
+// Normal slice forces from approaches (paper section 2.2, eq. 1-4; docs/physics.md §5-§6).
 //
 // Levels 0-4 have no coupling between slices (the paper's
 // Standard and Analytical levels, Figure 1: "convective coupling: no"), so C is diagonal and

@@ -1,5 +1,5 @@
 // Contact detection: helical and spur, external and internal, both flanks, slices, tilts (two
-// steps), micro-geometry, tip contact, contact velocities (PHYSICS.md section 3).
+// steps), micro-geometry, tip contact, contact velocities (docs/physics.md §3).
 #include "detection.hpp"
 
 #include <algorithm>
@@ -195,7 +195,7 @@ MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
     // External: the mesh lies at +x of gear 1 and at -x of gear 2. Internal: the pinion sits
     // inside the ring at the ring's -x side, so both see the mesh at -x.
     L.zeta[i] = (i == 0 && L.sign > 0) ? 0.0 : kPi;
-    // Reference configuration (PHYSICS 0): at phi = 0 the flank A involutes of tooth 0 and of
+    // Reference configuration (docs/physics.md §0): at phi = 0 the flank A involutes of tooth 0 and of
     // tooth (space) 0 meet at the pitch point, rho_i = r_bi tan alpha_wt, in the plane of the
     // gear centres.
     L.theta0[i] = L.zeta[i] + inv_w - L.eta[i];
@@ -345,10 +345,10 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
             n_t = n_line;
             point = T1 + t * n_line;
             path = (t - S.t_lo) / (S.t_hi - S.t_lo);
-            gain = T(sigma);  // d(Delta_t)/d(TE): rho_2 moves with phi_2 (PHYSICS 3)
+            gain = T(sigma);  // d(Delta_t)/d(TE): rho_2 moves with phi_2 (docs/physics.md §3)
           } else if (rigid > 0 && ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts))) {
             // Tip (corner) contact outside the path: the tip edge of one gear against the
-            // mate's flank, with the mate's involute normal (paper 2.1; PHYSICS 3). A tip edge
+            // mate's flank, with the mate's involute normal (paper 2.1; docs/physics.md §3). A tip edge
             // penetrates at most as far as the flanks overlap on the line of action (conjugate
             // action makes its penetration fall off the line): no overlap, no candidate.
             const int g = t > S.t_hi ? 0 : 1, h = 1 - g;
@@ -396,7 +396,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
           tooth1 = tooth_index(n1, m1, sigma, L.teeth[0]);
           tooth2 = tooth_index(n2, m2, sigma, L.teeth[1]);
         }
-        // micro-geometry gaps are along the flank normal (PHYSICS 2): Delta_n = Delta_t cos(beta_b) - gap
+        // micro-geometry gaps are along the flank normal (docs/physics.md §2): Delta_n = Delta_t cos(beta_b) - gap
         if (L.micro[0].any) approach_t -= micro_gap(L.micro[0], fl, tooth1, roll1, y1) / L.cos_beta_b;
         if (L.micro[1].any) approach_t -= micro_gap(L.micro[1], fl, tooth2, roll2, y2) / L.cos_beta_b;
         if (approach_t > 0.25 * pb) {

@@ -1,4 +1,4 @@
-// Contact detection for cylindrical involute gear pairs (paper section 2.1; PHYSICS.md 0-3).
+// Contact detection for cylindrical involute gear pairs (paper section 2.1; docs/physics.md §0-3).
 //
 // Every tooth pair on both flanks is a candidate. In a transverse section the approach of a
 // flank pair is exact for any centre distance because involutes stay conjugate: along the line

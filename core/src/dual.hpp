@@ -1,4 +1,4 @@
-// Forward-mode automatic differentiation with one direction (DESIGN.md, gm_jacobian): a dual
+// Forward-mode automatic differentiation with one direction (docs/design.md, "Derivatives"): a dual
 // number v + d eps, eps^2 = 0, usable as an Eigen scalar, for the templated evaluation path.
 //
 // Comparisons look at the value only, so branches (candidates, in/out of the path, clamps) take

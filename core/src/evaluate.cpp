@@ -135,7 +135,7 @@ inline Dual tooth_contact_depth_s(const ToothSection& s, const Dual& rho) {
 }
 
 // Transverse stiffness per unit face width of one slice's tooth pair, N/m^2 (the levels that
-// have one; PHYSICS 5).
+// have one; docs/physics.md §5).
 template <class T>
 T pair_stiffness(const gm_model& m, const ContactSliceT<T>& s) {
   switch (m.params.stiffness_level) {
@@ -158,9 +158,9 @@ T pair_stiffness(const gm_model& m, const ContactSliceT<T>& s) {
   }
 }
 
-// Per-slice compliance laws along the normal (PHYSICS 5). Linear levels: k' L / cos^2(beta_b).
+// Per-slice compliance laws along the normal (docs/physics.md §5). Linear levels: k' L / cos^2(beta_b).
 // Analytical level: both teeth's Weber/Sainsot compliance (per unit face width on the
-// transverse line of action) plus the exact local Hertz law of PHYSICS 4 over the contact line
+// transverse line of action) plus the exact local Hertz law of docs/physics.md §4 over the contact line
 // L / cos(beta_b), its approach referred to each tooth's centre line.
 template <class T>
 void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>* laws, int n,
@@ -297,7 +297,7 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
     const ContactSliceT<T>& s = slices[i];
     T F = forces[i];
     if (F <= 0) continue;
-    // contact damping on the normal approach rate, loaded slices only, never adhesive (PHYSICS 7)
+    // contact damping on the normal approach rate, loaded slices only, never adhesive (docs/physics.md §7)
     if (m.params.damping != 0) {
       const T damped = fmax(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
       r.damping_power += (damped - F) * s.approach_rate;  // the damper's force times its rate
@@ -307,7 +307,7 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
     V3 on2 = F * s.normal;  // gear 1 pushes gear 2 along the normal
     if (mu != 0) {
       // regularized Coulomb friction along the profile tangent, opposing the sliding of the
-      // flanks (PHYSICS 7); evaluated from the converged normal forces
+      // flanks (docs/physics.md §7); evaluated from the converged normal forces
       const T friction = mu * F * tanh(s.sliding_velocity / v0);
       on2 += friction * s.tangent;
       r.friction_power += friction * s.sliding_velocity;
@@ -334,7 +334,7 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
 }
 
 // Load-balance weights of the quasi-static solve: the moment of a slice's unit normal force
-// (with its friction) about gear 2's axis, as a force along the TE coordinate (PHYSICS 6).
+// (with its friction) about gear 2's axis, as a force along the TE coordinate (docs/physics.md §6).
 template <class T, class K>
 void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K& kin, int n,
                      T* balance) {
@@ -523,7 +523,7 @@ gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, g
     r.solver_iterations = fs.iterations;
     r.solver_residual = fs.residual;
   } else {
-    // Quasi-static (PHYSICS 6): gear 2's spin follows from the load torque. Detect at the TE
+    // Quasi-static (docs/physics.md §6): gear 2's spin follows from the load torque. Detect at the TE
     // estimate, solve the load balance for the rigid approach lambda, move there, and repeat
     // while the move changes what detection sees (tip edges); the estimate carries over calls.
     const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];

@@ -1,4 +1,4 @@
-// One evaluation: inputs -> detection -> slice forces -> resultants and TE (DESIGN.md, core).
+// One evaluation: inputs -> detection -> slice forces -> resultants and TE (docs/design.md, "core").
 #pragma once
 
 #include "model.hpp"

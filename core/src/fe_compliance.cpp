@@ -64,7 +64,7 @@ T face_share(const std::vector<double>& Z, const T& lo, const T& hi, int m) {
 
 // ---- How a slice reads a gear's database (the conventions, derived) ----
 //
-// FRAMES. The core poses gear g by R_g = exp([r_x, r_y, 0]^) R_z(phi_g) (PHYSICS 0): the body
+// FRAMES. The core poses gear g by R_g = exp([r_x, r_y, 0]^) R_z(phi_g) (docs/physics.md §0): the body
 // frame of BOTH gears has its z along the housing's z (gear 2's axis is not reversed; an
 // external gear 2 merely turns the other way, phi_2 < 0 when driven), angles counter-clockwise
 // seen from +z. The database's body frame (compliance_build.hpp, gear_mesh.hpp: z along the

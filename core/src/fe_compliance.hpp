@@ -1,5 +1,5 @@
 // Level 5 (FE): the coupled compliance C = C^1 + C^2 between candidate slices from the gears'
-// compliance databases (PHYSICS 5, paper 2.2-2.3), as a straightforward reference and as the
+// compliance databases (docs/physics.md §5, paper 2.2-2.3), as a straightforward reference and as the
 // cached assembly the evaluation uses.
 //
 // C^g[i][j] for slices i (receiver) and j (load) on teeth t_i, t_j of gear g, offset

@@ -1,4 +1,4 @@
-// Involute gear and pair geometry (ISO 21771; PHYSICS.md section 1).
+// Involute gear and pair geometry (ISO 21771; docs/physics.md §1).
 //
 // Sign convention inside this file only: ISO 21771's signed form for the internal ring, z2 < 0,
 // so d2, d_b2, d_a2, d_f2, d_w2, the reference centre distance a_d and the operating centre
@@ -26,7 +26,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Backlash tolerance in modules: shift coefficients quoted to 4 decimals move j_bt by up to
-// 2 m_n sin(alpha_n) 1e-4 ~ 0.7e-4 m_n (PHYSICS 1's FZG C14 set sits 1.3e-5 m_n below zero).
+// 2 m_n sin(alpha_n) 1e-4 ~ 0.7e-4 m_n (docs/physics.md §1's FZG C14 set sits 1.3e-5 m_n below zero).
 constexpr double kBacklashTolerance = 1e-4;
 
 std::string format(const char* fmt, ...) {
@@ -38,7 +38,7 @@ std::string format(const char* fmt, ...) {
   return buf;
 }
 
-// Arc tooth thickness at signed diameter d_y (ISO 21771 tooth thickness; PHYSICS 1):
+// Arc tooth thickness at signed diameter d_y (ISO 21771 tooth thickness; docs/physics.md §1):
 // s_yt = d_y (s_t/d + inv alpha_t - inv alpha_yt).
 // Positive for a real tooth of either kind (the ring's d_y/d > 0 and its tooth thickens outwards).
 double thickness_at(double d_y, double d, double d_b, double s_t, double alpha_t) {
@@ -46,7 +46,7 @@ double thickness_at(double d_y, double d, double d_b, double s_t, double alpha_t
   return d_y * (s_t / d + involute(alpha_t) - involute(alpha_yt));
 }
 
-// Roll distance rho_y = 1/2 sqrt(d_y^2 - d_b^2) (PHYSICS 1); 0 inside the base circle.
+// Roll distance rho_y = 1/2 sqrt(d_y^2 - d_b^2) (docs/physics.md §1); 0 inside the base circle.
 double roll_distance(double d_y, double d_b) {
   return 0.5 * std::sqrt(std::max(0.0, d_y * d_y - d_b * d_b));
 }
@@ -99,7 +99,7 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
   const double a = p.pair.center_distance;  // magnitude, as given
   const double a_s = internal ? -a : a;      // signed (ISO 21771: negative for internal pairs)
 
-  // Transverse basics (ISO 21771 helical gear relations, PHYSICS 1).
+  // Transverse basics (ISO 21771 helical gear relations, docs/physics.md §1).
   const double m_t = m_n / std::cos(beta);
   const double alpha_t = std::atan(tan_an / std::cos(beta));
   const double inv_t = involute(alpha_t);
@@ -121,14 +121,14 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
     Gear& q = w[i];
     q.z = sgn * gp.teeth;
     q.x = gp.profile_shift;
-    q.x_E = q.x + gp.thickness_allowance / (2.0 * m_n * tan_an);  // PHYSICS 1, DIN 3960 x_E
+    q.x_E = q.x + gp.thickness_allowance / (2.0 * m_n * tan_an);  // docs/physics.md §1, DIN 3960 x_E
     q.d = q.z * m_t;                                               // d = z m_t
     q.d_b = q.d * std::cos(alpha_t);                               // d_b = d cos alpha_t
-    // Tip and root diameters (ISO 21771 tooth depth; PHYSICS 1), the root cut at x_E.
+    // Tip and root diameters (ISO 21771 tooth depth; docs/physics.md §1), the root cut at x_E.
     q.d_a = gp.tip_diameter > 0.0 ? sgn * gp.tip_diameter
                                   : q.d + 2.0 * m_n * (p.pair.rack_addendum + q.x);
     q.d_f = q.d - 2.0 * m_n * (p.pair.rack_dedendum - q.x_E);
-    q.s_t = m_t * (0.5 * kPi + 2.0 * q.x_E * tan_an);  // transverse thickness at d (PHYSICS 1)
+    q.s_t = m_t * (0.5 * kPi + 2.0 * q.x_E * tan_an);  // transverse thickness at d (docs/physics.md §1)
   }
 
   // Tip feasibility of each gear.
@@ -182,7 +182,7 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
 
   // Allowed centre distances for these gears: non-negative backlash and g_alpha > 0. External:
   // [a_tight, a_max) with T1T2(a_max) = rho_a1 + rho_a2; internal: (a_min, a_tight] with
-  // T1T2(a_min) = rho_a2 - rho_a1, since T1T2 = sqrt(a^2 - (r_b2 -+ r_b1)^2) (PHYSICS 1).
+  // T1T2(a_min) = rho_a2 - rho_a1, since T1T2 = sqrt(a^2 - (r_b2 -+ r_b1)^2) (docs/physics.md §1).
   auto range_text = [&]() -> std::string {
     double lo, hi;
     const char *open_lo, *close_hi;
@@ -204,7 +204,7 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
     return format("allowed range %s%.6g, %.6g%s m for these gears", open_lo, lo, hi, close_hi);
   };
 
-  // Operating pressure angle (ISO 21771; PHYSICS 1): cos alpha_wt = a_d cos alpha_t / a.
+  // Operating pressure angle (ISO 21771; docs/physics.md §1): cos alpha_wt = a_d cos alpha_t / a.
   const double alpha_wt = operating_pressure_angle(r_b1, r_b2, internal, a);
   if (!(alpha_wt > 0.0))
     return fail(format("pair.center_distance = %.6g m: no operating pressure angle exists "
@@ -216,7 +216,7 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
   // (z1 + z2)(inv alpha_wt - inv alpha_t)/(2 tan alpha_n).
   g.x_sum_zero_backlash = z_sum * (inv_wt - inv_t) / (2.0 * tan_an);
 
-  // Backlash at the operating pitch circles d_w = d_b / cos alpha_wt (PHYSICS 1).
+  // Backlash at the operating pitch circles d_w = d_b / cos alpha_wt (docs/physics.md §1).
   double s_w[2];
   for (int i = 0; i < 2; ++i) {
     const double d_w = w[i].d_b / std::cos(alpha_wt);
@@ -230,7 +230,7 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
                        "< 0; tight-mesh distance %.6g m); %s",
                        a, g.j_bt, g.a_tight, range_text().c_str()));
 
-  // Line of action from T1 (PHYSICS 1): external A = T1T2 - rho_a2; internal (the ring's tip is
+  // Line of action from T1 (docs/physics.md §1): external A = T1T2 - rho_a2; internal (the ring's tip is
   // its inner circle, T2 lies behind T1) A = rho_a2 - T1T2; E = rho_a1 in both.
   g.T1T2 = a * std::sin(alpha_wt);
   const double A = internal ? rho_a2 - g.T1T2 : g.T1T2 - rho_a2;
@@ -256,13 +256,13 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
     }
   }
 
-  // Form circles from the basic rack. h_FfP = m_n (h_fP* - rho_fP* (1 - sin alpha_n)) (PHYSICS 1).
+  // Form circles from the basic rack. h_FfP = m_n (h_fP* - rho_fP* (1 - sin alpha_n)) (docs/physics.md §1).
   // Rack generation (derived here; ISO 21771 root form diameter for rack-type tools): the last
   // generated involute point is where the LOA through the pitch point (C at r sin alpha_t from T)
   // meets the end of the straight rack flank, (h_FfP - x_E m_n) inside the rolling line, i.e.
   // (h_FfP - x_E m_n)/sin alpha_t short of C:
   // rho_Ff = r sin alpha_t - (h_FfP - x_E m_n)/sin alpha_t, r_Ff = sqrt(r_b^2 + rho_Ff^2).
-  // rho_Ff <= 0 is exactly the undercut condition of PHYSICS 1 (with x_E).
+  // rho_Ff <= 0 is exactly the undercut condition of docs/physics.md §1 (with x_E).
   const double h_FfP =
       m_n * (p.pair.rack_dedendum - p.pair.rack_tip_radius * (1.0 - std::sin(alpha_n)));
   const double sin_at = std::sin(alpha_t);
@@ -272,7 +272,7 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
     const double rho = 0.5 * q.d * sin_at - (h_FfP - q.x_E * m_n) / sin_at;
     if (q.z > 0.0) {
       o.rho_Ff = std::max(0.0, rho);
-      // Undercut iff x_E < h_FfP/m_n - z sin^2 alpha_t/(2 cos beta) (PHYSICS 1), i.e. rho <= 0.
+      // Undercut iff x_E < h_FfP/m_n - z sin^2 alpha_t/(2 cos beta) (docs/physics.md §1), i.e. rho <= 0.
       o.undercut = rho <= 0.0 ? 1 : 0;
     } else {
       // Ring: the mirrored rack (signed r gives |r| sin alpha_t + (h_FfP - x_E m_n)/sin alpha_t,
@@ -284,7 +284,7 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
     o.d_Ff = 2.0 * std::hypot(0.5 * q.d_b, o.rho_Ff);
   }
 
-  // Active profile (PHYSICS 1): gear 1 from A; gear 2 from T1T2 - E (external) or T1T2 + E
+  // Active profile (docs/physics.md §1): gear 1 from A; gear 2 from T1T2 - E (external) or T1T2 + E
   // (ring, its outer end). A contact point behind the base circle is clamped to it for d_sap and
   // flagged as interference.
   const double rho_sap[2] = {A, internal ? g.T1T2 + E : g.T1T2 - E};
@@ -310,9 +310,9 @@ gm_status compute_pair_geometry(const gm_model_params& p, gm_pair_geometry& g, s
     o.eta_b = q.z > 0.0 ? q.s_t / q.d + inv_t : kPi / std::abs(q.z) + q.s_t / q.d + inv_t;
   }
 
-  // Overlap ratio (ISO 21771; PHYSICS 1): eps_beta = b sin|beta|/(pi m_n), with b the axial
+  // Overlap ratio (ISO 21771; docs/physics.md §1): eps_beta = b sin|beta|/(pi m_n), with b the axial
   // overlap of the two face widths after their axial offsets (min(b1, b2) when both are
-  // centred), the same width the slices cover (PHYSICS 3).
+  // centred), the same width the slices cover (docs/physics.md §3).
   const double lo1 = p.gear[0].axial_offset - 0.5 * p.gear[0].face_width;
   const double lo2 = p.gear[1].axial_offset - 0.5 * p.gear[1].face_width;
   const double b =

@@ -1,4 +1,4 @@
-// Involute gear and pair geometry (ISO 21771; PHYSICS.md section 1).
+// Involute gear and pair geometry (ISO 21771; docs/physics.md §1).
 #pragma once
 
 #include <string>

@@ -9,7 +9,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// 2 (1 - nu^2)/(pi E), m^2/N: the factor of w in delta_i (PHYSICS.md section 4).
+// 2 (1 - nu^2)/(pi E), m^2/N: the factor of w in delta_i (docs/physics.md §4).
 double body_compliance(const HertzBody& b) {
   return 2.0 * (1.0 - b.poisson_ratio * b.poisson_ratio) / (kPi * b.youngs_modulus);
 }
@@ -17,13 +17,13 @@ double body_compliance(const HertzBody& b) {
 }  // namespace
 
 double reduced_radius(double rho1, double rho2) {
-  const double curvature = 1.0 / rho1 + 1.0 / rho2;  // PHYSICS.md section 4
+  const double curvature = 1.0 / rho1 + 1.0 / rho2;  // docs/physics.md §4
   return curvature > 0 && std::isfinite(curvature) ? 1.0 / curvature
                                                     : std::numeric_limits<double>::quiet_NaN();
 }
 
 double reduced_modulus(const HertzBody& body1, const HertzBody& body2) {
-  // 1/E* = sum (1 - nu_i^2)/E_i (PHYSICS.md section 4)
+  // 1/E* = sum (1 - nu_i^2)/E_i (docs/physics.md §4)
   auto term = [](const HertzBody& b) {
     return (1.0 - b.poisson_ratio * b.poisson_ratio) / b.youngs_modulus;
   };
@@ -31,7 +31,7 @@ double reduced_modulus(const HertzBody& body1, const HertzBody& body2) {
 }
 
 double hertz_half_width(double line_load, double reduced_radius, double reduced_modulus) {
-  return std::sqrt(4.0 * line_load * reduced_radius / (kPi * reduced_modulus));  // PHYSICS.md 4
+  return std::sqrt(4.0 * line_load * reduced_radius / (kPi * reduced_modulus));  // docs/physics.md §4
 }
 
 double hertz_body_approach(double w, double b, const HertzBody& body) {
@@ -62,7 +62,7 @@ const char* local_law_error(const LocalLaw& law) {
 
 // Per body, with q = b_H/h and r = sqrt(1 + q^2) (so h/(sqrt(h^2 + b_H^2) + h) = 1/(r + 1) and
 // r - 1 = q^2/(r + 1) without cancellation), A = asinh(1/q), k = nu/(1 - nu), a = 2(1-nu^2)/(pi E):
-//   delta      = a w [A - k/(r+1)]                                               (PHYSICS.md 4)
+//   delta      = a w [A - k/(r+1)]                                               (docs/physics.md §4)
 //   d delta/dw = a [A - k/(r+1) - (1 - k (r-1)/(r+1))/(2r)]
 //   int_0^w delta = a w^2 [A/2 + (r+2)/(6 (r+1)^2) - k (2r+1)/(3 (r+1)^2)]
 // Derivation of the integral: with x = h/b_H = 1/q, proportional to w^(-1/2), substitute
@@ -85,7 +85,7 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
   const bool same = b0.youngs_modulus == b1.youngs_modulus &&
                     b0.poisson_ratio == b1.poisson_ratio && b0.depth == b1.depth;
   kern.terms = same ? 1 : 2;
-  double inv_E_star = 0;  // 1/E* = sum (1 - nu_i^2)/E_i (PHYSICS.md section 4)
+  double inv_E_star = 0;  // 1/E* = sum (1 - nu_i^2)/E_i (docs/physics.md §4)
   for (int t = 0; t < kern.terms; ++t) {
     const HertzBody& body = law.body[t];
     const double weight = same ? 2.0 : 1.0;

@@ -1,5 +1,5 @@
 // Local (surface-to-depth) compliance of one contact slice: 2-D Hertz with the approach of
-// each body measured to a point at depth h_i (PHYSICS.md section 4; paper section 2.2, the
+// each body measured to a point at depth h_i (docs/physics.md §4; paper section 2.2, the
 // non-linear term f of eq. 1, after Weber and Banaschek [16]).
 //
 // f(F) is the sum over both bodies of
@@ -52,7 +52,7 @@ double reduced_modulus(const HertzBody& body1, const HertzBody& body2);
 // Hertz half-width b_H = sqrt(4 w R'/(pi E*)), m, for line load w (N/m).
 double hertz_half_width(double line_load, double reduced_radius, double reduced_modulus);
 
-// delta_i of PHYSICS.md section 4 for line load w (N/m) and a given half-width b_H (m), literally
+// delta_i of docs/physics.md §4 for line load w (N/m) and a given half-width b_H (m), literally
 // as written there; the law below evaluates the same formula in a cancellation-free form.
 double hertz_body_approach(double line_load, double half_width, const HertzBody& body);
 

@@ -1,5 +1,5 @@
 // Flank micro-geometry: design modifications, measured deviation grids and pitch deviations
-// (PHYSICS.md section 2). Formulas and the deviation file format: microgeometry.hpp.
+// (docs/physics.md §2). Formulas and the deviation file format: microgeometry.hpp.
 #include "microgeometry.hpp"
 
 #include "dual.hpp"

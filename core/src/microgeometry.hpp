@@ -1,9 +1,9 @@
-// Flank micro-geometry (PHYSICS.md section 2): design modifications and measured deviations of
+// Flank micro-geometry (docs/physics.md §2): design modifications and measured deviations of
 // one gear, as the material removed at a flank point (positive = gap, m, along the flank normal).
 // Detection subtracts the gaps of both flanks at a contact point from the slice's approach.
 //
 // Coordinates of a flank point, both measured on the gear that owns the flank:
-//   rho  roll distance from the base-circle tangency point, m (PHYSICS 1: rho_y = sqrt(d_y^2 - d_b^2)/2);
+//   rho  roll distance from the base-circle tangency point, m (docs/physics.md §1: rho_y = sqrt(d_y^2 - d_b^2)/2);
 //   y    face coordinate from the gear's mid-face, m, in [-b/2, b/2]; its positive direction is
 //        the one the caller uses for the helix slope (gm_flank_modification.helix_slope).
 // The active profile runs from the start of active profile (SAP) to the tip. On an internal ring
@@ -48,7 +48,7 @@
 //                                    same flank of tooth - 1 (of tooth z-1 for tooth 0).
 //   Teeth and flanks that are not listed have zero deviation. Each (tooth, flank) may have at
 //   most one grid and one pitch line. Tooth indices run 0..z-1 in the detection's numbering
-//   (tooth 0 is the reference tooth of PHYSICS 0). The cumulative pitch deviation of tooth k is
+//   (tooth 0 is the reference tooth of docs/physics.md §0). The cumulative pitch deviation of tooth k is
 //   F_p(k) = sum_{j=0..k} f_pt(j); the single pitch deviations of a flank must close around the
 //   gear (|sum over all teeth| <= 0.001 um + 0.001 max |f_pt|), so F_p(z-1) = 0: the last tooth
 //   is the datum, and a file that lists only the pitches around one proud tooth leaves every

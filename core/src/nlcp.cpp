@@ -130,7 +130,7 @@ double NlcpSolver::evaluate(const ConstMat& C, const ConstVec& delta,
     g_[i] = cf_[i] + jet_[i].approach - delta[i];  // paper eq. 1
     residual = std::max(residual, std::abs(std::min(C(i, i) * F[i], g_[i])));
   }
-  phi_ = 0.5 * F.dot(cf_.head(n)) + energy - delta.dot(F);  // PHYSICS.md section 6
+  phi_ = 0.5 * F.dot(cf_.head(n)) + energy - delta.dot(F);  // docs/physics.md §6
   return residual;
 }
 

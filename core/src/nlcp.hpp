@@ -1,5 +1,5 @@
 // Normal slice forces: the non-linear complementarity problem of paper eq. 1-4
-// (PHYSICS.md section 6)
+// (docs/physics.md §6)
 //
 //   g(F) = C F + f(F) - Delta >= 0,   F >= 0,   F^T g = 0,
 //
@@ -95,7 +95,7 @@ class NlcpSolver {
                    const Eigen::Ref<const Eigen::VectorXd>& delta, const LocalLaw* laws,
                    Eigen::Ref<Eigen::VectorXd> force);
 
-  // Quasi-static loaded TE (PHYSICS.md section 6): the same problem with Delta = Delta0 +
+  // Quasi-static loaded TE (docs/physics.md §6): the same problem with Delta = Delta0 +
   // lambda w and the constraint w^T F = total_force (> 0, N); weights finite, at least one > 0.
   // lambda (m) is the multiplier of the constraint: the rigid approach along w added to the pose
   // at which Delta0 was detected. Spur: w_i = 1 on flank A slices, so lambda is the loaded TE

@@ -14,7 +14,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// q'_min regression coefficients C1..C9, mm um/N (ISO 6336-1 method B; PHYSICS 5).
+// q'_min regression coefficients C1..C9, mm um/N (ISO 6336-1 method B; docs/physics.md §5).
 constexpr double kC[9] = {0.04723,  0.15551, 0.25791,  -0.00635, -0.11654,
                           -0.00193, -0.24188, 0.00529, 0.00182};
 constexpr double kMmUmPerN = 1e-9;  // 1 mm um/N in m^2/N

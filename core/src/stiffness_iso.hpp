@@ -1,10 +1,10 @@
 // ISO 6336-1 method B tooth stiffness: single stiffness c' and mesh stiffness c_gamma
-// (PHYSICS.md section 5, level GM_STIFFNESS_ISO6336). All results SI: stiffness per unit face
+// (docs/physics.md §5, level GM_STIFFNESS_ISO6336). All results SI: stiffness per unit face
 // width in N/m^2 (1 N/(mm um) = 1e9 N/m^2), q'_min in m^2/N.
 //
 // Formulas (ISO 6336-1:2006/2019, clause 9.3, method B):
 //   q'_min = C1 + C2/z_n1 + C3/z_n2 + C4 x1 + C5 x1/z_n1 + C6 x2 + C7 x2/z_n2 + C8 x1^2 + C9 x2^2
-//            (mm um/N), C1..C9 as in PHYSICS 5; z_n = z/(cos^2 beta_b cos beta);
+//            (mm um/N), C1..C9 as in docs/physics.md §5; z_n = z/(cos^2 beta_b cos beta);
 //   c'_th  = 1/q'_min;
 //   c'     = c'_th C_M C_R C_B cos beta (E/E_st), C_M = 0.8, E = 2 E1 E2/(E1 + E2), E_st = 206 GPa;
 //   C_B    = [1 + 0.5 (1.2 - h_fP/m_n)] [1 - 0.02 (20 deg - alpha_n)];
@@ -32,7 +32,7 @@
 // orders the pair that way (the ring is always ISO's gear 2). Internal pairs: the ring is taken
 // as z_n2 -> infinity (1/z_n2 = 0, the rack limit; ISO 6336-1's note for internal gears as
 // recalled, not confirmed by the search tools), its x2 terms C6 x2 + C9 x2^2 kept with the ring's
-// own profile shift (x > 0 thickens its tooth, PHYSICS 1).
+// own profile shift (x > 0 thickens its tooth, docs/physics.md §1).
 #pragma once
 
 #include <string>

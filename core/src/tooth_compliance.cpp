@@ -120,7 +120,7 @@ BeamStation tooth_fillet_station(const ToothSection& s, double psi) {
 }
 
 BeamStation tooth_involute_station(const ToothSection& s, double alpha) {
-  // R = r_b/cos alpha, half angle eta = eta_b - inv alpha (PHYSICS 1's s_yt/(2 R)).
+  // R = r_b/cos alpha, half angle eta = eta_b - inv alpha (docs/physics.md §1's s_yt/(2 R)).
   const double R = s.base_radius / std::cos(alpha), ta = std::tan(alpha);
   const double eta = s.eta_b - (ta - alpha);
   const double ce = std::cos(eta), se = std::sin(eta);

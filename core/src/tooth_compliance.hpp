@@ -1,4 +1,4 @@
-// Analytical compliance of one tooth (PHYSICS.md section 5, level GM_STIFFNESS_ANALYTICAL):
+// Analytical compliance of one tooth (docs/physics.md §5, level GM_STIFFNESS_ANALYTICAL):
 // Weber's energy method for a cantilever of variable thickness plus the gear body (foundation)
 // term of Sainsot, Velex and Duverger (2004). The local contact flattening is NOT included: it is
 // the nonlinear Hertz law of hertz.hpp, referred to the depth tooth_contact_depth() returns.
@@ -8,7 +8,7 @@
 //   clamped where the fillet meets the root circle (y = r_f cos theta_f) and reaches the load
 //   station. Its half-thickness w(y) is the chordal half-thickness: the profile point's distance
 //   from the centre line at station y.
-// * Profile: the involute (half angle eta = eta_b - inv alpha, i.e. s_yt/(2 r_y) of PHYSICS 1) from
+// * Profile: the involute (half angle eta = eta_b - inv alpha, i.e. s_yt/(2 r_y) of docs/physics.md §1) from
 //   the form circle to the tip, and below the form circle the fillet the basic rack's tip round
 //   generates (exact trochoid envelope for a rack cutter, the tool geometry.cpp assumes for d_Ff).
 //   Helical gears: the transverse rack flank has angle alpha_t, and its tip round (an ellipse)

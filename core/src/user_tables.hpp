@@ -1,4 +1,4 @@
-// User tables (PHYSICS.md section 5, "user variable stiffness ... optionally with a user TE table
+// User tables (docs/physics.md §5, "user variable stiffness ... optionally with a user TE table
 // as excitation"): the pair stiffness of stiffness level 1 over gear 1's roll angle, and a
 // kinematic TE excitation over gear 1's angle within one pitch, usable at every level.
 //
@@ -27,7 +27,7 @@
 //   <gear 1 angle within one pitch, deg> <TE excitation, um>
 //   ...
 //   Angle: phi_1 modulo the angular pitch of gear 1, 360/z1 deg (phi_1 = 0: tooth 0 in mesh,
-//   PHYSICS 0), in [0, 360/z1) (the period itself is the first row again), strictly increasing,
+//   docs/physics.md §0), in [0, 360/z1) (the period itself is the first row again), strictly increasing,
 //   at least 1 row (one row: a constant excitation). TE excitation TE_exc: |TE_exc| <= 1000 um.
 //   Periodic over the pitch: linear between rows, and from the last row to the first row one
 //   period later.
@@ -37,7 +37,7 @@
 //   flanks. An unloaded perfect pair then closes flank A at TE = TE_exc(phi_1) (its unloaded TE)
 //   and flank B at TE = -j_bt - TE_exc(phi_1); a negative TE_exc closes both. The normal
 //   approach rate gets -cos(beta_b) dTE_exc/dphi_1 omega_1 (damping). mesh.te stays the TE of the
-//   spin angles (PHYSICS 0): prescribed spin angles see the excitation in the forces, the
+//   spin angles (docs/physics.md §0): prescribed spin angles see the excitation in the forces, the
 //   quasi-static mode in the solved TE.
 #pragma once
 

@@ -1,4 +1,4 @@
-/* Unit test of fmu_uri_to_path: every resource-location form importers send (FMI.md). */
+/* Unit test of fmu_uri_to_path: every resource-location form importers send (docs/fmi.md, "Resources"). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -1,4 +1,4 @@
-// The FE level's depth split (PHYSICS 5, FE level; PHYSICS 4): the FE compliance is read at
+// The FE level's depth split (docs/physics.md §5, FE level; docs/physics.md §4): the FE compliance is read at
 // depth h under the contact, and the surface-to-depth part comes from the analytical Hertz
 // approach hertz_body_approach with the same h. Checked on a plane-strain half-space block
 // under a 2-D Hertz (elliptic) strip pressure against the exact Flamant half-space solution:
@@ -207,7 +207,7 @@ double delta(double h) {
 }
 
 // The analytical surface-to-depth part is the exact half-space one (independent derivations:
-// PHYSICS 4's closed form vs Flamant integrated over the elliptic pressure).
+// docs/physics.md §4's closed form vs Flamant integrated over the elliptic pressure).
 TEST(FeDepthSplit, HertzApproachIsTheExactHalfSpaceSurfaceToDepthPart) {
   for (double h : {0.5 * kB, kDepths[0], kDepths[1], kDepths[2], 40 * kB}) {
     const double exact = hertz_centre_uz() - hertz_field(0.0, h)[1];

@@ -1,4 +1,4 @@
-// FE foundation of compliance_tool (PHYSICS 5, FE level): TET10 linear elasticity, sparse
+// FE foundation of compliance_tool (docs/physics.md §5, FE level): TET10 linear elasticity, sparse
 // assembly, constraint elimination, one CHOLMOD factorization, flank compliances.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Contact detection against involute geometry (PHYSICS 3 and 9): conjugate action at any
+// Contact detection against involute geometry (docs/physics.md §3 and 9): conjugate action at any
 // centre distance, the flank-B gap equal to the geometric backlash, contact-ratio counts.
 #include <gtest/gtest.h>
 

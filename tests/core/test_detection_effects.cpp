@@ -1,6 +1,6 @@
 // Detection effects of issue 3 against independent truth: helical conjugacy, wedging at the
 // tight-mesh distance, tilt closed forms and an exact 3-D reference near the validity bound,
-// tip contact, contact velocities (PHYSICS 7's sliding velocity), crowning TE and its orders.
+// tip contact, contact velocities (docs/physics.md §7's sliding velocity), crowning TE and its orders.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -156,7 +156,7 @@ TEST(DetectionEffects, TiltVariesTheApproachAcrossTheFaceAsTheClosedFormSays) {
 }
 
 // Exact reference for a tilted gear: transform the contact point into the gear's own frame
-// (R = exp([r_x, r_y, 0]^) R_z(phi), PHYSICS 0) and measure its penetration into the tooth's
+// (R = exp([r_x, r_y, 0]^) R_z(phi), docs/physics.md §0) and measure its penetration into the tooth's
 // involute there. The two-step result differs by the neglected second-order terms only, which
 // the README states as about r_a r^2.
 double exact_penetration(const Pair& pr, int gear, const gm_kinematics& k, int tooth, int sigma,
@@ -273,7 +273,7 @@ TEST(DetectionEffects, TipContactNormalIsTheMatesInvoluteNormal) {
   EXPECT_GT(seen, 0);
 }
 
-// PHYSICS 7: sliding velocity v_g = omega_1 rho_1 - |omega_2| rho_2 for an external pair,
+// docs/physics.md §7: sliding velocity v_g = omega_1 rho_1 - |omega_2| rho_2 for an external pair,
 // zero at the pitch point; the approach rate is the time derivative of the approach.
 TEST(DetectionEffects, ContactVelocities) {
   const Pair pr = make_pair(paper());
@@ -317,7 +317,7 @@ TEST(DetectionEffects, ContactVelocities) {
 
 // Profile crowning at vanishing load: the unloaded TE of a pose is the smallest gap among the
 // pairs on the line of action, gap = sum over both gears of C (2 s/L - 1)^2 at the pair's roll
-// distances (PHYSICS 2). The test computes that curve from the kinematics alone and compares
+// distances (docs/physics.md §2). The test computes that curve from the kinematics alone and compares
 // the TE shape and its first two mesh-order amplitudes with detection's.
 TEST(DetectionEffects, ProfileCrowningGivesTheParabolicTeAndItsMeshOrders) {
   gm_model_params p = paper();

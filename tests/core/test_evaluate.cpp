@@ -1,4 +1,4 @@
-// One evaluation through the C API: level-0 forces (PHYSICS 9: F = k b Delta per pair),
+// One evaluation through the C API: level-0 forces (docs/physics.md §9: F = k b Delta per pair),
 // backlash, flank reversal, force and moment balance, and errors that name the culprit.
 #include <gtest/gtest.h>
 
@@ -78,7 +78,7 @@ TEST(Evaluate, ForceAndMomentBalance) {
     const double j = in.geo().j_bt;
     const double aw = in.geo().alpha_wt;
     for (double te : {5e-6, -j - 5e-6}) {
-      // a mid-zone pose of flank A; its mirror (PHYSICS 9) for flank B, so no tip contact
+      // a mid-zone pose of flank A; its mirror (docs/physics.md §9) for flank B, so no tip contact
       const double phi_a = double_contact_phi1(in, 5e-6);
       const double theta0 = std::tan(in.geo().alpha_wt) - in.geo().alpha_wt - in.geo().gear[0].eta_b;
       const gm_result r = in.at(te, te > 0 ? phi_a : -phi_a - 2 * theta0);
@@ -99,10 +99,10 @@ TEST(Evaluate, ForceAndMomentBalance) {
   }
 }
 
-// Forward/backward mirror (PHYSICS 9): reflecting the pair about the centre line maps tooth
+// Forward/backward mirror (docs/physics.md §9): reflecting the pair about the centre line maps tooth
 // angles theta -> -theta, so the pose (phi1, TE) on flank A mirrors to
 // (-phi1 - 2 theta0_1, -TE - j_bt) on flank B, with theta0_1 = inv(alpha_wt) - eta_b1 the
-// reference angle of tooth 0 (PHYSICS 0). Same force magnitude, mirrored y, opposite moments.
+// reference angle of tooth 0 (docs/physics.md §0). Same force magnitude, mirrored y, opposite moments.
 TEST(Evaluate, ForwardBackwardMirrorSymmetry) {
   Instance in(paper());
   const gm_pair_geometry& g = in.geo();

@@ -300,7 +300,7 @@ TEST(FeMapping, EachSliceReadsTheDatabaseEntryItsGeometryNames) {
             // gear 1 and an external gear 2, flank B (cw side) on a ring
             const int want = (g == 1 && m.layout.sign < 0) ? -sa.flank : sa.flank;
             ASSERT_EQ(at.back().side, want) << what << ", slice " << a << " flank " << sa.flank;
-            // PHYSICS 0: flank A resists gear 1 turning +phi: its force on gear 1 turns it back
+            // docs/physics.md §0: flank A resists gear 1 turning +phi: its force on gear 1 turns it back
             const double torque1 = -(sa.point.x() * sa.normal.y() - sa.point.y() * sa.normal.x());
             ASSERT_LT(sa.flank * torque1, 0) << what << ", slice " << a;
           }

@@ -1,6 +1,6 @@
 // Forces of issue 4 against closed forms: the quasi-static loaded TE of a constant-stiffness
-// spur pair and its mesh harmonics (PHYSICS 9), the mean friction loss against Ohlendorf's H_V
-// (PHYSICS 7), damping without adhesion, zero and extreme loads, flank symmetry.
+// spur pair and its mesh harmonics (docs/physics.md §9), the mean friction loss against Ohlendorf's H_V
+// (docs/physics.md §7), damping without adhesion, zero and extreme loads, flank symmetry.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -29,7 +29,7 @@ gm_model_params quasi_static_paper() {
   return p;
 }
 
-// PHYSICS 9: loaded TE F/k_p in single contact and F/(2 k_p) in double contact; the n-th mesh
+// docs/physics.md §9: loaded TE F/k_p in single contact and F/(2 k_p) in double contact; the n-th mesh
 // harmonic (F/(n pi k_p)) |sin(n pi (2 - eps_alpha))|.
 TEST(Forces, QuasiStaticLoadedTeOfAConstantStiffnessSpurPair) {
   Instance in(quasi_static_paper());
@@ -81,7 +81,7 @@ TEST(Forces, ZeroLoadGivesTheUnloadedTeAndNoForce) {
 }
 
 // Forward and backward: a negative load torque drives flank B; at the mirrored pose the TE is
-// -j_bt minus the forward TE (PHYSICS 9 symmetry), with the same force.
+// -j_bt minus the forward TE (docs/physics.md §9 symmetry), with the same force.
 TEST(Forces, ReverseLoadMirrorsOntoFlankB) {
   Instance in(quasi_static_paper());
   const gm_pair_geometry& g = in.geo();
@@ -114,7 +114,7 @@ TEST(Forces, ExtremeLoadsStayWellPosed) {
   EXPECT_GT(in.loaded(0.02, 100).normal_force, 0);
 }
 
-// Damping on the normal approach rate adds c L v on loaded slices and never pulls (PHYSICS 7).
+// Damping on the normal approach rate adds c L v on loaded slices and never pulls (docs/physics.md §7).
 TEST(Forces, DampingAddsToLoadedSlicesWithoutAdhesion) {
   gm_model_params p;
   gm_default_params(&p);
@@ -135,7 +135,7 @@ TEST(Forces, DampingAddsToLoadedSlicesWithoutAdhesion) {
   for (int a = 0; a < 3; ++a) EXPECT_EQ(opening.force[1][a], 0.0);
 }
 
-// PHYSICS 7: the mean friction loss of a slow revolution is P_in mu H_V, with Ohlendorf's
+// docs/physics.md §7: the mean friction loss of a slow revolution is P_in mu H_V, with Ohlendorf's
 // H_V = pi (u + 1)/(z1 u cos beta_b) (1 - eps_alpha + eps_1^2 + eps_2^2); FZG C14: H_V = 0.1950.
 TEST(Forces, MeanFrictionLossMatchesOhlendorf) {
   gm_model_params p;
@@ -164,7 +164,7 @@ TEST(Forces, MeanFrictionLossMatchesOhlendorf) {
   const double e1 = 16 * (std::tan(std::acos(g.gear[0].d_b / g.gear[0].d_a)) - std::tan(aw)) / (2 * kPi);
   const double e2 = 24 * (std::tan(std::acos(g.gear[1].d_b / g.gear[1].d_a)) - std::tan(aw)) / (2 * kPi);
   const double hv = kPi * (u + 1) / (16 * u) * (1 - g.eps_alpha + e1 * e1 + e2 * e2);
-  EXPECT_NEAR(hv, 0.1950, 5e-4);  // the formula as PHYSICS quotes it
+  EXPECT_NEAR(hv, 0.1950, 5e-4);  // the formula as docs/physics.md §7 quotes it
   const double omega1 = 1.0;
   double loss = 0, input = 0;
   const int n = 800;
@@ -178,7 +178,7 @@ TEST(Forces, MeanFrictionLossMatchesOhlendorf) {
   EXPECT_NEAR(loss / input, mu * hv, 0.03 * mu * hv);
 }
 
-// Level 2 (ISO 6336-1 method B) for PHYSICS 5's 57/57 pair (x 0.36139, E 206 GPa): the pair
+// Level 2 (ISO 6336-1 method B) for docs/physics.md §5's 57/57 pair (x 0.36139, E 206 GPa): the pair
 // stiffness peaks at c' = 15.55 N/(mm um) mid-path, and the mesh stiffness averages to
 // c_gamma_alpha = 23.58 N/(mm um) over a pitch. Level 3 averages to the same c_gamma_alpha.
 gm_model_params iso_pair(int level) {

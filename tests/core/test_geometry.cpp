@@ -1,4 +1,4 @@
-// Tests of core/src/geometry.cpp: the worked checks of PHYSICS.md section 1 and closed-form
+// Tests of core/src/geometry.cpp: the worked checks of docs/physics.md §1 and closed-form
 // relations of ISO 21771 geometry. Lengths in m unless a name says mm.
 #include <gtest/gtest.h>
 
@@ -83,7 +83,7 @@ TEST(Involute, OperatingPressureAngle) {
   EXPECT_TRUE(std::isnan(gm::operating_pressure_angle(0.05, 0.03, true, 0.04)));
 }
 
-// PHYSICS 1 worked check, 57/57 at 150 mm (values quoted to 5-6 digits: relative tolerance 1e-4).
+// docs/physics.md §1 worked check, 57/57 at 150 mm (values quoted to 5-6 digits: relative tolerance 1e-4).
 TEST(PairGeometry, WorkedCheckSetA) {
   const gm_pair_geometry g = geometry_ok(set_a(0.36139));
   expect_rel(g.alpha_wt / kDeg, 21.8107, 1e-4, "alpha_wt");
@@ -107,7 +107,7 @@ TEST(PairGeometry, WorkedCheckSetA) {
   EXPECT_NEAR(g.gear[0].eta_b, s_t / (57 * 2.6 * kMm) + inv(20 * kDeg), 1e-14);
 }
 
-// PHYSICS 1 worked check, FZG C14 with tip diameters given.
+// docs/physics.md §1 worked check, FZG C14 with tip diameters given.
 TEST(PairGeometry, WorkedCheckFzgC14) {
   gm_model_params p = spur_pair(16, 24, 4.5 * kMm, 91.5 * kMm);
   p.gear[0].profile_shift = 0.1817;

@@ -1,4 +1,4 @@
-// Tests of core/src/hertz.cpp: the local law of PHYSICS.md section 4 (its worked check, the
+// Tests of core/src/hertz.cpp: the local law of docs/physics.md §4 (its worked check, the
 // Weber-Banaschek limit), and f', f'', P and the solver helpers (the prepared kernel and its
 // jets, the energy change from the jets at both ends) against independent numerics.
 #include <gtest/gtest.h>
@@ -49,7 +49,7 @@ double integrate(const std::function<double(double)>& fun, double a, double b, d
 }  // namespace
 
 TEST(Hertz, PhysicsWorkedCheck) {
-  // PHYSICS.md section 4: w = 100 N/mm, steel, b_H = 0.05 mm, h = 1 mm.
+  // docs/physics.md §4: w = 100 N/mm, steel, b_H = 0.05 mm, h = 1 mm.
   const double w = 100.0 / kMm, b = 0.05 * kMm;
   EXPECT_NEAR(gm::hertz_body_approach(w, b, steel(1 * kMm)) / kMm, 9.7736e-4, 0.00005e-4);
   EXPECT_NEAR(gm::weber_banaschek_approach(w, b, steel(1 * kMm)) / kMm, 9.7714e-4, 0.00005e-4);
@@ -66,7 +66,7 @@ TEST(Hertz, PhysicsWorkedCheck) {
 }
 
 TEST(Hertz, LawMatchesLiteralFormula) {
-  // evaluate_local_law uses the cancellation-free r-form; compare with PHYSICS.md 4 as written,
+  // evaluate_local_law uses the cancellation-free r-form; compare with docs/physics.md §4 as written,
   // with different bodies (materials and depths) on both sides.
   gm::LocalLaw law = gear_slice();
   law.body[1] = {110e9, 0.34, 2 * kMm};  // a bronze-like mate
@@ -91,7 +91,7 @@ TEST(Hertz, WeberBanaschekLimit) {
     EXPECT_GT(exact, log_form);
     EXPECT_LT(exact - log_form, scale * q * q) << "b/h = " << q;  // (1/4 + k/8) q^2 < q^2
   }
-  // PHYSICS.md 4: the log form stops being monotone near b_H/h ~ 1 (its d/dw vanishes at
+  // docs/physics.md §4: the log form stops being monotone near b_H/h ~ 1 (its d/dw vanishes at
   // b/h = 2 exp(-(1 + k)/2) = 0.98 for nu = 0.3); the exact form keeps increasing.
   gm::LocalLaw law = gear_slice();
   const double E_star = gm::reduced_modulus(law.body[0], law.body[1]);
@@ -204,7 +204,7 @@ TEST(Hertz, EnergyChange) {
 
 TEST(Hertz, JetCurvatureAndMergedBodies) {
   // local_law_jet: f'' against central differences of f'; identical bodies (merged into one
-  // term) against twice the literal formula of PHYSICS.md 4, below and above b_H = h (the log and
+  // term) against twice the literal formula of docs/physics.md §4, below and above b_H = h (the log and
   // log1p branches of asinh).
   gm::LocalLaw law = gear_slice();
   const gm::LocalLawKernel kern = gm::local_law_kernel(law);

@@ -24,7 +24,7 @@ std::string repo_file(const char* relative) {
   return here.substr(0, here.rfind("tests/core/")) + relative;
 }
 
-// Gear 2's spin for TE te at gear 1's spin phi1 (PHYSICS 0).
+// Gear 2's spin for TE te at gear 1's spin phi1 (docs/physics.md §0).
 double phi2(const Instance& I, double te, double phi1) {
   return (te - I.rb(0) * phi1) / (I.sign() * I.rb(1));
 }

@@ -1,5 +1,5 @@
 // Tests of core/src/microgeometry.cpp: every design modification against its closed form
-// (formulas in microgeometry.hpp, PHYSICS.md section 2), superposition, the measured deviation
+// (formulas in microgeometry.hpp, docs/physics.md §2), superposition, the measured deviation
 // grid (bilinear, edge hold, sign), pitch deviations (cumulative sums, closure), the deviation
 // file parser's errors and a fuzz of the example file. Lengths in m unless a name says mm/um.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Tests of core/src/nlcp.cpp: the NLCP of paper eq. 1-4 (PHYSICS.md section 6) against an
+// Tests of core/src/nlcp.cpp: the NLCP of paper eq. 1-4 (docs/physics.md §6) against an
 // independent brute-force reference (enumeration of all active sets), warm starts, the
 // quasi-static variant with a prescribed total force, extremes, bad input, the reuse paths
 // (carried law values, the kept tangent) against the plain one, the tangent, and that solving

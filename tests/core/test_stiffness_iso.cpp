@@ -1,5 +1,5 @@
 // Tests of core/src/stiffness_iso.cpp: ISO 6336-1 method B c' and c_gamma against the published
-// ISO/TR 6336-30 example 1 values, PHYSICS.md section 5's worked check (57/57) and a hand
+// ISO/TR 6336-30 example 1 values, docs/physics.md §5's worked check (57/57) and a hand
 // computation for FZG C14. Stiffness in N/m^2 (1 N/(mm um) = 1e9 N/m^2).
 #include <gtest/gtest.h>
 
@@ -20,10 +20,10 @@ constexpr double kNmmUm = 1e9;  // 1 N/(mm um) in N/m^2
 
 using gm_test::spur_pair;
 
-// PHYSICS 1 / 5: 57/57, m_n 2.6 mm, a 150 mm, x1 = x2 = x.
+// docs/physics.md §1 / 5: 57/57, m_n 2.6 mm, a 150 mm, x1 = x2 = x.
 gm_model_params set_a(double x) { return spur_pair(57, 57, 2.6 * kMm, 150 * kMm, x, x, 23 * kMm); }
 
-// PHYSICS 1: FZG C14.
+// docs/physics.md §1: FZG C14.
 gm_model_params fzg_c14() {
   gm_model_params p = spur_pair(16, 24, 4.5 * kMm, 91.5 * kMm, 0.1817, 0.1715, 14 * kMm);
   p.gear[0].tip_diameter = 82.457 * kMm;
@@ -71,7 +71,7 @@ TEST(IsoStiffness, PublishedIsoTr6336_30Example1) {
 }
 
 TEST(IsoStiffness, Physics57PairWorkedCheck) {
-  // PHYSICS 5: c' = 15.55, c_gamma_alpha = 23.58 N/(mm um) for the 57/57 pair with PHYSICS 1's
+  // docs/physics.md §5: c' = 15.55, c_gamma_alpha = 23.58 N/(mm um) for the 57/57 pair with docs/physics.md §1's
   // x1 = x2 = 0.36139 (eps_alpha = 1.6876), steel E = 206 GPa (E/E_st = 1), profile A.
   gm_pair_geometry g{};
   const gm::IsoStiffness s = iso_of(set_a(0.36139), &g);
@@ -81,7 +81,7 @@ TEST(IsoStiffness, Physics57PairWorkedCheck) {
   EXPECT_NEAR(s.C_B, 0.975, 1e-15);
   EXPECT_EQ(s.C_M, 0.8);
   EXPECT_EQ(s.C_R, 1.0);
-  // The paper's x = 0.35 (gm_default_params) gives c' = 15.52: PHYSICS 5's value is for 0.36139.
+  // The paper's x = 0.35 (gm_default_params) gives c' = 15.52: docs/physics.md §5's value is for 0.36139.
   const gm::IsoStiffness s35 = iso_of(set_a(0.35));
   EXPECT_NEAR(s35.c_single / kNmmUm, 15.52, 0.005);
   // Units: q'_min in m^2/N, c'_th its inverse.
@@ -91,7 +91,7 @@ TEST(IsoStiffness, Physics57PairWorkedCheck) {
 
 TEST(IsoStiffness, FzgC14AgainstHandComputation) {
   // No published c' for FZG C14 was found with the search tools; this is the formula typed out
-  // term by term (spur: z_n = z), profile A (C_B = 0.975), steel, PHYSICS 1's eps_alpha = 1.4377.
+  // term by term (spur: z_n = z), profile A (C_B = 0.975), steel, docs/physics.md §1's eps_alpha = 1.4377.
   const double x1 = 0.1817, x2 = 0.1715, z1 = 16, z2 = 24;
   const double q = 0.04723 + 0.15551 / z1 + 0.25791 / z2 - 0.00635 * x1 - 0.11654 * x1 / z1 -
                    0.00193 * x2 - 0.24188 * x2 / z2 + 0.00529 * x1 * x1 + 0.00182 * x2 * x2;
@@ -125,7 +125,7 @@ TEST(IsoStiffness, PinionIsTheGearWithFewerTeeth) {
 }
 
 TEST(IsoStiffness, FactorsAndMaterial) {
-  // C_B (PHYSICS 5): profile A 0.975; h_fP = 1.2 m_n and 25 deg: 1 - 0.02 (20 - 25) = 1.1.
+  // C_B (docs/physics.md §5): profile A 0.975; h_fP = 1.2 m_n and 25 deg: 1 - 0.02 (20 - 25) = 1.1.
   EXPECT_NEAR(gm::iso_basic_rack_factor(1.25, 20 * kDeg), 0.975, 1e-15);
   EXPECT_NEAR(gm::iso_basic_rack_factor(1.2, 25 * kDeg), 1.1, 1e-14);
   // C_R: solid 1; webbed b_s/b = 0.5, s_R/m_n = 2: 1 + ln 0.5/(5 e^0.4); clamps at 0.2 and 1.

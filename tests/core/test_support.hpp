@@ -45,7 +45,7 @@ struct Instance {
     if (gm_evaluate(m, d, &k, &r) != GM_OK) throw std::runtime_error(gm_data_message(d));
     return r;
   }
-  // Prescribed spin angles: TE te with gear 1 at phi1 (PHYSICS 0).
+  // Prescribed spin angles: TE te with gear 1 at phi1 (docs/physics.md §0).
   gm_result at(double te, double phi1 = 0.0) {
     gm_kinematics k{};
     k.phi[0] = phi1;
@@ -123,7 +123,7 @@ inline Pair make_pair(const gm_model_params& p) {
   return out;
 }
 
-// phi_2 that holds the transmission error at te for a given phi_1 (PHYSICS 0).
+// phi_2 that holds the transmission error at te for a given phi_1 (docs/physics.md §0).
 inline double phi2_for(const gm::MeshLayout& L, double te, double phi1) {
   return (te - L.base_radius[0] * phi1) / (L.sign * L.base_radius[1]);
 }

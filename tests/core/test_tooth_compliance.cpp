@@ -24,11 +24,11 @@ constexpr double kNmmUm = 1e9;
 
 using gm_test::spur_pair;
 
-gm_model_params set_a() {  // PHYSICS 1/5: 57/57 with x = 0.36139
+gm_model_params set_a() {  // docs/physics.md §1/5: 57/57 with x = 0.36139
   return spur_pair(57, 57, 2.6 * kMm, 150 * kMm, 0.36139, 0.36139, 23 * kMm);
 }
 
-gm_model_params fzg_c14() {  // PHYSICS 1
+gm_model_params fzg_c14() {  // docs/physics.md §1
   gm_model_params p = spur_pair(16, 24, 4.5 * kMm, 91.5 * kMm, 0.1817, 0.1715, 14 * kMm);
   p.gear[0].tip_diameter = 82.457 * kMm;
   p.gear[1].tip_diameter = 118.365 * kMm;
@@ -162,7 +162,7 @@ TEST(ToothCompliance, ProfileIsTheGeneratedTooth) {
       EXPECT_NEAR(form.y, inv0.y, 1e-11);
       EXPECT_NEAR(form.half_thickness, inv0.half_thickness, 1e-11);
       // Involute: chordal half-thickness R sin(s_yt/(2R)), s_yt = d_y (s_t/d + inv alpha_t -
-      // inv alpha_yt) (PHYSICS 1), at the operating pitch and tip circles.
+      // inv alpha_yt) (docs/physics.md §1), at the operating pitch and tip circles.
       for (double d_y : {gg.d_w, gg.d_a}) {
         const double a_y = std::acos(gg.d_b / d_y);
         const double s_yt = d_y * (gg.s_t / gg.d + inv(g.alpha_t) - inv(a_y));
@@ -342,7 +342,7 @@ TEST(ToothCompliance, SainsotFoundation) {
 
 TEST(ToothCompliance, SinglePairStiffness57AgainstIso) {
   // Two teeth + Hertz (secant at 300 N/mm) at the pitch point, against ISO 6336-1's c' = 15.55
-  // N/(mm um) (PHYSICS 5). Weber-type models give 12-16 N/(mm um) for standard steel spur gears.
+  // N/(mm um) (docs/physics.md §5). Weber-type models give 12-16 N/(mm um) for standard steel spur gears.
   const gm_model_params p = set_a();
   const gm_pair_geometry g = geometry_of(p);
   gm::IsoStiffness iso;

@@ -1,7 +1,7 @@
 """FMI 2.0 conformance of GearMesh.fmu (FMI behaviour only; the physics is tested elsewhere).
 
 Each test drives the FMU through fmpy (FMU2Slave, or its ctypes functions for calls that the
-high-level wrapper does not expose) and checks one rule of docs FMI.md.
+high-level wrapper does not expose) and checks one rule of docs/fmi.md.
 """
 from __future__ import annotations
 

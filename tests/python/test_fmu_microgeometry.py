@@ -2,7 +2,7 @@
 deviation file in resources/, the FMU state with strings, and the scene FMU (gearmesh.scene_fmu).
 
 Forces are checked with prescribed spin angles at the default user-constant stiffness, where a
-slice of width b/n in contact carries k' (b/n) (approach - gap) (PHYSICS 3), and the gaps follow
+slice of width b/n in contact carries k' (b/n) (approach - gap) (docs/physics.md §3), and the gaps follow
 the formulas of core/src/microgeometry.hpp, written again here from that comment.
 """
 from __future__ import annotations
@@ -61,7 +61,7 @@ def scene(fmu_path, tmp_path, parameters, resources, name="scène dir ü"):
 
 
 class Pair:
-    """Roll positions of the default spur pair (PHYSICS 0, 1) from the FMU's calculated parameters:
+    """Roll positions of the default spur pair (docs/physics.md §0, 1) from the FMU's calculated parameters:
     at phi_1 = 0 tooth 0 of gear 1 touches at the pitch point; turning gear 1 by +phi_1 moves its
     contact point by r_b1 phi_1 towards its tip, and tooth k takes the place of tooth 0 at
     phi_1 - 2 pi k / z1 (the deviation file's numbering)."""

@@ -1,6 +1,6 @@
 """Quasi-static runs with prescribed spin angles: the FMU as a pure contact element.
 
-TE = r_b1 phi_1 + s r_b2 phi_2 (PHYSICS 0), so a run that holds TE and turns gear 1 sets
+TE = r_b1 phi_1 + s r_b2 phi_2 (docs/physics.md §0), so a run that holds TE and turns gear 1 sets
 phi_2 = (TE - r_b1 phi_1) / (s r_b2).
 """
 from __future__ import annotations

@@ -57,7 +57,7 @@ SCHEMA: dict[str, dict[str, Key]] = {
             "axial_offset_mm": Key(f"gear{i}.axial_offset", 1e-3, -2000, 2000, unit="mm"),
             "youngs_modulus_GPa": Key(f"gear{i}.youngs_modulus", 1e9, 0.1, 10000, unit="GPa"),
             "poisson_ratio": Key(f"gear{i}.poisson_ratio", 1.0, 0.0, 0.499),
-            # micro-geometry, both flanks alike (PHYSICS 2; flank-specific: deviations_file)
+            # micro-geometry, both flanks alike (docs/physics.md §2; flank-specific: deviations_file)
             "profile_crowning_um": Key(f"gear{i}.profile_crowning", 1e-6, 0, 1000, unit="um"),
             "tip_relief_um": Key(f"gear{i}.tip_relief", 1e-6, 0, 1000, unit="um"),
             "tip_relief_length_mm": Key(f"gear{i}.tip_relief_length", 1e-3, 0, 1000, unit="mm"),

@@ -1,5 +1,5 @@
 """The FMU of a scene: the generic GearMesh.fmu plus only the resources and start values that the
-scene needs (DESIGN.md, "What a user does", step 3).
+scene needs (docs/design.md, "What a user does", step 3).
 
 The binary and the GUID stay those of the generic FMU. The scene's start values are written
 twice, from one dict: as the start attributes in modelDescription.xml (what importers show and

@@ -5,7 +5,7 @@
  * gm_evaluate allocates nothing. No exception crosses this API: every entry point returns a
  * gm_status and the last message is available from the data (or the create call's buffer).
  *
- * Units are SI throughout (m, rad, N, N*m, s, Pa). Frames and signs: PHYSICS.md section 0.
+ * Units are SI throughout (m, rad, N, N*m, s, Pa). Frames and signs: docs/physics.md §0.
  */
 #ifndef GEARMESH_H
 #define GEARMESH_H
@@ -25,7 +25,7 @@ typedef enum gm_status {
   GM_ERR_ARGUMENT = 5   /* a NULL pointer or other misuse of the API */
 } gm_status;
 
-/* Stiffness model levels (DESIGN.md, "Stiffness model levels"). */
+/* Stiffness model levels (docs/design.md, "Stiffness model levels"). */
 typedef enum gm_stiffness_level {
   GM_STIFFNESS_USER_CONSTANT = 0,
   GM_STIFFNESS_USER_VARIABLE = 1,
@@ -35,7 +35,7 @@ typedef enum gm_stiffness_level {
   GM_STIFFNESS_FE = 5
 } gm_stiffness_level;
 
-/* Micro-geometry of one flank (PHYSICS 2): material removed, positive = gap, along the flank
+/* Micro-geometry of one flank (docs/physics.md §2): material removed, positive = gap, along the flank
  * normal. Profile terms run over the active profile (start of active profile to tip, roll
  * distance rho), lead terms over the face width (face coordinate y from mid-face). */
 typedef struct gm_flank_modification {
@@ -95,7 +95,7 @@ typedef struct gm_model_params {
   int solver_max_iterations;    /* hard cap */
   double rated_line_load;       /* level 2: F_t K_A / b of ISO 6336-1's load correction of c', N/m;
                                    0 = none (c' at full load) */
-  int quasi_static;             /* 1: gear 2's spin is solved for the load torque (PHYSICS 6) */
+  int quasi_static;             /* 1: gear 2's spin is solved for the load torque (docs/physics.md §6) */
   const char* stiffness_table;  /* level 1 (required there, refused at other levels): path of a
                                    stiffness table file, pair stiffness per unit face width over
                                    gear 1's roll angle, or NULL; read at gm_model_create, not kept */
@@ -121,7 +121,7 @@ typedef struct gm_gear_geometry {
   double eta_b;           /* half angle of the tooth (ring: of the space) at the base circle, rad */
   double rho_a;           /* roll distance of the tip circle, m */
   double rho_Ff;          /* roll distance of the form circle (0 if inside the base circle), m */
-  int undercut;           /* 1 if the basic rack undercuts the tooth (PHYSICS 1) */
+  int undercut;           /* 1 if the basic rack undercuts the tooth (docs/physics.md §1) */
   int interference;       /* 1 if the mate's tip reaches below the form circle (d_sap beyond d_Ff) */
 } gm_gear_geometry;
 
@@ -149,7 +149,7 @@ typedef struct gm_pair_geometry {
  * 1.9e-9 rad (1.9e-9 r_b of TE); larger angles are refused with GM_ERR_INPUT. */
 #define GM_MAX_SPIN_ANGLE 1e7
 
-/* Inputs of one evaluation, in the housing frame H (PHYSICS 0). Index 0 = gear 1. */
+/* Inputs of one evaluation, in the housing frame H (docs/physics.md §0). Index 0 = gear 1. */
 typedef struct gm_kinematics {
   double u[2][3];     /* centre displacement from nominal, m */
   double r[2][2];     /* small tilts about H's x and y, rad */
@@ -165,7 +165,7 @@ typedef struct gm_kinematics {
 typedef struct gm_result {
   double force[2][3];     /* contact force on gear i, in H, N */
   double moment[2][3];    /* contact moment on gear i about its centre, in H, N*m */
-  double te;              /* transmission error along the line of action, m (PHYSICS 0) */
+  double te;              /* transmission error along the line of action, m (docs/physics.md §0) */
   double te_angle;        /* te as an angle of gear 2, rad */
   double normal_force;    /* sum of normal slice forces, N */
   double stiffness;       /* tangent mesh stiffness along the line of action, N/m */
@@ -176,7 +176,7 @@ typedef struct gm_result {
   int solver_iterations;  /* iterations of the last force solve (0 = closed form) */
   double solver_residual; /* KKT residual of the last solve, m */
   double elastic_energy;  /* elastic potential of the loaded slices, J: sum of int F dDelta at the
-                             solved forces (docs/physics.md, "Energy") */
+                             solved forces (docs/physics.md §6) */
   double damping_power;   /* power dissipated by the contact damping, W */
 } gm_result;
 
