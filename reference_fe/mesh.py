@@ -139,24 +139,22 @@ def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> Ge
         occ.synchronize()
 
         f = gmsh.model.mesh.field
-        d1 = f.add("Distance"); f.setNumbers(d1, "CurvesList", contact_curves)
-        f.setNumber(d1, "Sampling", 400)
-        t1 = f.add("Threshold"); f.setNumber(t1, "InField", d1)
-        f.setNumber(t1, "SizeMin", size.h_contact); f.setNumber(t1, "SizeMax", size.h_body)
-        f.setNumber(t1, "DistMin", 0.0)
-        f.setNumber(t1, "DistMax", (size.h_body - size.h_contact) / size.grad)
-        d2 = f.add("Distance"); f.setNumbers(d2, "CurvesList", fine_curves)
-        f.setNumber(d2, "Sampling", 200)
-        t2 = f.add("Threshold"); f.setNumber(t2, "InField", d2)
-        f.setNumber(t2, "SizeMin", size.h_tooth); f.setNumber(t2, "SizeMax", size.h_body)
-        f.setNumber(t2, "DistMin", 0.0)
-        f.setNumber(t2, "DistMax", (size.h_body - size.h_tooth) / size.grad)
-        d3 = f.add("Distance"); f.setNumbers(d3, "CurvesList", far_curves)
-        f.setNumber(d3, "Sampling", 60)
-        t3 = f.add("Threshold"); f.setNumber(t3, "InField", d3)
-        f.setNumber(t3, "SizeMin", size.h_far); f.setNumber(t3, "SizeMax", size.h_body)
-        f.setNumber(t3, "DistMin", 0.0)
-        f.setNumber(t3, "DistMax", (size.h_body - size.h_far) / size.grad)
+        def graded(curves, sampling, h_near):
+            """A size field: h_near on the curves, growing at size.grad to size.h_body."""
+            d = f.add("Distance")
+            f.setNumbers(d, "CurvesList", curves)
+            f.setNumber(d, "Sampling", sampling)
+            t = f.add("Threshold")
+            f.setNumber(t, "InField", d)
+            f.setNumber(t, "SizeMin", h_near)
+            f.setNumber(t, "SizeMax", size.h_body)
+            f.setNumber(t, "DistMin", 0.0)
+            f.setNumber(t, "DistMax", (size.h_body - h_near) / size.grad)
+            return t
+
+        t1 = graded(contact_curves, 400, size.h_contact)
+        t2 = graded(fine_curves, 200, size.h_tooth)
+        t3 = graded(far_curves, 60, size.h_far)
         mn = f.add("Min"); f.setNumbers(mn, "FieldsList", [t1, t2, t3])
         f.setAsBackgroundMesh(mn)
         for opt in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints",

@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from gearmesh.accuracy_timing import StepTimer
 from gearmesh.drivetrain import Drivetrain, simulate
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import loaded_te_sweep
@@ -22,33 +23,14 @@ PARAMS = {"model.stiffness": 4, "model.slices": 10, "model.friction_coefficient"
           "model.friction_velocity": 1e-5}
 
 
-class StepTimer:
-    """Wraps an instance's doStep to add up the time spent inside it."""
-
-    def __init__(self, fmu: GearMeshFMU):
-        self.inside = 0.0
-        self.calls = 0
-        inner = fmu.fmu.doStep
-
-        def timed(*args, **kwargs):
-            t0 = time.perf_counter()
-            try:
-                return inner(*args, **kwargs)
-            finally:
-                self.inside += time.perf_counter() - t0
-                self.calls += 1
-
-        fmu.fmu.doStep = timed
-
-
 def measure(run, repeats=5):
     total, inside, calls = [], [], 0
     for _ in range(repeats):
         t0 = time.perf_counter()
         timer = run()
         total.append(time.perf_counter() - t0)
-        inside.append(timer.inside)
-        calls = timer.calls
+        inside.append(sum(timer.seconds))
+        calls = len(timer.seconds)
     return total, inside, calls
 
 
