@@ -71,13 +71,10 @@ def test_large_step_mode_passes_at_large_steps(quick_rows):
     assert all(r.mode == "large_step_chain" for r in open_)
 
 
-def test_te_references():
-    """Every TE case is judged against the converged dynamics (docs/stability.md: the
-    quasi-static TE at a run's own mesh moment would reproduce an undamped run by construction);
-    the chain's open cases are TE cases."""
-    refs = {c.name: c.te_reference for c in select(None) if c.te_check}
-    assert len(refs) >= 20 and set(refs.values()) == {"converged"}
-    assert set(stability.CHAIN_TE_OPEN) <= set(refs)
+def test_chain_open_cases_are_te_cases():
+    """CHAIN_TE_OPEN names cases whose TE is judged (against the converged dynamics)."""
+    te_cases = {c.name for c in select(None) if c.te_check}
+    assert len(te_cases) >= 20 and set(stability.CHAIN_TE_OPEN) <= te_cases
 
 
 def test_converged_chain_starts_in_equilibrium(fmu_path, tmp_path):

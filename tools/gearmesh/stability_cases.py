@@ -7,7 +7,7 @@ inertias J1 = J2 = 0.02 kg m^2 unless it changes that, with:
 * the load on gear 2 as an external torque (`load`, N m, + loads flank A);
 * mesh damping 1e5 N s/m^2 (about 5 % of critical on the mesh mode), so that what the start
   excites dies out within the run; the damping cases set 0 and the maximum.
-The cases at 10 rpm are judged against the converged dynamics (te_check, te_reference).
+The cases at 10 rpm are judged against the converged dynamics (te_check).
 """
 from __future__ import annotations
 
@@ -66,12 +66,6 @@ class Case:
     te0: float | str = "static"                     # initial TE (m) or the quasi-static one
     t_end: float = SLOW_END
     te_check: bool = True                           # judge the TE against the reference
-    # the TE reference: "converged" (the plain element under the implicit master at 5e-6 s,
-    # gearmesh.stability_runs.converged_te: an independent integrator and code path) or
-    # "quasi_static" (the FMU's quasi-static mode at each sample's own mesh load and speeds: for
-    # an undamped run it holds by construction, the element having no mass, so it is no check;
-    # kept for looking at the damping's share, docs/stability.md)
-    te_reference: str = "converged"
     J: tuple = (0.02, 0.02)
     pair: Callable[["Case", Geometry, float], GearPair] | None = None  # custom setup
     flanks: tuple = ()                              # mesh.flank values the run must show

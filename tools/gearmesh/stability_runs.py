@@ -36,7 +36,7 @@ from gearmesh.stability_cases import SETTLE, SHAFT_C, SHAFT_K, Case, Geometry, d
 
 MODES = ["explicit", "implicit", "large_step", "large_step_chain"]
 CHAIN_J, CHAIN_KP, CHAIN_KI = 2.0, 50.0, 500.0
-REFERENCE_STEP = 5e-6   # s: the converged dynamics (implicit master) of te_reference "converged"
+REFERENCE_STEP = 5e-6   # s: the converged dynamics (implicit master), every case's TE reference
 LARGE_STEP = {"dynamics.tolerance": 1e-9, "dynamics.max_step": 1e-3, "dynamics.min_step": 1e-12}
 
 
@@ -75,9 +75,7 @@ class Run:
     internal_steps: int = 0           # large-step mode: the FMU's internal steps, summed
     rejected: int = 0
     rollback_gap: float = math.nan    # rollback case: largest difference of the continuations
-    load: np.ndarray = field(default_factory=lambda: np.zeros(0))  # mesh load on gear 2, N m
     te_ref: np.ndarray | None = None  # the reference TE at the samples (te_check cases)
-    te_ref_kind: str = ""             # "quasi-static" or "converged dynamics"
 
 
 def _value(v, geo):
@@ -133,10 +131,7 @@ def prepare(case: Case, generic_fmu: pathlib.Path, workdir: pathlib.Path) -> Pre
 
 def quasi_static_te(fmu_path, params, inputs, load, phi1, omega1, omega2) -> np.ndarray:
     """The quasi-static TE of the same FMU (model.quasi_static, mesh.load_torque) at each gear-1
-    angle, the run's own speeds there (the sliding speed the friction sees includes the elastic
-    TE rate) and the load (a number, or the run's own mesh load at each sample: the drive's
-    inertia and shafts make the mesh load vary, while the mesh itself, ~kHz, stays quasi-static
-    at 10 rpm)."""
+    angle, speeds and load (a number or one per angle): a case's starting equilibrium."""
     out = []
     omega1, omega2 = np.broadcast_to(omega1, phi1.shape), np.broadcast_to(omega2, phi1.shape)
     loads = np.broadcast_to(load, phi1.shape)
@@ -175,14 +170,7 @@ def run(prep: Prepared, mode: str, h: float) -> Run:
     r.seconds = time.perf_counter() - start
     r.nan_count += int(np.count_nonzero(~np.isfinite(r.te)) + np.count_nonzero(~np.isfinite(r.force)))
     if prep.case.te_check and not r.error and len(r.phi1):
-        if prep.case.te_reference == "converged":
-            r.te_ref = converged_te(prep, "chain" if mode == "large_step_chain" else "pair", r.t)
-            r.te_ref_kind = "converged dynamics"
-        else:
-            r.te_ref = quasi_static_te(prep.fmu_path, prep.params, prep.inputs,
-                                       r.load if len(r.load) == len(r.phi1) else prep.load,
-                                       r.phi1, *r.omega)
-            r.te_ref_kind = "quasi-static"
+        r.te_ref = converged_te(prep, "chain" if mode == "large_step_chain" else "pair", r.t)
     return r
 
 
@@ -261,7 +249,6 @@ def _run_master(prep: Prepared, h: float, implicit: bool, r: Run) -> None:
                 r.t, r.phi1 = res.t[1:], res.x[1:, 0]
                 r.omega = (res.x[1:, 1], res.x[1:, 3])
                 r.te, r.force = res.mesh["mesh.te"], res.mesh["mesh.normal_force"]
-                r.load = -prep.geo.sign * np.asarray(res.mesh["gear2.mz"])
                 r.flank = res.mesh["mesh.flank"]
                 r.nan_count = int(np.count_nonzero(~np.isfinite(res.x)))
         e = res.energy
@@ -286,7 +273,7 @@ def large_step_parameters(prep: Prepared, shafts: tuple[Shaft, Shaft]) -> dict:
 OUT = ["gear1.angle", "gear1.speed", "gear2.angle", "gear2.speed", "gear1.shaft_torque",
        "gear2.shaft_torque", "mesh.te", "mesh.normal_force", "mesh.flank", "energy.residual",
        "energy.work_in", "energy.kinetic", "energy.elastic", "dynamics.steps", "dynamics.rejected",
-       "gear2.mz", "energy.initial"]
+       "energy.initial"]
 
 
 def _run_signals(prep: Prepared, h: float, r: Run) -> None:
@@ -338,7 +325,6 @@ def _collect(r: Run, res, t, sign: int = 1) -> None:
     r.omega = (np.asarray(res["gear1.speed"][1:]), np.asarray(res["gear2.speed"][1:]))
     r.te, r.force = np.asarray(res["mesh.te"][1:]), np.asarray(res["mesh.normal_force"][1:])
     r.flank = np.asarray(res["mesh.flank"][1:])
-    r.load = -sign * np.asarray(res["gear2.mz"][1:])
     r.residual = float(res["energy.residual"][-1])
     r.internal_steps = int(np.sum(res["dynamics.steps"][1:]))
     r.rejected = int(np.sum(res["dynamics.rejected"][1:]))
