@@ -1,6 +1,7 @@
 #include "evaluate.hpp"
 
 #include <algorithm>
+#include <type_traits>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -259,6 +260,15 @@ struct ResultT {
   int pairs_in_contact = 0, flank = 0;
 };
 
+bool same_local_law(const LocalLaw& a, const LocalLaw& b) {
+  return a.width == b.width && a.reduced_radius == b.reduced_radius &&
+         a.body[0].depth == b.body[0].depth && a.body[1].depth == b.body[1].depth &&
+         a.body[0].youngs_modulus == b.body[0].youngs_modulus &&
+         a.body[1].youngs_modulus == b.body[1].youngs_modulus &&
+         a.body[0].poisson_ratio == b.body[0].poisson_ratio &&
+         a.body[1].poisson_ratio == b.body[1].poisson_ratio;
+}
+
 // Elastic potential of the loaded slices at solved forces, J: U = sum_i int_0^Delta_i F dDelta.
 // With the complementary energy Psi(F) = F.C.F/2 + sum_i P_i(F_i) (C the coupled compliance of
 // level 5, or diag(c_i); P_i = int f_i) and C F + f(F) = Delta on the loaded set,
@@ -267,13 +277,22 @@ struct ResultT {
 // the implicit derivative of F) is U's exact derivative. Forces before damping.
 template <class T>
 T elastic_energy(const ContactSliceT<T>* slices, const SliceLawT<T>* laws, const T* forces, int n) {
-  T u = 0;
+  T u = 0, last = 0;
   for (int i = 0; i < n; ++i) {
     const T& F = forces[i];
     if (!(F > 0)) continue;
+    if constexpr (std::is_same_v<T, double>) {
+      // the next slice of an aligned spur pair: the same law, force and approach, the same term
+      if (i > 0 && F == forces[i - 1] && slices[i].approach == slices[i - 1].approach &&
+          same_local_law(laws[i].local, laws[i - 1].local)) {
+        u += last;
+        continue;
+      }
+    }
     LocalLawValueT<T> local;  // zero without a local law
     if (laws[i].local.width > 0) local = local_law_value(laws[i].local, F);
-    u += 0.5 * F * (slices[i].approach + local.approach) - local.energy;
+    last = 0.5 * F * (slices[i].approach + local.approach) - local.energy;
+    u += last;
   }
   return u;
 }
