@@ -210,9 +210,7 @@ typedef enum {
   X("gear" #i ".speed", Real, output, continuous, calculated, "rad/s", "rpm", "", "", ds.omega[n], D_TE,          \
     "spin speed at the end of the step (large-step mode: integrated; else the input gear" #i ".omega)")          \
   X("gear" #i ".shaft_torque", Real, output, continuous, calculated, "N.m", "", "", "", ds.shaft_torque[n], D_TE,  \
-    "large-step mode: torque of the shaft on the gear at the end of the step (its far end feels minus this)")       \
-  X("gear" #i ".shaft_end_angle", Real, output, continuous, calculated, "rad", "deg", "", "", ds.far_phi[n], D_TE, \
-    "large-step mode: the shaft's far end at the end of the step as the FMU moved it (shaft_phi + shaft_omega h)")
+    "large-step mode: torque of the shaft on the gear at the end of the step (its far end feels minus this)")
 
 /* Outputs of gear i. */
 #define GM_FMU_GEAR_OUTPUTS(X, i, n)                                                                               \

@@ -270,7 +270,6 @@ gm_status dynamics_start(const gm_model& m, gm_data& d, const gm_dynamics_params
   finish_state(p, x, out);
   out.initial_energy = out.kinetic + out.elastic;
   out.residual = 0;
-  for (int i = 0; i < 2; ++i) out.far_phi[i] = in.shaft_phi[i];
   out.step = std::min(p.max_step, 1e-5);
   s = out;
   res = x.res;
@@ -344,7 +343,6 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     }
   }
   s.step = h;
-  for (int i = 0; i < 2; ++i) s.far_phi[i] = st.far_angle(i, duration);
   finish_state(p, x1, s);
   s_io = s;
   res = x1.res;

@@ -271,7 +271,6 @@ typedef struct gm_dynamics_state {
                               part, from a compliance that varies along the path, J */
   double residual;         /* integration error: work_in - work_out - (kinetic + elastic -
                               initial_energy) - friction - damping - parametric, J */
-  double far_phi[2];       /* each shaft's far end at the state, rad */
   double initial_energy;   /* kinetic + elastic at gm_dynamics_start, J */
   double step;             /* internal step to try first, s */
   int steps;               /* internal steps accepted by the last gm_dynamics_advance */
