@@ -57,6 +57,43 @@ def test_main_job_on_set_a(fmu_path, tmp_path):
     means = [loaded["mesh.te"][loaded["torque"] == t].mean() for t in (50.0, 200.0, 350.0)]
     assert 0 < means[0] < means[1] < means[2]  # the loaded TE grows with the torque
     assert "order 57" in text and "order 114" in text
+    # the FE level first (the scene's [run] levels = [5, 4]), level 4 beside it
+    level4 = read(folder / "loaded_te_level4.csv")
+    assert (folder / f"{scene.name}.level4.fmu").is_file()
+    mean4 = level4["mesh.te"][level4["torque"] == 350.0].mean()
+    assert means[2] > 1.1 * mean4  # the FE level is softer than level 4 (body and coupling)
+    # the accuracy section against the committed CalculiX reference (independent code): the FE
+    # level's mean TE lies inside the plane-stress/plane-strain band at every torque, level 4's
+    # is more than 5 % too stiff at 350 N m
+    acc = _section_rows(text, "Error against the FE reference")
+    assert {r[0] for r in acc} == {"5", "4"} and len(acc) == 8
+    assert all(abs(float(r[2].rstrip(" %"))) < 1.0 for r in acc if r[0] == "5")
+    assert float(next(r for r in acc if r[:2] == ["4", "350"])[2].rstrip(" %")) < -5.0
+
+
+def _section_rows(text: str, title: str) -> list[list[str]]:
+    """The cells of the first markdown table after the line holding `title`."""
+    lines = text[text.index(title):].splitlines()[1:]
+    start = next(i for i, line in enumerate(lines) if line.startswith("|"))
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append([c.strip() for c in line.strip("|").split("|")])
+    return rows
+
+
+def test_levels_of_the_main_job_are_checked():
+    from gearmesh import main_levels
+    scene = load_scene(SCENES / "paper_setA_3U4U.toml")
+    assert main_levels.levels(scene, {"levels": [5, 4, 5]}) == [5, 4]
+    assert main_levels.levels(scene, {}) == [4]
+    with pytest.raises(ValueError, match=r"run.levels .*allowed: whole levels among \(2, 3, 4, 5\)"):
+        main_levels.levels(scene, {"levels": [1]})
+    with pytest.raises(ValueError, match="not allowed"):
+        main_levels.levels(scene, {"levels": [4.5]})
+    assert main_levels.grows([1, 2, 3]) and not main_levels.grows([1, 3, 2])
+    assert not main_levels.grows([1, 1, 2])
 
 
 def test_main_job_friction_sweep_of_set_b(fmu_path, tmp_path):
@@ -73,3 +110,13 @@ def test_main_job_friction_sweep_of_set_b(fmu_path, tmp_path):
 
     assert spread(350.0) > 5 * spread(50.0)
     assert (tmp_path / scene.name / "friction_sweep.png").stat().st_size > 0
+    # the Figure-7 check: each level's p-p and order 1 over the torques with its verdict, which
+    # agrees with the numbers shown
+    text = (tmp_path / "report.md").read_text()
+    fig7 = _section_rows(text, "Does the TE grow monotonically with torque?")
+    assert [r[:2] for r in fig7] == [["5", "p-p"], ["5", "order 1"], ["4", "p-p"], ["4", "order 1"]]
+    for r in fig7:
+        values = [float(v) for v in r[2:-1]]
+        assert len(values) == 7
+        assert r[-1] == ("yes" if all(b > a for a, b in zip(values, values[1:])) else "no")
+    assert "The FE reference (frictionless, plane strain)" in text

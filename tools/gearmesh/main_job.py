@@ -8,7 +8,7 @@ import pathlib
 
 import numpy as np
 
-from gearmesh.compliance import with_databases
+from gearmesh import main_levels
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import (GEOMETRY, engagement_sweep, loaded_te_sweep,
                                        mesh_order_amplitudes, revolution_at_approach)
@@ -51,11 +51,17 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
     """Build the scene's FMU (its start values and resources only), run it; returns the
     scene's markdown section."""
     run = {**RUN_DEFAULTS, **scene.run}
-    scene = with_databases(scene)  # level 5: the gears' compliance databases as resources
+    levels = main_levels.levels(scene, run)  # the first: the level of every run below
+    # level 5: the gears' compliance databases (built once, cached) as resources
+    at_level = {level: main_levels.scene_at_level(scene, level) for level in levels}
+    scene = at_level[levels[0]]
     folder = out / scene.name
     folder.mkdir(parents=True, exist_ok=True)
-    fmu_path = build_scene_fmu(generic_fmu, scene.parameters, scene.resources,
-                               folder / f"{scene.name}.fmu")
+    fmus = {level: build_scene_fmu(generic_fmu, s.parameters, s.resources,
+                                   folder / (f"{scene.name}.fmu" if level == levels[0]
+                                             else f"{scene.name}.level{level}.fmu"))
+            for level, s in at_level.items()}
+    fmu_path = fmus[levels[0]]
     with GearMeshFMU(fmu_path, instance_name=scene.name) as fmu:
         geo = fmu.get(GEOMETRY)
         j_bt = geo["geometry.backlash"]
@@ -65,12 +71,15 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
     with GearMeshFMU(fmu_path, instance_name=scene.name) as fmu:
         rev = revolution_at_approach(fmu, run["approach_um"], run["points_per_pitch"],
                                      progress=f"{scene.name}: revolution")
-    loaded = None
-    if run["torques_Nm"]:
-        with GearMeshFMU(fmu_path, {"model.quasi_static": True}, instance_name=scene.name) as fmu:
-            loaded = loaded_te_sweep(fmu, run["torques_Nm"], run["speed_rpm"], run["te_pitches"],
-                                     run["points_per_pitch"], progress=f"{scene.name}: loaded TE")
-        write_table(folder / "loaded_te.csv", loaded)
+    loaded, loaded_by_level = None, {}
+    for level, path in fmus.items() if run["torques_Nm"] else ():
+        with GearMeshFMU(path, {"model.quasi_static": True}, instance_name=scene.name) as fmu:
+            loaded_by_level[level] = loaded_te_sweep(
+                fmu, run["torques_Nm"], run["speed_rpm"], run["te_pitches"],
+                run["points_per_pitch"], progress=f"{scene.name}: loaded TE, level {level}")
+        write_table(folder / ("loaded_te.csv" if level == levels[0]
+                              else f"loaded_te_level{level}.csv"), loaded_by_level[level])
+    loaded = loaded_by_level.get(levels[0])
     # friction sweep (the paper's Figures 7-8): mesh orders over torque for each mu
     friction_rows = []
     for mu in run["friction_sweep"]:
@@ -131,18 +140,23 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
     ]
     if loaded is not None:
         z1 = scene.parameters.get("gear1.teeth", 57)
-        lines += [f"Loaded TE (quasi-static, {run['te_pitches']} pitches at "
-                  f"{run['speed_rpm'] * 60 / (2 * math.pi):g} rpm):", "",
-                  f"| torque (N m) | mean TE (um) | peak-to-peak (um) | order {z1} (um) | "
-                  f"order {2 * z1} (um) |", "|---|---|---|---|---|"]
-        curves = {}
-        for torque in run["torques_Nm"]:
-            rows = loaded["torque"] == torque
-            te = loaded["mesh.te"][rows]
-            orders = mesh_order_amplitudes(te, run["te_pitches"])
-            curves[f"{torque:g} N m"] = te * 1e6
-            lines.append(f"| {torque:g} | {te.mean() * 1e6:.3f} | {np.ptp(te) * 1e6:.3f} | "
-                         f"{orders[1] * 1e6:.4f} | {orders[2] * 1e6:.4f} |")
+        mu = scene.parameters.get("model.friction_coefficient", 0.0)
+        lines += [f"Loaded TE (quasi-static, mu = {mu:g}, {run['te_pitches']} pitches at "
+                  f"{run['speed_rpm'] * 60 / (2 * math.pi):g} rpm) at stiffness level "
+                  f"{' and '.join(map(str, levels))}:", "",
+                  f"| level | torque (N m) | mean TE (um) | peak-to-peak (um) | order {z1} (um) | "
+                  f"order {2 * z1} (um) |", "|---|---|---|---|---|---|"]
+        summaries = {level: main_levels.loaded_summary(sweep_l, run["torques_Nm"],
+                                                       run["te_pitches"])
+                     for level, sweep_l in loaded_by_level.items()}
+        for level, summary in summaries.items():
+            for torque, v in summary.items():
+                lines.append(f"| {level} | {torque:g} | {v['mean'] * 1e6:.3f} | "
+                             f"{v['pp'] * 1e6:.3f} | {v['order1'] * 1e6:.4f} | "
+                             f"{v['order2'] * 1e6:.4f} |")
+        lines.append("")
+        curves = {f"{torque:g} N m": loaded["mesh.te"][loaded["torque"] == torque] * 1e6
+                  for torque in run["torques_Nm"]}
         angle = np.degrees(loaded["gear1.phi"][loaded["torque"] == run["torques_Nm"][0]])
         plot(folder / "loaded_te.png", angle, curves, "gear 1 angle (deg)", "TE (um)",
              f"{scene.name}: loaded TE")
@@ -156,6 +170,12 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
              f"{scene.name}: mesh orders of the loaded TE")
         lines += ["", f"![loaded TE]({scene.name}/loaded_te.png)",
                   f"![mesh orders]({scene.name}/mesh_orders.png)", ""]
+        reference_dir = scene.path.parent / "reference"
+        accuracy, _ = main_levels.accuracy_lines(scene.name, fmus, reference_dir)
+        lines += accuracy
+        crowned = any(scene.parameters.get(f"gear{i}.profile_crowning", 0) for i in (1, 2))
+        if crowned:
+            lines += main_levels.figure7_lines(scene.name, summaries, mu, reference_dir)
     if friction_rows:
         z1 = scene.parameters.get("gear1.teeth", 57)
         torques = np.array(run["torques_Nm"], dtype=float)

@@ -130,6 +130,7 @@ RUN_SCHEMA: dict[str, Key] = {
     "speed_rpm": Key("", 2 * 3.141592653589793 / 60, -1e5, 1e5, unit="rpm"),
     "te_pitches": Key("", 1, 1, 1000, kind=int),
     "friction_sweep": Key("", 1.0, 0.0, 2.0, kind=list),
+    "levels": Key("", 1, 0, 5, kind=list),  # stiffness levels of the main job's loaded TE
 }
 
 

@@ -76,6 +76,7 @@ class Run:
     rejected: int = 0
     rollback_gap: float = math.nan    # rollback case: largest difference of the continuations
     te_ref: np.ndarray | None = None  # the reference TE at the samples (te_check cases)
+    te_cut: np.ndarray | None = None  # large_step_chain: the converged chain's TE (no cut)
 
 
 def _value(v, geo):
@@ -170,7 +171,11 @@ def run(prep: Prepared, mode: str, h: float) -> Run:
     r.seconds = time.perf_counter() - start
     r.nan_count += int(np.count_nonzero(~np.isfinite(r.te)) + np.count_nonzero(~np.isfinite(r.force)))
     if prep.case.te_check and not r.error and len(r.phi1):
-        r.te_ref = converged_te(prep, "chain" if mode == "large_step_chain" else "pair", r.t)
+        if mode == "large_step_chain":
+            r.te_ref = cut_reference_te(prep, r.t)
+            r.te_cut = converged_te(prep, "chain", r.t)
+        else:
+            r.te_ref = converged_te(prep, "pair", r.t)
     return r
 
 
@@ -335,28 +340,95 @@ def _collect(r: Run, res, t, sign: int = 1) -> None:
     r.nan_count = sum(int(np.count_nonzero(~np.isfinite(np.asarray(res[k], float)))) for k in OUT)
 
 
+class ChainSide:
+    """large_step_chain's Python side: the driving machine (PI speed control; present when gear 1
+    is speed-driven) and the load inertia with the load torque, coupled to the gear pair through
+    the shafts by an explicit cut. Symplectic Euler per communication step: the far-end angles
+    with the speeds held over the step (as the FMU moves them), then the speeds from the shaft
+    torques on the gears at the end of the step."""
+
+    def __init__(self, prep: Prepared):
+        pair = prep.pair
+        s1 = pair.shaft1
+        self.drive = s1.stiffness > 0                 # gear 1 speed-driven: a motor on its shaft
+        self.shaft1 = s1 if self.drive else Shaft()
+        self.shaft2 = Shaft(SHAFT_K, SHAFT_C)         # gear 2 always on a shaft to the load
+        self.w_ref = s1.omega
+        # the machine's inertia and controller scale with the drive shaft (scaled with gear 1's
+        # inertia, shaft_for), so that the coupling mode across the cut stays at ~100 rad/s
+        scale = s1.stiffness / SHAFT_K if self.drive else 1.0
+        self.J_m, self.kp, self.ki = CHAIN_J * scale, CHAIN_KP * scale, CHAIN_KI * scale
+        self.load_torque = pair.torque2
+        self.torque1 = pair.torque1
+        # machine (phi_m, w_m, integral), load (phi_L, w_L): start in equilibrium
+        self.m = np.array([s1.phi0, pair.x0[1],
+                           s1.stiffness * s1.phi0 / self.ki if self.drive else 0.0])
+        self.L = np.array([pair.x0[2] + self.load_torque(0.0) / SHAFT_K, pair.x0[3]])
+
+    def inputs(self, t: float) -> dict:
+        """The FMU's inputs over the step from t: far ends and gear 1's torque, held."""
+        m, L = self.m, self.L
+        return {"gear1.torque": self.torque1(t), "gear2.torque": 0.0,
+                "gear1.shaft_phi": m[0] if self.drive else 0.0,
+                "gear1.shaft_omega": m[1] if self.drive else 0.0,
+                "gear2.shaft_phi": L[0], "gear2.shaft_omega": L[1]}
+
+    def shafts(self, t: float) -> tuple[Shaft, Shaft]:
+        """The shafts with their far ends moving from t as the FMU moves them over a step."""
+        u = self.inputs(t)
+        return tuple(dataclasses.replace(s, phi0=u[f"gear{i}.shaft_phi"] - u[f"gear{i}.shaft_omega"] * t,
+                                         omega=u[f"gear{i}.shaft_omega"])
+                     for i, s in ((1, self.shaft1), (2, self.shaft2)))
+
+    def advance(self, t: float, dt: float, shaft_torque1: float, shaft_torque2: float) -> None:
+        m, L = self.m, self.L
+        if self.drive:
+            m[0] += dt * m[1]
+            m[2] += dt * (self.w_ref - m[1])
+            T_m = self.kp * (self.w_ref - m[1]) + self.ki * m[2]
+            m[1] += dt * (T_m - shaft_torque1) / self.J_m
+        L[0] += dt * L[1]
+        L[1] += dt * (self.load_torque(t + dt) - shaft_torque2) / CHAIN_J
+
+
+def cut_reference_te(prep: Prepared, times: np.ndarray) -> np.ndarray:
+    """large_step_chain's TE with the FMU's part converged: the same chain, the same explicit cut
+    at the same communication points, the gear pair between them integrated by the plain element
+    under the implicit master at REFERENCE_STEP (the far ends moving and gear 1's torque held as
+    the FMU has them). The difference from a large_step_chain run is the FMU's own error; the
+    difference from converged_te(prep, "chain", ...) is the explicit cut's (docs/stability.md)."""
+    side = ChainSide(prep)
+    pair = dataclasses.replace(prep.pair, torque2=lambda t: 0.0, shaft1=side.shafts(0.0)[0],
+                               shaft2=side.shafts(0.0)[1])
+    te = []
+    with GearMeshFMU(prep.fmu_path, prep.params) as fmu:
+        fmu.set(prep.inputs)
+        plant = GearPairPlant(pair)
+        master = Integrator(fmu, plant, REFERENCE_STEP, True)
+        t = 0.0
+        for t_next in times:
+            torque1 = side.torque1(t)
+            pair.torque1 = lambda _t, value=torque1: value
+            pair.shaft1, pair.shaft2 = side.shafts(t)
+            master.advance(t_next)
+            x = master.x
+            side.advance(t, t_next - t, pair.shaft1.torque(t_next, x[0], x[1]),
+                         pair.shaft2.torque(t_next, x[2], x[3]))
+            te.append(master.rows["mesh.te"][-1])
+            t = t_next
+    return np.array(te)
+
+
 def _run_chain(prep: Prepared, h: float, r: Run) -> None:
-    """The driving machine and the load inertia in Python, coupled through the shafts."""
+    """The driving machine and the load inertia in Python (ChainSide), coupled through the
+    shafts."""
     case, pair, geo = prep.case, prep.pair, prep.geo
-    s1 = pair.shaft1
-    drive = s1.stiffness > 0                      # gear 1 speed-driven: a motor on its shaft
-    shaft2 = Shaft(SHAFT_K, SHAFT_C)              # gear 2 always on a shaft to the load inertia
-    w_ref = s1.omega
-    # the machine's inertia and controller scale with the drive shaft (scaled with gear 1's
-    # inertia, shaft_for), so that the coupling mode across the explicit cut stays at ~100 rad/s
-    scale = s1.stiffness / SHAFT_K if drive else 1.0
-    J_m, kp, ki = CHAIN_J * scale, CHAIN_KP * scale, CHAIN_KI * scale
-    # machine: (phi_m, w_m, integral), load: (phi_L, w_L); start in equilibrium
-    load_torque = pair.torque2
-    m = np.array([s1.phi0, pair.x0[1], s1.stiffness * s1.phi0 / ki if drive else 0.0])
-    L = np.array([pair.x0[2] + load_torque(0.0) / SHAFT_K, pair.x0[3]])  # shaft carries the load
-    chain_pair = dataclasses.replace(pair, torque2=lambda t: 0.0, shaft2=shaft2)
+    side = ChainSide(prep)
+    chain_pair = dataclasses.replace(pair, torque2=lambda t: 0.0, shaft2=side.shaft2)
     params = large_step_parameters(dataclasses.replace(prep, pair=chain_pair),
-                                   (s1 if drive else Shaft(), shaft2))
+                                   (side.shaft1, side.shaft2))
     # the far ends' start state before initialization (the FMU's initial energy counts it)
-    params.update({"gear1.torque": pair.torque1(0.0), "gear1.shaft_phi": m[0] if drive else 0.0,
-                   "gear1.shaft_omega": m[1] if drive else 0.0, "gear2.shaft_phi": L[0],
-                   "gear2.shaft_omega": L[1]})
+    params.update(side.inputs(0.0))
     sizes = step_sizes(h) if case.random_steps else None
     rows = {k: [] for k in OUT}
     times = [0.0]
@@ -367,23 +439,10 @@ def _run_chain(prep: Prepared, h: float, r: Run) -> None:
             rows[k].append(first[k])
 
         def one(t, dt):
-            nonlocal m, L
-            fmu.set({"gear1.torque": pair.torque1(t), "gear2.torque": 0.0,
-                     "gear1.shaft_phi": m[0] if drive else 0.0,
-                     "gear1.shaft_omega": m[1] if drive else 0.0,
-                     "gear2.shaft_phi": L[0], "gear2.shaft_omega": L[1]})
+            fmu.set(side.inputs(t))
             fmu._call(fmu.fmu.doStep, currentCommunicationPoint=t, communicationStepSize=dt)
             out = fmu.get(OUT)
-            # Python side, symplectic Euler: the angles with the speeds the FMU held over the
-            # step (so the far ends do not jump between steps), then the speeds from the shaft
-            # torques at the end of the step
-            if drive:
-                m[0] += dt * m[1]
-                m[2] += dt * (w_ref - m[1])
-                T_m = kp * (w_ref - m[1]) + ki * m[2]
-                m[1] += dt * (T_m - out["gear1.shaft_torque"]) / J_m
-            L[0] += dt * L[1]
-            L[1] += dt * (load_torque(t + dt) - out["gear2.shaft_torque"]) / CHAIN_J
+            side.advance(t, dt, out["gear1.shaft_torque"], out["gear2.shaft_torque"])
             return out
 
         t = 0.0
@@ -391,7 +450,7 @@ def _run_chain(prep: Prepared, h: float, r: Run) -> None:
         try:
             while t < case.t_end - 1e-12:
                 if case.rollback and saved is None and t >= case.t_end / 2:
-                    saved = (fmu.fmu.getFMUstate(), t, m.copy(), L.copy(), len(times))
+                    saved = (fmu.fmu.getFMUstate(), t, side.m.copy(), side.L.copy(), len(times))
                 dt = min(next(sizes) if sizes else h, case.t_end - t)
                 out = one(t, dt)
                 t += dt
@@ -399,7 +458,7 @@ def _run_chain(prep: Prepared, h: float, r: Run) -> None:
                 for k in OUT:
                     rows[k].append(out[k])
             if saved is not None:
-                state, t, m, L, n = saved
+                state, t, side.m, side.L, n = saved
                 first_run = {k: np.array(v) for k, v in rows.items()}
                 fmu.fmu.setFMUstate(state)
                 fmu.fmu.freeFMUstate(state)
