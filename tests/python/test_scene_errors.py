@@ -139,6 +139,13 @@ def test_non_regular_files_are_refused(tmp_path):
             parse_scene(f'[model]\nte_table_file = "{name}"\n', tmp_path / "s.toml")
 
 
+def test_symlink_loop_is_a_scene_error(tmp_path):
+    (tmp_path / "a.txt").symlink_to(tmp_path / "b.txt")
+    (tmp_path / "b.txt").symlink_to(tmp_path / "a.txt")
+    with pytest.raises(SceneError, match=r"model.te_table_file = 'a.txt': "):
+        parse_scene('[model]\nte_table_file = "a.txt"\n', tmp_path / "s.toml")
+
+
 def test_resource_root_widens_the_folder(tmp_path):
     shared = tmp_path / "shared.txt"
     shared.write_text("x")

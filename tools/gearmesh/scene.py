@@ -288,6 +288,11 @@ def _parse_scene(text: str, path: pathlib.Path) -> Scene:
     return scene
 
 
+def _why(exc: Exception) -> str:
+    """The reason of an OSError without the (possibly very long) path it repeats."""
+    return exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+
+
 def _resource_root(meta: dict, path: pathlib.Path) -> pathlib.Path:
     """The folder every file of the scene must lie in: the scene's own folder, or [scene]
     resource_root (a relative path from the scene's folder to a directory, e.g. "..")."""
@@ -298,8 +303,13 @@ def _resource_root(meta: dict, path: pathlib.Path) -> pathlib.Path:
     if not isinstance(value, str) or not value or pathlib.PurePath(value).is_absolute():
         raise SceneError(f"scene.resource_root = {_short(value)}: expected a relative path from "
                          f"the scene's folder ({folder}) to a directory, e.g. \"..\"")
-    root = (folder / value).resolve()
-    if not root.is_dir():
+    try:
+        root = (folder / value).resolve()
+        is_dir = root.is_dir()
+    except (OSError, ValueError, RuntimeError) as exc:
+        raise SceneError(f"scene.resource_root = {_short(value)}: not a usable path ({_why(exc)}); "
+                         "allowed: a directory, relative to the scene's folder") from None
+    if not is_dir:
         raise SceneError(f"scene.resource_root = {value!r}: {root} is not a directory; allowed: "
                          "a directory, relative to the scene's folder")
     return root
@@ -308,14 +318,20 @@ def _resource_root(meta: dict, path: pathlib.Path) -> pathlib.Path:
 def _resource_file(where: str, value: str, path: pathlib.Path, root: pathlib.Path) -> pathlib.Path:
     """The resolved path of a file key's value: inside root (symlinks resolved) and a regular
     file, else SceneError naming the key, the resolved path and the rule."""
-    source = (path.parent / value).resolve()
-    if not source.is_relative_to(root):
+    try:
+        source = (path.parent / value).resolve()
+        inside = source.is_relative_to(root)
+        exists, regular = source.exists(), source.is_file()
+    except (OSError, ValueError, RuntimeError) as exc:  # NUL byte, name too long, symlink loop
+        raise SceneError(f"{where} = {_short(value)}: not a usable file name ({_why(exc)}); allowed: "
+                         "the name of a regular file inside the scene's folder") from None
+    if not inside:
         raise SceneError(f"{where} = {value!r}: resolves to {source}, outside {root}; allowed: a "
                          "file inside the scene's folder (after resolving symlinks), or inside "
                          "[scene] resource_root if the scene sets one")
-    if not source.exists():
+    if not exists:
         raise SceneError(f"{where} = {value!r}: no such file next to the scene ({source})")
-    if not source.is_file():
+    if not regular:
         raise SceneError(f"{where} = {value!r}: {source} is not a regular file (a directory, "
                          "FIFO, device or socket); allowed: a regular file inside the scene's "
                          "folder")
