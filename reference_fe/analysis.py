@@ -6,7 +6,7 @@ conjugately (-dphi1 z1 / z2) and clamped at its bore. Gear 1 is placed turned a 
 theta0 = (unloaded TE + engage) / r_b1 (so that the contact is closed from the first iteration),
 then the torques are applied one step each. TE = r_b1 (theta0 + theta_FE): gear 1's rotation
 past the rigid-body kinematic angle along the line of action, positive = approach on flank A,
-the product's sign convention (repository README, "FMU interface"; with gear 2 held, its
+the product's sign convention (repository docs/fmi.md, "Variables"; with gear 2 held, its
 TE = r_b1 phi1 + r_b2 phi2 reduces to r_b1 times gear 1's extra rotation).
 """
 from __future__ import annotations

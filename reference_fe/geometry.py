@@ -21,7 +21,7 @@ Written from the published formulas, not from the product's code:
 Frames: each gear in its own frame, centre at the origin, angles counter-clockwise. A tooth's
 centre line is at polar angle 0; flank A is its counter-clockwise side (polar angle +psi(R)),
 flank B the mirror (-psi(R)). Flank A is the flank loaded when gear 1 turns in +phi and drives
-(repository README, "FMU interface"), for gear 1 and gear 2 alike.
+(repository docs/fmi.md, "Variables"), for gear 1 and gear 2 alike.
 """
 from __future__ import annotations
 
@@ -233,7 +233,7 @@ class Pair:
 
 def gap(g: Gear, rho):
     """Material removed (m) at roll distance rho by the gear's profile modifications
-    (repository README, "Micro-geometry"; s from the SAP towards the tip, L the active length)."""
+    (repository docs/model.md, "Micro-geometry"; s from the SAP towards the tip, L the active length)."""
     mod = g.mod
     rho = np.asarray(rho, dtype=float)
     L = g.rho_tip - g.rho_sap

@@ -2,7 +2,7 @@
 
 Only the keys a 2-D spur reference can honour are accepted; every other key of the scene
 format is refused by name (nothing is silently unused). The key names and their units are the
-scene format's (documented in the repository README, "Scene format"); values are converted to SI
+scene format's (documented in the repository docs/tooling.md, "Scene format"); values are converted to SI
 here and everything downstream is SI.
 """
 from __future__ import annotations

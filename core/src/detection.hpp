@@ -15,7 +15,7 @@
 // Misalignment (the paper's two-step method): candidate pairs come from the section at the
 // middle of the axial overlap (coarse step); each slice then evaluates them in its own plane,
 // with each gear's centre placed there from its tilted axis (fine step). Tilts enter to first
-// order; the neglected terms are of order r_a r^2 (README, "Misalignment").
+// order; the neglected terms are of order r_a r^2 (docs/model.md, "Misalignment and its validity bound").
 #pragma once
 
 #include <string>

@@ -158,7 +158,7 @@ TEST(DetectionEffects, TiltVariesTheApproachAcrossTheFaceAsTheClosedFormSays) {
 // Exact reference for a tilted gear: transform the contact point into the gear's own frame
 // (R = exp([r_x, r_y, 0]^) R_z(phi), docs/physics.md §0) and measure its penetration into the tooth's
 // involute there. The two-step result differs by the neglected second-order terms only, which
-// the README states as about r_a r^2.
+// docs/model.md ("Misalignment and its validity bound") states as about r_a r^2.
 double exact_penetration(const Pair& pr, int gear, const gm_kinematics& k, int tooth, int sigma,
                          const Eigen::Vector3d& x) {
   const gm::MeshLayout& L = pr.L;
@@ -201,7 +201,7 @@ TEST(DetectionEffects, TiltNearTheValidityBoundAgreesWithAnExactReference) {
         ++n;
       }
       EXPECT_GT(n, 0);
-      // the figure quoted in the README (gtest --gtest_output=xml records it)
+      // the figure quoted in docs/model.md (gtest --gtest_output=xml records it)
       RecordProperty((p.pair.helix_angle != 0 ? "helical_um_at_mrad_" : "spur_um_at_mrad_") +
                          std::to_string(static_cast<int>(std::lround(r * 1e3))),
                      std::to_string(worst * 1e6));

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from gearmesh import accuracy, accuracy_iso, accuracy_ledger, accuracy_report, cli
-from gearmesh.accuracy_reference import ReferenceError, band_error, read_summary
+from gearmesh.accuracy_reference import (ReferenceError, band_error, curve_error, read_positions,
+                                         read_summary)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.scene import load_scene
 from gearmesh.scene_fmu import build_scene_fmu
@@ -60,6 +61,33 @@ def test_band_error():
     assert band_error(2.0, 1.0, 3.0) == 0.0
     assert band_error(0.9, 1.0, 3.0) == pytest.approx(-0.1)
     assert band_error(3.3, 1.0, 3.0) == pytest.approx(0.1)
+
+
+def test_curve_error_is_position_by_position():
+    """A curve inside the band at every position has curve error 0 even where its p-p exceeds
+    both models' p-p (the reason for the quantity); outside, the signed distance where worst."""
+    stress, strain = [2.0, 3.0, 2.0, 3.0], [1.0, 2.0, 1.0, 2.0]  # p-p 1.0 each
+    curves = {("plane_stress", 50.0): stress, ("plane_strain", 50.0): strain}
+    inside = [1.0, 3.0, 1.0, 3.0]                                   # p-p 2.0, inside everywhere
+    row = curve_error(curves, 50.0, inside)
+    assert row["band_error"] == 0.0 and row["quantity"] == "curve"
+    row = curve_error(curves, 50.0, [1.0, 3.3, 1.0, 3.0])
+    assert row["band_error"] == pytest.approx(0.1) and row["product_m"] == 3.3
+    assert row["error_plane_strain"] == pytest.approx(0.65)  # (3.3 - 2) / 2 at position 1
+    assert curve_error(curves, 150.0, inside) is None         # no curves at that torque
+
+
+def test_positions_reader(tmp_path):
+    path = tmp_path / "s.reference_fe.te.csv"
+    head = "# comment\nscene,model,mesh_level,torque_Nm,position,n_positions,te_m\n"
+    rows = [f"s,plane_strain,0,50,{k},4,{k}e-6" for k in range(4)]
+    path.write_text(head + "\n".join(rows + ["s,plane_strain,1,50,0,4,9e-6",
+                                             "s,plane_strain,0,50,0,2,9e-6"]) + "\n")
+    assert read_positions(path, 4) == {("plane_strain", 50.0): [0.0, 1e-6, 2e-6, 3e-6]}
+    assert read_positions(tmp_path / "missing.csv", 4) == {}
+    path.write_text(head + "\n".join(rows[:3]) + "\n")
+    with pytest.raises(ReferenceError, match=r"positions \[0, 1, 2\]; required: 0..3"):
+        read_positions(path, 4)
 
 
 def test_reference_reader(tmp_path):

@@ -12,6 +12,8 @@ import subprocess
 REPO = pathlib.Path(__file__).resolve().parents[2]
 TEXT = (".c", ".h", ".cpp", ".hpp", ".py", ".md", ".txt", ".toml", ".html", ".sh", ".cmake")
 REFERENCE = re.compile(r'docs/([A-Za-z_]+\.md)(?:,?\s*(?:§(\d+)|"([^"\n]+)"))?')
+# a README and a quoted section: `README, "FMU interface"`, `reference_fe/README.md, "Outputs"`
+README_REFERENCE = re.compile(r'\b((?:[a-z_]+/)?README)(?:\.md)?(?:,|\s\()?\s*"([^"\n]+)"')
 OUTSIDE = re.compile(r"\b(PHYSICS|DESIGN|FMI|STYLE)\.md\b")
 
 
@@ -22,9 +24,9 @@ def tracked_text_files() -> list[pathlib.Path]:
             if (n.endswith(TEXT) or n.endswith("CMakeLists.txt")) and REPO / n != this]
 
 
-def headings(doc: pathlib.Path) -> set[str]:
-    return {line[3:].strip() for line in doc.read_text(encoding="utf-8").splitlines()
-            if line.startswith("## ")}
+def headings(doc: pathlib.Path, levels: tuple[str, ...] = ("## ",)) -> set[str]:
+    return {line[len(p):].strip() for line in doc.read_text(encoding="utf-8").splitlines()
+            for p in levels if line.startswith(p)}
 
 
 def dangling(files: list[pathlib.Path]) -> list[str]:
@@ -45,6 +47,13 @@ def dangling(files: list[pathlib.Path]) -> list[str]:
                     found.append(f"{where}: docs/{m.group(1)} has no section §{m.group(2)}")
                 if m.group(3) and m.group(3) not in heads:
                     found.append(f'{where}: docs/{m.group(1)} has no section "{m.group(3)}"')
+            for m in README_REFERENCE.finditer(line):
+                readme = REPO / f"{m.group(1)}.md"
+                if not readme.is_file():
+                    found.append(f"{where}: {m.group(1)}.md does not exist")
+                elif not any(h == m.group(2) or h.startswith(m.group(2) + " (")
+                             for h in headings(readme, ("## ", "### "))):
+                    found.append(f'{where}: {m.group(1)}.md has no section "{m.group(2)}"')
     return found
 
 
@@ -56,6 +65,8 @@ def test_every_doc_reference_resolves():
 def test_a_dangling_reference_is_found(tmp_path):
     bad = tmp_path / "x.cpp"
     bad.write_text('// see docs/physics.md §42, docs/design.md, "Nowhere", docs/none.md and '
-                   "PHYSICS.md\n// fine: docs/physics.md §5, docs/design.md \"core\"\n")
+                   "PHYSICS.md\n// fine: docs/physics.md §5, docs/design.md \"core\"\n"
+                   '// README, "No such section"; nowhere/README.md, "Outputs"\n'
+                   '// fine: README, "FMU interface", reference_fe/README.md, "Outputs"\n')
     problems = dangling([bad])
-    assert len(problems) == 4, problems
+    assert len(problems) == 6, problems

@@ -10,7 +10,8 @@ import sys
 from tqdm import tqdm
 
 from gearmesh import accuracy_iso, accuracy_ledger, accuracy_report, accuracy_settings
-from gearmesh.accuracy_reference import ReferenceError, errors, read_summary, summary_path
+from gearmesh.accuracy_reference import (ReferenceError, curve_error, errors, positions_path,
+                                         read_positions, read_summary, summary_path)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.accuracy_timing import round_trip
 from gearmesh.scene import Scene
@@ -87,6 +88,7 @@ def run(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
         if reference.scene != scene.name:
             raise ReferenceError(f"{path}: rows of scene {reference.scene!r}, not {scene.name!r}")
         torques = accuracy_settings.torques(preset, reference.torques)
+        curves = read_positions(positions_path(path.parent, scene.name), reference.n_positions)
         folder = out / scene.name
         folder.mkdir(parents=True, exist_ok=True)
         fmu, plan = scene_fmu(scene, generic_fmu, folder, preset, notes)
@@ -97,7 +99,8 @@ def run(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
                     "quasi_static_us": (result.qs_step - base) * 1e6,
                     "quasi_static_raw_us": result.qs_step * 1e6, "round_trip_us": base * 1e6}
             for torque in torques:
-                for e in errors(reference, torque, result.summary[torque]):
+                curve = curve_error(curves, torque, result.te[torque])
+                for e in errors(reference, torque, result.summary[torque]) + ([curve] if curve else []):
                     rows.append({"scene": scene.name, "setting": setting.label,
                                  "level": setting.level, "slices": setting.slices,
                                  "coupled_teeth": "" if setting.coupled is None else setting.coupled,

@@ -1,4 +1,4 @@
-"""The stiffness a user would take from ISO 6336-1 for levels 0 and 1 (README, "Contact forces"):
+"""The stiffness a user would take from ISO 6336-1 for levels 0 and 1 (docs/model.md, "Stiffness levels"):
 
 * level 0: the mean mesh stiffness c_gamma_alpha = c'(0.75 eps_alpha + 0.25) per unit face width,
   with the level-2 model's own c': the peak of its mesh.stiffness per unit face width in the
@@ -9,7 +9,7 @@
 * level 1: the level-2 curve as a stiffness table (scenarios/user_stiffness_example.txt gives the
   format): the single-pair stiffness c'(1 - kappa (2u - 1)^2) over the path (u = 0 at its start,
   1 at its end), kappa = 0.75 (1 - 1/eps_alpha), c' = c_gamma_alpha / (0.75 eps_alpha + 0.25),
-  over gear 1's roll angle (both constants as level 2 computes them: README, "Contact forces").
+  over gear 1's roll angle (both constants as level 2 computes them: docs/model.md, "Stiffness levels").
 """
 from __future__ import annotations
 

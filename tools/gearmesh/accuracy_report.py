@@ -8,7 +8,7 @@ import math
 import pathlib
 from collections import defaultdict
 
-from gearmesh.accuracy_reference import QUANTITIES
+from gearmesh.accuracy_reference import CURVE, QUANTITIES
 
 COLUMNS = ["scene", "setting", "level", "slices", "coupled_teeth", "torque_Nm", "quantity",
            "product_m", "plane_stress_m", "plane_strain_m", "band_error", "error_plane_stress",
@@ -19,6 +19,7 @@ TIME_COLUMNS = ("plain_us", "plain_raw_us", "quasi_static_us", "quasi_static_raw
                 "round_trip_us")
 # A setting's error: the largest |band error| over the torques and these quantities.
 SCORE_QUANTITIES = QUANTITIES
+SHOWN = (*QUANTITIES, CURVE)  # CURVE: n/a where the reference has no per-position file
 
 
 def write_csv(path: pathlib.Path, rows: list[dict], first_line: str = "") -> pathlib.Path:
@@ -54,9 +55,9 @@ def per_setting(rows: list[dict]) -> list[dict]:
     for (scene, setting), group in groups.items():
         entry = {"scene": scene, "setting": setting, "level": group[0]["level"],
                  **{k: group[0][k] for k in TIME_COLUMNS}}
-        for q in QUANTITIES:
+        for q in SHOWN:
             errors = [r["band_error"] for r in group if r["quantity"] == q]
-            entry[q] = max(errors, key=abs)
+            entry[q] = max(errors, key=abs) if errors else math.nan
         entry["score"] = max(abs(entry[q]) for q in SCORE_QUANTITIES)
         out.append(entry)
     return out
@@ -81,6 +82,8 @@ def cheapest_within(entries: list[dict], tolerance: float, cost: str = "plain_us
 
 
 def _pct(x: float) -> str:
+    if math.isnan(x):
+        return "n/a"
     return f"{100 * x:+.1f} %" if x else "0"
 
 
@@ -91,19 +94,21 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
              "edge relative to it; per quantity the worst over the torques. Score: the largest "
              f"|error| over {', '.join(SCORE_QUANTITIES)}. Cost: median time per fmi2DoStep "
              "through fmpy minus the bare fmpy round trip (raw: without the subtraction), plain "
-             "mode (prescribed spins) and quasi-static mode. The error against each model is in "
-             "accuracy.csv.", ""]
+             "mode (prescribed spins) and quasi-static mode. TE curve: the worst distance of the "
+             "TE to the band of the two models position by position (a p-p or an order outside "
+             "the band of p-p values can come from a curve inside the band everywhere). The "
+             "error against each model is in accuracy.csv.", ""]
     lines += [f"* {n}" for n in notes]
     for scene in dict.fromkeys(e["scene"] for e in entries):
         group = [e for e in entries if e["scene"] == scene]
         front = {id(e) for e in pareto_front(group)}
         lines += ["", f"## {scene}", "",
-                  "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | score | plain µs "
-                  "(raw) | quasi-static µs (raw) | front |",
-                  "|---|---|---|---|---|---|---|---|---|---|"]
+                  "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | TE curve | score | "
+                  "plain µs (raw) | quasi-static µs (raw) | front |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|"]
         for e in group:
             lines.append(
-                f"| {e['setting']} | " + " | ".join(_pct(e[q]) for q in QUANTITIES)
+                f"| {e['setting']} | " + " | ".join(_pct(e[q]) for q in SHOWN)
                 + f" | {100 * e['score']:.1f} % | {e['plain_us']:.1f} ({e['plain_raw_us']:.1f})"
                 f" | {e['quasi_static_us']:.1f} ({e['quasi_static_raw_us']:.1f}) | "
                 + ("yes" if id(e) in front else "") + " |")

@@ -20,7 +20,7 @@ QUICK_TORQUES = (50.0, 350.0)
 PRESETS = ("quick", "full")
 # Level 0's constant (model.user_stiffness, one tooth pair per unit face width) as a user would
 # take it from ISO 6336-1: the mean mesh stiffness c_gamma_alpha, or the single stiffness c' that
-# the README ("Contact detection", slices) names as the parameter's meaning.
+# docs/model.md ("Contact detection", slices) names as the parameter's meaning.
 LEVEL0_CONSTANTS = ("c_ga", "c'")
 
 

@@ -11,7 +11,8 @@ import pathlib
 
 import numpy as np
 
-from gearmesh.accuracy_reference import errors, read_summary, summary_path
+from gearmesh.accuracy_reference import (curve_error, errors, positions_path, read_positions,
+                                         read_summary, summary_path)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.compliance import with_databases
 from gearmesh.prescribed_motion import mesh_order_amplitudes
@@ -103,22 +104,26 @@ def accuracy_lines(name: str, fmus: dict[int, pathlib.Path],
         return [f"No FE reference for {name} ({path.name} in {reference_dir.name}/): "
                 "accuracy not assessed.", ""], []
     ref = read_summary(path)
+    curves = read_positions(positions_path(reference_dir, name), ref.n_positions)
     rows = []
     for level, fmu in fmus.items():
         result = sweep(fmu, {}, ref.torques, ref.n_positions, repeats=1)
         for torque in ref.torques:
-            for e in errors(ref, torque, result.summary[torque]):
+            curve = curve_error(curves, torque, result.te[torque])
+            for e in errors(ref, torque, result.summary[torque]) + ([curve] if curve else []):
                 rows.append({"level": level, "torque_Nm": torque, **e})
     lines = [f"**Error against the FE reference** (`reference_fe/`, CalculiX, both gears whole, "
              f"frictionless, {ref.n_positions} positions per pitch; distance to the plane-stress / "
-             "plane-strain band, 0 inside it; docs/validation.md):", "",
-             "| level | torque (N m) | mean TE | p-p TE | order 1 |", "|---|---|---|---|---|"]
+             "plane-strain band, 0 inside it; TE curve: the worst distance to the band position "
+             "by position; docs/validation.md):", "",
+             "| level | torque (N m) | mean TE | p-p TE | order 1 | TE curve |",
+             "|---|---|---|---|---|---|"]
     for level in fmus:
         for torque in ref.torques:
             cell = {r["quantity"]: r["band_error"] for r in rows
                     if r["level"] == level and r["torque_Nm"] == torque}
             lines.append(f"| {level} | {torque:g} | " + " | ".join(
-                _pct(cell[q]) for q in ("mean", "pp", "order1")) + " |")
+                _pct(cell.get(q, math.nan)) for q in ("mean", "pp", "order1", "curve")) + " |")
     return lines + [""], rows
 
 
