@@ -50,7 +50,8 @@ def _portable_args(args):
 
 
 def _changes(base, other, torques):
-    """Relative change (other - base) / base of mean and p-p TE at the same positions."""
+    """Relative change (other - base) / base of mean and p-p TE at the same positions (the p-p
+    change is None where the base's p-p is 0: a study at one position)."""
     rows = []
     for ti, T in enumerate(torques):
         sb = analysis.summary(base, ti)
@@ -59,7 +60,7 @@ def _changes(base, other, torques):
                      "mean_te_m": [sb["mean_te_m"], so["mean_te_m"]],
                      "pp_te_m": [sb["pp_te_m"], so["pp_te_m"]],
                      "mean_change": so["mean_te_m"] / sb["mean_te_m"] - 1,
-                     "pp_change": so["pp_te_m"] / sb["pp_te_m"] - 1,
+                     "pp_change": (so["pp_te_m"] / sb["pp_te_m"] - 1) if sb["pp_te_m"] else None,
                      "pp_change_of_mean": (so["pp_te_m"] - sb["pp_te_m"]) / sb["mean_te_m"]})
     return rows
 
