@@ -1,4 +1,5 @@
-"""python -m reference_fe run SCENE [SCENE ...] --out DIR: the FE reference of each scene.
+"""python -m reference_fe run SCENE [SCENE ...] --out DIR: the 2-D FE reference of each scene
+(python -m reference_fe run3d ...: the 3-D cases, run3d.py).
 
 Per scene it writes DIR/<scene>.reference_fe.te.csv (TE per case, torque and position),
 DIR/<scene>.reference_fe.summary.csv (mean, peak-to-peak, mesh orders 1-3 per case and torque)
@@ -21,67 +22,8 @@ import time
 
 import numpy as np
 
-from . import analysis, ccx, scene
-
-
-def _git_commit(path: pathlib.Path) -> str:
-    try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=path, capture_output=True,
-                             text=True, timeout=30)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "reference_fe"], cwd=path,
-                               capture_output=True, text=True, timeout=30).stdout.strip()
-        return out.stdout.strip() + ("+modified reference_fe" if dirty else "")
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-
-
-def _g(x) -> str:
-    """A number for the CSV: shortest round-trip text of the float."""
-    return repr(float(x))
-
-
-def _portable_args(args):
-    """The command line without machine paths: --cache DIR dropped (it does not change results),
-    scene and output paths relative to the current directory."""
-    out, skip = [], False
-    for a in args:
-        if skip:
-            skip = False
-            continue
-        if a == "--cache":
-            skip = True
-            continue
-        if a.startswith("--cache="):
-            continue
-        if os.path.isabs(a):
-            try:
-                a = os.path.relpath(a)
-            except ValueError:
-                pass
-        out.append(a)
-    return out
-
-
-def _changes(base, other, torques):
-    """Relative change (other - base) / base of mean and p-p TE at the same positions."""
-    rows = []
-    for ti, T in enumerate(torques):
-        sb = analysis.summary(base, ti)
-        so = analysis.summary(other, ti)
-        rows.append({"torque_Nm": T,
-                     "mean_te_m": [sb["mean_te_m"], so["mean_te_m"]],
-                     "pp_te_m": [sb["pp_te_m"], so["pp_te_m"]],
-                     "mean_change": so["mean_te_m"] / sb["mean_te_m"] - 1,
-                     "pp_change": so["pp_te_m"] / sb["pp_te_m"] - 1,
-                     "pp_change_of_mean": (so["pp_te_m"] - sb["pp_te_m"]) / sb["mean_te_m"]})
-    return rows
-
-
-def _cost(results):
-    w = [r.wall_s for r in results]
-    m = [r.max_rss_MiB for r in results]
-    return {"runs": len(w), "wall_s_total": float(np.sum(w)), "wall_s_per_position": float(np.mean(w)),
-            "peak_rss_MiB": float(np.max(m))}
+from . import analysis, ccx, run3d, scene
+from .report import _changes, _cost, _g, _git_commit, _portable_args
 
 
 def run_scene(path, out_dir, n, models, torques, study_every, study_models, friction, cache,
@@ -247,11 +189,18 @@ def main(argv=None):
     r.add_argument("--penalty-factor", type=float, default=10.0)
     r.add_argument("--friction", type=float, default=0.0, help="Coulomb mu (0: frictionless)")
     r.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
+    run3d.add_parser(sub)
     c = sub.add_parser("compare", help="a product TE curve against the FE band")
     c.add_argument("summary_csv", help="<scene>.reference_fe.summary.csv")
     c.add_argument("product_csv", help="torque_Nm, gear1_phi_rad, te_m over whole pitches")
     c.add_argument("--teeth1", type=int, required=True, help="gear 1's tooth count")
     a = ap.parse_args(argv)
+
+    def log(msg):
+        print(time.strftime("%H:%M:%S"), msg, flush=True)
+    if a.cmd == "run3d":
+        run3d.main(a, log)
+        return
     if a.cmd == "compare":
         compare(a.summary_csv, a.product_csv, a.teeth1)
         return
@@ -260,9 +209,6 @@ def main(argv=None):
     for m in models + a.study_models.split(","):
         if m not in analysis.MODELS:
             ap.error(f"--models: {m!r}; allowed: {', '.join(analysis.MODELS)}")
-
-    def log(msg):
-        print(time.strftime("%H:%M:%S"), msg, flush=True)
     for s in a.scenes:
         run_scene(s, a.out, a.positions, models, torques, a.study_every,
                   [m for m in a.study_models.split(",") if m in models], a.friction, a.cache,

@@ -54,25 +54,27 @@ class PositionResult:
     iterations_note: str = ""
 
 
-def fine_teeth(pair: Pair) -> tuple[list[int], list[int]]:
+def fine_teeth(pair: Pair, spread: float = 0.0) -> tuple[list[int], list[int]]:
     """Teeth that can touch while gear 1 turns one pitch from position 0 (pairs within the
     path of contact, plus one tooth of margin for tip-corner contact under load): gear 1's
-    tooth j meshes gear 2's tooth -j."""
+    tooth j meshes gear 2's tooth -j. spread (m): the roll distance by which the pair's
+    contact moves either way across the face (helical: b/2 tan beta_b; spur 0)."""
     js = []
     ext = 0.15 * pair.pb          # extension of the path under load (margin)
-    for j in range(-3, 4):
-        lo = pair.rho_pitch1 + pair.g1.rb * j * pair.g1.tau
-        hi = lo + pair.pb
+    for j in range(-8, 9):
+        lo = pair.rho_pitch1 + pair.g1.rb * j * pair.g1.tau - spread
+        hi = lo + pair.pb + 2 * spread
         if hi >= pair.rho_sap1 - ext and lo <= pair.rho_tip1 + ext:
             js.append(j)
     return js, [-j for j in js]
 
 
-def place(m: mesh.GearMesh, phi: float, cx: float) -> mesh.GearMesh:
+def place(m, phi: float, cx: float):
+    """A copy of the mesh turned by phi about its axis and moved to (cx, 0) (3-D: z kept)."""
     out = copy.copy(m)
     c, s = math.cos(phi), math.sin(phi)
     x, y = m.nodes[:, 0], m.nodes[:, 1]
-    out.nodes = np.column_stack([c * x - s * y + cx, s * x + c * y])
+    out.nodes = np.column_stack([c * x - s * y + cx, s * x + c * y, *m.nodes[:, 2:].T])
     return out
 
 
@@ -101,6 +103,15 @@ class Model:
             mats = [ccx.plane_stress_equivalent(m) for m in mats]
         return mats
 
+    engage = ENGAGE   # m, initial closure past the first touch
+
+    def unloaded_te(self, dphi1: float) -> float:
+        return self.pair.unloaded_te(dphi1)
+
+    def thickness(self):
+        """Section thickness of the plane elements: the face width."""
+        return self.pair.g1.b
+
     def element(self, case: Case) -> str:
         if case.element == "CPS6" and case.model != "plane_stress":
             raise ValueError("CPS6 is plane stress")
@@ -110,14 +121,14 @@ class Model:
         pr = self.pair
         dphi = k * pr.g1.tau / n
         phi1, phi2 = pr.rotations(dphi)
-        te0 = pr.unloaded_te(dphi)
+        te0 = self.unloaded_te(dphi)
         if not math.isfinite(te0):
             raise RuntimeError(f"position {k}: no tooth pair on the path of contact")
-        theta0 = (te0 + ENGAGE) / pr.g1.rb
+        theta0 = (te0 + self.engage) / pr.g1.rb
         b1 = place(self.m1, phi1 + theta0, 0.0)
         b2 = place(self.m2, phi2, pr.a)
         os.makedirs(workdir, exist_ok=True)
-        ccx.write_deck(os.path.join(workdir, "gears.inp"), [b1, b2], pr.g1.b,
+        ccx.write_deck(os.path.join(workdir, "gears.inp"), [b1, b2], self.thickness(),
                        self.materials(case), list(torques), case.penalty,
                        friction=case.friction, element=self.element(case))
         res = ccx.run(workdir)
@@ -126,10 +137,11 @@ class Model:
             s = round(t)
             if abs(t - s) < 1e-6 and s >= 1:
                 ends[s] = rot
-        if res.returncode != 0 or len(ends) != len(torques):
+        pre = ccx.pre_steps([b1, b2])
+        if res.returncode != 0 or len(ends) != len(torques) + pre:
             raise RuntimeError(f"ccx failed at position {k} (exit {res.returncode}, "
-                               f"{len(ends)}/{len(torques)} steps):\n{res.log_tail}")
-        te = [float(pr.g1.rb * (theta0 + ends[s + 1])) for s in range(len(torques))]
+                               f"{len(ends)}/{len(torques) + pre} steps):\n{res.log_tail}")
+        te = [float(pr.g1.rb * (theta0 + ends[s + 1 + pre])) for s in range(len(torques))]
         return PositionResult(position=k, n_positions=n, dphi1=float(dphi), te=te,
                               torques=list(torques), wall_s=res.wall_s,
                               max_rss_MiB=res.max_rss_MiB)
@@ -155,10 +167,13 @@ def summary(positions: list[PositionResult], torque_index: int) -> dict:
 
 
 def cache_key(spec: PairSpec, model: Model, case: Case, k: int, n: int, torques) -> str:
-    """A run is redone only if something that changes its deck changed."""
-    blob = json.dumps({"scene": open(spec.path, "rb").read().decode(), "case": case.key(),
-                       "size": asdict(model.size), "k": k, "n": n, "torques": list(torques),
-                       "version": 1}, sort_keys=True)
+    """A run is redone only if something that changes its deck changed (a model may add a
+    `cache_tag`: its variant and code version)."""
+    d = {"scene": open(spec.path, "rb").read().decode(), "case": case.key(),
+         "size": asdict(model.size), "k": k, "n": n, "torques": list(torques), "version": 1}
+    if getattr(model, "cache_tag", None):
+        d["tag"] = model.cache_tag
+    blob = json.dumps(d, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 

@@ -57,30 +57,53 @@ def _fmt_rows(rows, per_line=8):
     return "\n".join(out)
 
 
+def pre_steps(bodies) -> int:
+    """Steps of the deck before the first torque's (3-D: one, at the placement)."""
+    return 1 if bodies[0].nodes.shape[1] == 3 else 0
+
+
+def _blocks(body, element):
+    """[(CalculiX element type, connectivity)] of a body: its own blocks (3-D), else one."""
+    return getattr(body, "blocks", None) or [(element, body.elements)]
+
+
 def write_deck(path, bodies, thickness, materials, torques, penalty,
                friction=0.0, element="CPE6"):
-    """bodies: two GearMesh-like objects already placed (nodes in the housing frame, m).
+    """bodies: two GearMesh-like objects already placed (nodes in the housing frame, m;
+    `.elements` in CalculiX's node order, `.bore` node indices, `.contact_faces` (element,
+    face number)).
 
-    thickness: face width (m); materials: two Material; torques: N m list (one step each);
-    penalty: pressure per overclosure, Pa/m. Returns the number of the rotation node."""
-    lines = ["** GearMesh reference_fe: two spur gears in contact (units mm, N, MPa)",
-             "*NODE, NSET=NALL"]
+    2-D (nodes (n, 2), CPE6/CPS6): thickness = face width (m). 3-D (nodes (n, 3), e.g. C3D20R):
+    thickness None; the bores are held axially too (gear 2's clamped in x, y, z, gear 1's
+    u_z = 0 besides the rotation). materials: two Material; torques: N m list (one step
+    each; 3-D: after a first step at gear 1's placement, see pre_steps); penalty: pressure per
+    overclosure, Pa/m. Returns the number of the rotation node."""
+    solid = bodies[0].nodes.shape[1] == 3
+    lines = [f"** GearMesh reference_fe: two {'3-D' if solid else 'spur'} gears in contact "
+             "(units mm, N, MPa)", "*NODE, NSET=NALL"]
     offsets, eoffsets = [], []
     n0 = e0 = 0
     for b in bodies:
         offsets.append(n0)
         eoffsets.append(e0)
-        for i, (x, y) in enumerate(b.nodes * MM):
-            lines.append(f"{n0 + i + 1}, {x:.12e}, {y:.12e}, 0.0")
+        if solid:
+            for i, (x, y, z) in enumerate(b.nodes * MM):
+                lines.append(f"{n0 + i + 1}, {x:.12e}, {y:.12e}, {z:.12e}")
+        else:
+            for i, (x, y) in enumerate(b.nodes * MM):
+                lines.append(f"{n0 + i + 1}, {x:.12e}, {y:.12e}, 0.0")
         n0 += len(b.nodes)
-        e0 += len(b.tri6)
+        e0 += sum(len(c) for _, c in _blocks(b, element))
     rot = n0 + 1   # carries gear 1's rotation (rad) as its DOF 1, the moment (N mm) as its force
     lines.append(f"{rot}, 0.0, 0.0, 0.0")
     for gi, b in enumerate(bodies):
-        lines.append(f"*ELEMENT, TYPE={element}, ELSET=G{gi + 1}")
-        conn = b.tri6 + 1 + offsets[gi]
-        ids = np.arange(len(b.tri6)) + 1 + eoffsets[gi]
-        lines.append(_fmt_rows(np.column_stack([ids, conn]).tolist(), per_line=16))
+        e1 = eoffsets[gi]
+        for etype, conn in _blocks(b, element):
+            lines.append(f"*ELEMENT, TYPE={etype}, ELSET=G{gi + 1}")
+            ids = np.arange(len(conn)) + 1 + e1
+            lines.append(_fmt_rows(np.column_stack([ids, conn + 1 + offsets[gi]]).tolist(),
+                                   per_line=16))
+            e1 += len(conn)
     for gi, b in enumerate(bodies):
         lines.append(f"*NSET, NSET=BORE{gi + 1}")
         lines.append(_fmt_rows([(b.bore + 1 + offsets[gi]).tolist()], per_line=16))
@@ -90,14 +113,15 @@ def write_deck(path, bodies, thickness, materials, torques, penalty,
     lines += [f"*NSET, NSET=ROT\n{rot}"]
     for gi, mat in enumerate(materials):
         lines += [f"*MATERIAL, NAME=M{gi + 1}", "*ELASTIC", f"{mat.E / 1e6:.9e}, {mat.nu:.9f}",
-                  f"*SOLID SECTION, ELSET=G{gi + 1}, MATERIAL=M{gi + 1}",
-                  f"{thickness * MM:.9e}"]
+                  f"*SOLID SECTION, ELSET=G{gi + 1}, MATERIAL=M{gi + 1}"]
+        if not solid:
+            lines.append(f"{thickness * MM:.9e}")
     # gear 1's bore turns rigidly about the axis: u = theta e_z x r, linear (small rotation:
     # theta ~ 1e-4 rad, the neglected second-order term theta^2 r ~ 1e-10 m)
     lines.append("*EQUATION")
     b = bodies[0]
     for k in b.bore:
-        x, y = b.nodes[k] * MM
+        x, y = b.nodes[k, :2] * MM
         n = k + 1 + offsets[0]
         lines += ["2", f"{n}, 1, 1.0, {rot}, 1, {y:.12e}", "2", f"{n}, 2, 1.0, {rot}, 1, {-x:.12e}"]
     lines += ["*SURFACE INTERACTION, NAME=SI",
@@ -107,11 +131,21 @@ def write_deck(path, bodies, thickness, materials, torques, penalty,
         # stick slope: a tangential stiffness per area of the same order as the penalty
         lines += ["*FRICTION", f"{friction:.6f}, {penalty / 1e6 / MM / 10:.6e}"]
     lines += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "FLANK1, FLANK2"]
-    fixed = ["BORE2, 1, 2", "ROT, 2, 3"]
+    fixed = (["BORE2, 1, 3", "BORE1, 3, 3", "ROT, 2, 3"] if solid
+             else ["BORE2, 1, 2", "ROT, 2, 3"])
     lines += ["*BOUNDARY"] + fixed
-    for T in torques:
+    if solid:
+        # 3-D: a first step with gear 1's rotation held at the placement (contact closed by
+        # the engagement) so that the contact exists when the torque's first iteration comes;
+        # a first iteration without contact leaves gear 1 free (singular), and its huge turn
+        # lost the contact for good once gear 1's cut faces turn with the bore
         lines += ["*STEP, INC=1000", "*STATIC", "1.0, 1.0, 1e-6, 1.0",
-                  "*CLOAD", f"ROT, 1, {T * 1e3:.9e}",
+                  "*BOUNDARY", "ROT, 1, 1, 0.0", "*NODE PRINT, NSET=ROT", "U", "*END STEP"]
+    for n, T in enumerate(torques):
+        lines += ["*STEP, INC=1000", "*STATIC", "1.0, 1.0, 1e-6, 1.0"]
+        if solid and n == 0:
+            lines += ["*BOUNDARY, OP=NEW"] + fixed
+        lines += ["*CLOAD", f"ROT, 1, {T * 1e3:.9e}",
                   "*NODE PRINT, NSET=ROT", "U",
                   "*END STEP"]
     with open(path, "w") as f:

@@ -53,6 +53,10 @@ class GearMesh:
     contact_teeth: list[int]
 
     @property
+    def elements(self) -> np.ndarray:
+        return self.tri6
+
+    @property
     def stats(self) -> dict:
         return {"nodes": int(len(self.nodes)), "tri6": int(len(self.tri6)),
                 "contact_edges": int(len(self.contact_faces))}
@@ -70,6 +74,169 @@ def _tooth_points(prof: HalfProfile, angle: float, stride: int):
     return R, psi, iF
 
 
+@dataclass
+class Outline:
+    """gmsh (OCC) curves of consecutive teeth, from the mid-space root point before the first
+    tooth (flank B side) to the one after the last; curve tags by role."""
+    curves: list[int]
+    contact: list[int]     # flank A involute and tip of the fine teeth
+    fine: list[int]        # every curve of the fine teeth
+    far: list[int]         # every curve of the other teeth
+    first_point: int
+    last_point: int
+    centre: int            # a point at the gear's axis
+
+
+def add_teeth(occ, g: Gear, prof: HalfProfile, teeth, fine, closed: bool) -> Outline:
+    """Add the outline of teeth `teeth` (consecutive indices, tooth k centred at k 2 pi / z) of
+    gear g to the OCC model; `closed`: the last tooth's root joins the first's (whole gear)."""
+    teeth = list(teeth)
+    contact_curves, fine_curves, far_curves = [], [], []
+    centre = occ.addPoint(0.0, 0.0, 0.0)
+    first_pt = None   # the first tooth's mid-space root point (flank B side)
+    prev_pt = None    # the previous tooth's mid-space root point (flank A side)
+    loop = []
+
+    def add_points(xs, ys, start=None, end=None):
+        """Point tags along (xs, ys); the first/last replaced by existing tags if given."""
+        tags = []
+        for j, (x, y) in enumerate(zip(xs, ys)):
+            if j == 0 and start is not None:
+                tags.append(start)
+            elif j == len(xs) - 1 and end is not None:
+                tags.append(end)
+            else:
+                tags.append(occ.addPoint(float(x), float(y), 0.0))
+        return tags
+
+    for n, k in enumerate(teeth):
+        is_fine = k % g.z in fine
+        R, psi, iF = _tooth_points(prof, k * g.tau, 1 if is_fine else 4)
+        c = k * g.tau
+        xb, yb = R * np.cos(c - psi), R * np.sin(c - psi)      # flank B, root -> tip
+        xa, ya = R * np.cos(c + psi), R * np.sin(c + psi)      # flank A, root -> tip
+        pB_f = add_points(xb[:iF + 1], yb[:iF + 1], start=prev_pt)
+        if first_pt is None:
+            first_pt = pB_f[0]
+        pB_i = add_points(xb[iF:], yb[iF:], start=pB_f[-1])
+        pA_i = add_points(xa[iF:][::-1], ya[iF:][::-1])                 # tip -> form
+        pA_f = add_points(xa[:iF + 1][::-1], ya[:iF + 1][::-1], start=pA_i[-1],
+                          end=first_pt if closed and n == len(teeth) - 1 else None)
+        prev_pt = pA_f[-1]
+        cB_f = occ.addSpline(pB_f)
+        cB_i = occ.addSpline(pB_i)
+        c_tip = occ.addCircleArc(pB_i[-1], centre, pA_i[0])
+        cA_i = occ.addSpline(pA_i)
+        cA_f = occ.addSpline(pA_f)
+        curves = [cB_f, cB_i, c_tip, cA_i, cA_f]
+        # interior spline points are free vertices of the OCC model (they would get nodes)
+        inner = [t for pl in (pB_f, pB_i, pA_i, pA_f) for t in pl[1:-1]]
+        occ.remove([(0, t) for t in inner])
+        loop += curves
+        if is_fine:
+            contact_curves += [c_tip, cA_i]
+            fine_curves += curves
+        else:
+            far_curves += curves
+    return Outline(curves=loop, contact=contact_curves, fine=fine_curves, far=far_curves,
+                   first_point=first_pt, last_point=prev_pt, centre=centre)
+
+
+def set_size_fields(size: MeshSize, outline: Outline):
+    """The background size field: the minimum of the three graded thresholds (module doc)."""
+    import gmsh
+
+    f = gmsh.model.mesh.field
+
+    def graded(curves, sampling, h_near):
+        """A size field: h_near on the curves, growing at size.grad to size.h_body."""
+        d = f.add("Distance")
+        f.setNumbers(d, "CurvesList", curves)
+        f.setNumber(d, "Sampling", sampling)
+        t = f.add("Threshold")
+        f.setNumber(t, "InField", d)
+        f.setNumber(t, "SizeMin", h_near)
+        f.setNumber(t, "SizeMax", size.h_body)
+        f.setNumber(t, "DistMin", 0.0)
+        f.setNumber(t, "DistMax", (size.h_body - h_near) / size.grad)
+        return t
+
+    fields = [graded(outline.contact, 400, size.h_contact),
+              graded(outline.fine, 200, size.h_tooth)]
+    if outline.far:
+        fields.append(graded(outline.far, 60, size.h_far))
+    mn = f.add("Min"); f.setNumbers(mn, "FieldsList", fields)
+    f.setAsBackgroundMesh(mn)
+    for opt in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints",
+                "Mesh.MeshSizeFromCurvature"):
+        gmsh.option.setNumber(opt, 0)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", size.h_body)
+
+
+_CORNERS = {6: 3, 8: 4}   # triangle6, quad8
+
+
+def edge_faces(blocks, index: dict, curves) -> np.ndarray:
+    """(element, edge number 1..corners) of the line3 mesh elements on `curves`; elements
+    numbered over the blocks in order; edge j joins corner j and j+1 (the CalculiX face
+    numbering of CPE6/CPS6 and of the sides of a triangle or quad)."""
+    import gmsh
+
+    edge_of = {}
+    e0 = 0
+    for conn in blocks:
+        corners = _CORNERS[conn.shape[1]] if len(conn) else 0
+        for e, t in enumerate(conn):
+            for j in range(corners):
+                u, v = t[j], t[(j + 1) % corners]
+                edge_of[(min(u, v), max(u, v))] = (e0 + e, j + 1)
+        e0 += len(conn)
+    faces = []
+    for c in curves:
+        et, _, en = gmsh.model.mesh.getElements(1, c)
+        k8 = list(et).index(8)
+        for u, v, _mid in en[k8].reshape(-1, 3):
+            u, v = index[int(u)], index[int(v)]
+            faces.append(edge_of[(min(u, v), max(u, v))])
+    return np.array(faces)
+
+
+# gmsh element type -> reversed node order: the same element clockwise
+_FLIP = {9: [0, 2, 1, 5, 4, 3],                  # triangle6
+         16: [0, 3, 2, 1, 7, 6, 5, 4]}           # quad8 (serendipity)
+
+
+def surface_elements(surf: int, gmsh_types):
+    """The mesh of surface `surf`: node coordinates (n, 2) of the nodes of its elements only,
+    one connectivity per gmsh type asked for (0-based, corners counter-clockwise; empty if
+    none) and the map gmsh tag -> index. Other element types are an error."""
+    import gmsh
+
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    etypes, _, enodes = gmsh.model.mesh.getElements(2, surf)
+    extra = set(int(t) for t in etypes) - set(gmsh_types)
+    if extra:
+        raise RuntimeError(f"surface {surf}: element types {sorted(extra)} not expected")
+    by_type = {int(t): en for t, en in zip(etypes, enodes)}
+    el_tags = [by_type[t].reshape(-1, len(_FLIP[t])).astype(np.int64) if t in by_type
+               else np.zeros((0, len(_FLIP[t])), dtype=np.int64) for t in gmsh_types]
+    used = np.unique(np.concatenate([e.ravel() for e in el_tags]))  # only nodes of elements
+    pos = {int(t): i for i, t in enumerate(tags)}
+    xy = coords.reshape(-1, 3)[[pos[int(t)] for t in used], :2].copy()
+    index = {int(t): i for i, t in enumerate(used)}
+    blocks = []
+    for t, et in zip(gmsh_types, el_tags):
+        conn = np.searchsorted(used, et)
+        # counter-clockwise corners (signed area of the first three corners; convex elements)
+        p = xy[conn[:, :3]]
+        area2 = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
+                 - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))
+        cw = area2 < 0
+        conn[cw] = conn[cw][:, _FLIP[t]]
+        blocks.append(conn)
+    return xy, blocks, index
+
+
 def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> GearMesh:
     """Mesh the whole gear g; teeth `fine` (indices, tooth k centred at k 2 pi / z) are the
     refined ones whose flank A and tip form the contact surface."""
@@ -85,116 +252,22 @@ def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> Ge
         gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
         gmsh.model.add(f"gear{g.index}")
         occ = gmsh.model.occ
-        contact_curves, fine_curves, far_curves = [], [], []
-        centre = occ.addPoint(0.0, 0.0, 0.0)
-        first_pt = None   # tooth 0's mid-space root point (flank B side)
-        prev_pt = None    # the previous tooth's mid-space root point (flank A side)
-        loop = []
-
-        def add_points(xs, ys, start=None, end=None):
-            """Point tags along (xs, ys); the first/last replaced by existing tags if given."""
-            tags = []
-            for j, (x, y) in enumerate(zip(xs, ys)):
-                if j == 0 and start is not None:
-                    tags.append(start)
-                elif j == len(xs) - 1 and end is not None:
-                    tags.append(end)
-                else:
-                    tags.append(occ.addPoint(float(x), float(y), 0.0))
-            return tags
-
-        for k in range(z):
-            is_fine = k in fine
-            R, psi, iF = _tooth_points(prof, k * g.tau, 1 if is_fine else 4)
-            c = k * g.tau
-            xb, yb = R * np.cos(c - psi), R * np.sin(c - psi)      # flank B, root -> tip
-            xa, ya = R * np.cos(c + psi), R * np.sin(c + psi)      # flank A, root -> tip
-            pB_f = add_points(xb[:iF + 1], yb[:iF + 1], start=prev_pt)
-            if first_pt is None:
-                first_pt = pB_f[0]
-            pB_i = add_points(xb[iF:], yb[iF:], start=pB_f[-1])
-            pA_i = add_points(xa[iF:][::-1], ya[iF:][::-1])                 # tip -> form
-            pA_f = add_points(xa[:iF + 1][::-1], ya[:iF + 1][::-1], start=pA_i[-1],
-                              end=first_pt if k == z - 1 else None)      # form -> root
-            prev_pt = pA_f[-1]
-            cB_f = occ.addSpline(pB_f)
-            cB_i = occ.addSpline(pB_i)
-            c_tip = occ.addCircleArc(pB_i[-1], centre, pA_i[0])
-            cA_i = occ.addSpline(pA_i)
-            cA_f = occ.addSpline(pA_f)
-            curves = [cB_f, cB_i, c_tip, cA_i, cA_f]
-            # interior spline points are free vertices of the OCC model (they would get nodes)
-            inner = [t for pl in (pB_f, pB_i, pA_i, pA_f) for t in pl[1:-1]]
-            occ.remove([(0, t) for t in inner])
-            loop += curves
-            if is_fine:
-                contact_curves += [c_tip, cA_i]
-                fine_curves += curves
-            else:
-                far_curves += curves
-        outer = occ.addCurveLoop(loop)
+        ol = add_teeth(occ, g, prof, range(z), fine, closed=True)
+        outer = occ.addCurveLoop(ol.curves)
         bore_c = occ.addCircle(0.0, 0.0, 0.0, g.bore)
         hole = occ.addCurveLoop([bore_c])
         surf = occ.addPlaneSurface([outer, hole])
         occ.synchronize()
-
-        f = gmsh.model.mesh.field
-        def graded(curves, sampling, h_near):
-            """A size field: h_near on the curves, growing at size.grad to size.h_body."""
-            d = f.add("Distance")
-            f.setNumbers(d, "CurvesList", curves)
-            f.setNumber(d, "Sampling", sampling)
-            t = f.add("Threshold")
-            f.setNumber(t, "InField", d)
-            f.setNumber(t, "SizeMin", h_near)
-            f.setNumber(t, "SizeMax", size.h_body)
-            f.setNumber(t, "DistMin", 0.0)
-            f.setNumber(t, "DistMax", (size.h_body - h_near) / size.grad)
-            return t
-
-        t1 = graded(contact_curves, 400, size.h_contact)
-        t2 = graded(fine_curves, 200, size.h_tooth)
-        t3 = graded(far_curves, 60, size.h_far)
-        mn = f.add("Min"); f.setNumbers(mn, "FieldsList", [t1, t2, t3])
-        f.setAsBackgroundMesh(mn)
-        for opt in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints",
-                    "Mesh.MeshSizeFromCurvature"):
-            gmsh.option.setNumber(opt, 0)
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size.h_body)
+        set_size_fields(size, ol)
         gmsh.option.setNumber("Mesh.Algorithm", 6)
         gmsh.model.mesh.generate(2)
         gmsh.model.mesh.setOrder(2)
 
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        etypes, _, enodes = gmsh.model.mesh.getElements(2, surf)
-        k9 = list(etypes).index(9)
-        tri_tags = enodes[k9].reshape(-1, 6).astype(np.int64)
-        used = np.unique(tri_tags)                  # only nodes of elements
-        pos = {int(t): i for i, t in enumerate(tags)}
-        xy = coords.reshape(-1, 3)[[pos[int(t)] for t in used], :2].copy()
-        index = {int(t): i for i, t in enumerate(used)}
-        tri = np.searchsorted(used, tri_tags)
-        # counter-clockwise corners
-        p = xy[tri[:, :3]]
-        area2 = ((p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1])
-                 - (p[:, 2, 0] - p[:, 0, 0]) * (p[:, 1, 1] - p[:, 0, 1]))
-        cw = area2 < 0
-        tri[cw] = tri[cw][:, [0, 2, 1, 5, 4, 3]]
+        xy, (tri,), index = surface_elements(surf, (9,))
         bore_tags, _, _ = gmsh.model.mesh.getNodes(1, bore_c, includeBoundary=True)
         bore = np.array(sorted({index[int(t)] for t in bore_tags}))
-        # contact edges: line3 elements of the contact curves -> (triangle, edge)
-        edge_of = {}
-        for e, t in enumerate(tri):
-            for j, (u, v) in enumerate(((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))):
-                edge_of[(min(u, v), max(u, v))] = (e, j + 1)
-        faces = []
-        for c in contact_curves:
-            et, _, en = gmsh.model.mesh.getElements(1, c)
-            k8 = list(et).index(8)
-            for u, v, _mid in en[k8].reshape(-1, 3):
-                u, v = index[int(u)], index[int(v)]
-                faces.append(edge_of[(min(u, v), max(u, v))])
-        return GearMesh(nodes=xy, tri6=tri, bore=bore, contact_faces=np.array(faces),
+        faces = edge_faces([tri], index, ol.contact)
+        return GearMesh(nodes=xy, tri6=tri, bore=bore, contact_faces=faces,
                         contact_teeth=fine)
     finally:
         gmsh.model.remove()

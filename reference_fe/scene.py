@@ -28,8 +28,10 @@ class Modification:
     root_relief_length: float = 0.0  # L_f (roll length)
     root_relief_parabolic: bool = False
     slope: float = 0.0               # f_H_alpha (tip minus start of active profile)
+    lead_crowning: float = 0.0       # C_beta (3-D only): C_beta (2 y / b)^2, y from mid-face
 
     def any(self) -> bool:
+        """Any profile modification (the transverse outline differs from the involute)."""
         return any((self.crowning, self.tip_relief, self.root_relief, self.slope))
 
 
@@ -60,6 +62,7 @@ class PairSpec:
     gear2: GearSpec
     friction: float          # scene's mu (used only when friction is switched on)
     torques: tuple[float, ...]  # N m, from [run] torques_Nm
+    helix_angle: float = 0.0    # beta, rad (3-D only; 2-D: spur)
 
     def gear(self, i: int) -> GearSpec:
         return self.gear1 if i == 1 else self.gear2
@@ -96,6 +99,9 @@ _GEAR = {
 # keys of the scene format that a 2-D spur model cannot represent: refused by name
 _GEAR_REFUSED = {"axial_offset_mm", "lead_crowning_um", "helix_slope_um", "end_relief_um",
                  "end_relief_length_mm", "deviations_file"}
+# what the 3-D model (load(..., dims=3)) honours in addition: helix angle, lead crowning
+_PAIR_3D = {"helix_angle_deg": (math.pi / 180, 0.0, 40.0)}
+_GEAR_3D = {"lead_crowning_um": (1e-6, 0.0, 1000.0)}
 
 
 def _num(where: str, value, spec) -> float:
@@ -108,19 +114,23 @@ def _num(where: str, value, spec) -> float:
     return float(value) * factor
 
 
-def load(path: str | pathlib.Path) -> PairSpec:
-    """Read a scene file into a PairSpec (SI)."""
+def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
+    """Read a scene file into a PairSpec (SI). dims=3 admits what the 3-D model honours in
+    addition (helix angle, lead crowning); everything else is refused as in 2-D."""
     path = pathlib.Path(path)
+    pair_keys = {**_PAIR, **(_PAIR_3D if dims == 3 else {})}
+    gear_keys = {**_GEAR, **(_GEAR_3D if dims == 3 else {})}
+    refused = _GEAR_REFUSED - (set(_GEAR_3D) if dims == 3 else set())
     with open(path, "rb") as f:
         raw = tomllib.load(f)
     name = raw.get("scene", {}).get("name", path.stem)
     pair = raw.get("pair", {})
     for key in pair:
-        if key not in _PAIR:
+        if key not in pair_keys:
             raise SceneError(f"pair.{key}: not a key of the scene format this reference knows")
     if pair.get("internal", False):
         raise SceneError("pair.internal = true: the 2-D reference models external pairs only")
-    p = {k: _num(f"pair.{k}", v, _PAIR[k]) for k, v in pair.items() if k != "internal"}
+    p = {k: _num(f"pair.{k}", v, pair_keys[k]) for k, v in pair.items() if k != "internal"}
     for k in ("center_distance_mm", "normal_module_mm"):
         if k not in p:
             raise SceneError(f"pair.{k}: missing")
@@ -133,16 +143,16 @@ def load(path: str | pathlib.Path) -> PairSpec:
             if key == "body":
                 body = value
                 continue
-            if key in _GEAR_REFUSED:
-                raise SceneError(f"gear{i}.{key}: not representable in the 2-D spur reference")
-            if key not in _GEAR:
+            if key in refused:
+                raise SceneError(f"gear{i}.{key}: not representable in the {dims}-D reference")
+            if key not in gear_keys:
                 raise SceneError(f"gear{i}.{key}: not a key of the scene format this reference knows")
-            if _GEAR[key][0] is None:
+            if gear_keys[key][0] is None:
                 if not isinstance(value, bool):
                     raise SceneError(f"gear{i}.{key} = {value!r}: not a Boolean")
                 g[key] = value
             else:
-                g[key] = _num(f"gear{i}.{key}", value, _GEAR[key])
+                g[key] = _num(f"gear{i}.{key}", value, gear_keys[key])
         for key in body:
             if key != "bore_diameter_mm":
                 raise SceneError(f"gear{i}.body.{key}: the reference models a solid disc with a "
@@ -158,7 +168,8 @@ def load(path: str | pathlib.Path) -> PairSpec:
             root_relief=g.get("root_relief_um", 0.0),
             root_relief_length=g.get("root_relief_length_mm", 0.0),
             root_relief_parabolic=g.get("root_relief_parabolic", False),
-            slope=g.get("profile_slope_um", 0.0))
+            slope=g.get("profile_slope_um", 0.0),
+            lead_crowning=g.get("lead_crowning_um", 0.0))
         if mod.tip_relief and not mod.tip_relief_length:
             raise SceneError(f"gear{i}.tip_relief_um needs tip_relief_length_mm > 0")
         if mod.root_relief and not mod.root_relief_length:
@@ -181,4 +192,4 @@ def load(path: str | pathlib.Path) -> PairSpec:
         module=p["normal_module_mm"], pressure_angle=p.get("pressure_angle_deg", math.radians(20)),
         rack_addendum=p.get("rack_addendum", 1.0), rack_dedendum=p.get("rack_dedendum", 1.25),
         rack_tip_radius=p.get("rack_tip_radius", 0.38), gear1=gears[0], gear2=gears[1],
-        friction=mu, torques=torques)
+        friction=mu, torques=torques, helix_angle=p.get("helix_angle_deg", 0.0))

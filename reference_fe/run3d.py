@@ -1,0 +1,178 @@
+"""python -m reference_fe run3d SCENE[:T1,T2] ... --out DIR: the 3-D FE reference of each scene.
+
+Per scene (model3d: sectors of both gears, C3D20R), it solves
+
+* case `base`: mesh level 0, sectors of 120 deg, penalty 1e16 Pa/m, at n positions
+  over one (transverse) base pitch, the scene's two torques as load steps of one ccx run;
+* at the study positions: `mesh-1` and `mesh+1` (every size / sqrt(2)^L, layers * sqrt(2)^L),
+  `penalty_x10`, and `sector240` (sectors of 240 deg: the sector-size error);
+
+and writes DIR/<scene>.reference_fe3d.te.csv (every run, a `case` column), .summary.csv (mean,
+p-p, orders 1-3 of the base case) and .json (provenance, mesh statistics, the studies' relative
+changes, wall time and peak memory). Finished ccx runs are cached (--cache) so an interrupted
+generation resumes. Frictionless. Regenerate only on purpose.
+"""
+from __future__ import annotations
+
+import csv
+import datetime
+import json
+import pathlib
+import platform
+import sys
+import time
+
+from . import analysis, ccx, model3d, scene
+from .report import _changes, _cost, _g, _git_commit, _portable_args
+
+SECTOR_DEG = 120.0     # the base sector; the study's larger one: 240 deg
+STUDIES = (("mesh-1", {"level": -1}), ("penalty_x10", {"penalty_factor": 10.0}),
+           ("sector240", {"sector_deg": 240.0}), ("mesh+1", {"level": 1}))
+
+
+def parse_scene_arg(arg: str, default_torques):
+    """SCENE or SCENE:T1,T2 (N m)."""
+    if ":" in arg and not pathlib.Path(arg).exists():
+        path, t = arg.rsplit(":", 1)
+        return path, [float(x) for x in t.split(",")]
+    return arg, list(default_torques)
+
+
+def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log):
+    spec = scene.load(path, dims=3)
+    t_start = time.time()
+    models = {}
+
+    def model(level=0, sector=SECTOR_DEG):
+        if (level, sector) not in models:
+            models[(level, sector)] = model3d.Model3D(spec, level, sector)
+        return models[(level, sector)]
+
+    base_model = model()
+    base_case = model3d.Case3D()
+    runs = {"base": (base_model, base_case,
+                     analysis.run_case(spec, base_model, base_case, range(n), n, torques,
+                                       cache, log))}
+    study_out = {}
+    for label, opts in STUDIES:
+        if label not in studies or not study_positions:
+            continue
+        m = model(opts.get("level", 0), opts.get("sector_deg", SECTOR_DEG))
+        case = model3d.Case3D(level=opts.get("level", 0),
+                              penalty=analysis.DEFAULT_PENALTY * opts.get("penalty_factor", 1.0))
+        res = analysis.run_case(spec, m, case, study_positions, n, torques, cache, log)
+        runs[label] = (m, case, res)
+        base_sub = [r for r in runs["base"][2] if r.position in study_positions]
+        study_out[label] = {"positions": list(study_positions), "options": opts,
+                            "changes": _changes(base_sub, res, torques), "cost": _cost(res)}
+    if "mesh-1" in study_out:   # level -1 -> 0 as well (the change of the base from coarse)
+        c = runs["mesh-1"][2]
+        base_sub = [r for r in runs["base"][2] if r.position in study_positions]
+        study_out["mesh-1"]["changes_level-1_to_0"] = _changes(c, base_sub, torques)
+
+    stem = f"{spec.name}.reference_fe3d"
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    variant = base_model.variant
+    with open(out_dir / f"{stem}.te.csv", "w", newline="") as f:
+        f.write(f"# 3-D FE reference TE of {pathlib.Path(path).name}: python -m reference_fe "
+                "run3d (reference_fe/README.md, '3-D cases'); regenerate only on purpose\n")
+        w = csv.writer(f)
+        w.writerow(["scene", "model", "case", "mesh_level", "sector_teeth_gear1", "sector_teeth_gear2",
+                    "penalty_Pa_per_m", "friction", "torque_Nm", "position", "n_positions",
+                    "gear1_angle_rad", "te_m"])
+        for label, (m, case, res) in runs.items():
+            for r in sorted(res, key=lambda r: r.position):
+                for T, te in zip(r.torques, r.te):
+                    w.writerow([spec.name, f"3d_{variant}", label, case.level,
+                                len(m.m1.sector_teeth), len(m.m2.sector_teeth), f"{case.penalty:.3g}", case.friction,
+                                f"{T:g}", r.position, r.n_positions, _g(r.dphi1), _g(te)])
+    summaries = []
+    with open(out_dir / f"{stem}.summary.csv", "w", newline="") as f:
+        f.write("# base case per torque: mean, peak-to-peak and mesh orders 1-3 (amplitude) of "
+                "the TE over one (transverse) base pitch\n")
+        w = csv.writer(f)
+        w.writerow(["scene", "model", "case", "mesh_level", "sector_teeth_gear1", "sector_teeth_gear2",
+                    "penalty_Pa_per_m", "friction", "torque_Nm", "n_positions", "mean_te_m",
+                    "pp_te_m", "order1_m", "order2_m", "order3_m"])
+        m, case, res = runs["base"]
+        for ti, T in enumerate(torques):
+            s = analysis.summary(res, ti)
+            summaries.append({"model": f"3d_{variant}", "case": "base", "torque_Nm": T, **s})
+            w.writerow([spec.name, f"3d_{variant}", "base", case.level, len(m.m1.sector_teeth),
+                        len(m.m2.sector_teeth),
+                        f"{case.penalty:.3g}", case.friction, f"{T:g}", s["n_positions"],
+                        _g(s["mean_te_m"]), _g(s["pp_te_m"]), _g(s["order1_m"]),
+                        _g(s["order2_m"]), _g(s["order3_m"])])
+    pr = base_model.pair
+    repo = pathlib.Path(__file__).resolve().parents[1]
+    prov = {
+        "scene": spec.name,
+        "scene_file": pathlib.Path(path).name,
+        "command": "python -m reference_fe " + " ".join(_portable_args(sys.argv[1:])),
+        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "git_commit": _git_commit(repo),
+        "ccx_version": ccx.ccx_version(),
+        "python": platform.python_version(),
+        "gmsh_version": __import__("gmsh").__version__,
+        "model": {
+            "description": "3-D sectors of both gears (120 deg, rim to the bore), "
+                           "C3D20R hexahedra (C3D15 wedges where the section mesh kept a "
+                           "triangle) extruded over the face width, helicoids by twisting the "
+                           "sections, lead crowning mapped onto the flanks; bore and radial cut "
+                           "faces of gear 2 clamped, of gear 1 turning rigidly with the torque "
+                           "(u_z = 0); surface-to-surface penalty contact, linear "
+                           "pressure-overclosure, frictionless (reference_fe/model3d.py, "
+                           "mesh3d.py)",
+            "variant": variant,
+            "helix_angle_rad": spec.helix_angle,
+            "lead_crowning_m": [spec.gear1.mod.lead_crowning, spec.gear2.mod.lead_crowning],
+            "friction": 0.0,
+            "penalty_Pa_per_m": analysis.DEFAULT_PENALTY,
+            "engage_m": base_model.engage,
+            "positions": n,
+            "torques_Nm": list(torques),
+            "position_0": "flank A of tooth 0 of both gears touching at the pitch point in the "
+                          "mid-face section (unloaded, unmodified); gear1_angle_rad = gear 1's "
+                          "turn from there; n positions over one transverse base pitch",
+            "te": "r_b1 times gear 1's rotation past the rigid-body kinematic angle, "
+                  "positive = approach on flank A",
+            "bore_diameters_m": [2 * pr.g1.bore, 2 * pr.g2.bore],
+            "base_radius_gear1_m": pr.g1.rb,
+            "transverse_contact_ratio": pr.eps_alpha,
+        },
+        "mesh": {f"level{lv}_sector{sd:g}deg": m.stats() for (lv, sd), m in models.items()},
+        "summary": summaries,
+        "studies": study_out,
+        "cost": {label: _cost(res) for label, (m, case, res) in runs.items()},
+        "elapsed_s_this_invocation": time.time() - t_start,
+        "threads": "OMP_NUM_THREADS=1, CCX_NPROC_EQUATION_SOLVER=1, one ccx at a time",
+    }
+    with open(out_dir / f"{stem}.json", "w") as f:
+        json.dump(prov, f, indent=1)
+    log(f"wrote {out_dir / stem}.te.csv, .summary.csv, .json")
+
+
+def add_parser(sub):
+    r = sub.add_parser("run3d", help="3-D TE of scene(s) by CalculiX, with the studies")
+    r.add_argument("scenes", nargs="+", help="SCENE or SCENE:T1,T2 (torques, N m)")
+    r.add_argument("--out", required=True)
+    r.add_argument("--positions", type=int, default=8, help="positions per base pitch")
+    r.add_argument("--torques", default="150,350", help="N m, for scenes without :T1,T2")
+    r.add_argument("--study-positions", default="0",
+                   help="positions of the studies (comma separated; empty: none)")
+    r.add_argument("--studies", default=",".join(s for s, _ in STUDIES))
+    r.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
+    return r
+
+
+def main(a, log):
+    default = [float(t) for t in a.torques.split(",")]
+    study_positions = [int(k) for k in a.study_positions.split(",") if k.strip()]
+    studies = [s for s in a.studies.split(",") if s]
+    for s in studies:
+        if s not in dict(STUDIES):
+            raise SystemExit(f"--studies: {s!r}; allowed: {', '.join(x for x, _ in STUDIES)}")
+    for arg in a.scenes:
+        path, torques = parse_scene_arg(arg, default)
+        run_scene(path, torques, a.out, a.positions, study_positions, studies, a.cache, log)
