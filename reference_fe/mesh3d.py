@@ -14,7 +14,7 @@ recombined quadrilateral mesh of the transverse section along the axis.
   there).
 * Maps of the straight extrusion, applied to every node (mid-side nodes included, so the
   quadratic elements follow the surfaces):
-  - lead crowning C_beta (repository README, "Micro-geometry": material removed along the flank
+  - lead crowning C_beta (repository docs/model.md, "Micro-geometry": material removed along the flank
     normal, C_beta (2 y / b)^2 with y from mid-face): the section at y is the tooth turned
     towards its centre line by gap / (r_b cos beta_b) on both flanks (an involute offset
     along its normal is the involute turned by offset / r_b, as in geometry.py); inside the
