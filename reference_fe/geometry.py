@@ -13,7 +13,7 @@ Written from the published formulas, not from the product's code:
   at the reference circle s = m (pi/2 + 2 x tan alpha) + A_sn, involute function
   inv a = tan a - a, operating pressure angle cos alpha_wt = (r_b1 + r_b2) / a,
   backlash j_bt = j_wt cos alpha_wt).
-* Profile modifications: the definitions of the product's scene keys (repository README,
+* Profile modifications: the definitions of the product's scene keys (repository docs/model.md,
   "Micro-geometry": material removed along the flank normal over the active profile from the
   start of active profile (SAP) to the tip). An involute offset along its own normal by delta
   is the same involute turned by delta / r_b, so a gap turns the flank point about the axis.
