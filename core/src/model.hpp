@@ -68,3 +68,12 @@ struct gm_data {
   std::vector<gm::Dual> dual_forces, dual_stiffness, dual_balance;
   std::string message;                   // last error ("" if none)
 };
+
+namespace gm {
+
+// The FE level's narrow view of the model (fe_compliance.hpp).
+inline FeView fe_view(const gm_model& m) {
+  return FeView{m.compliance, m.layout, m.params.coupled_teeth};
+}
+
+}  // namespace gm
