@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "compliance_build.hpp"
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "gearmesh/gearmesh.h"
 
 namespace {

@@ -10,7 +10,7 @@
 
 #include "dynamics.hpp"
 #include "evaluate.hpp"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "microgeometry.hpp"
 #include "model.hpp"
 #include "params.hpp"

@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <limits>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 
 namespace gm {
 namespace {

@@ -45,7 +45,7 @@
 
 #include <Eigen/Core>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "detection.hpp"
 #include "dual.hpp"
 

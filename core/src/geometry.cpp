@@ -10,7 +10,7 @@
 // (DIN 3960 "Erzeugungs-Profilverschiebung"), so x_E sets the thickness, the root and form
 // circles and the undercut limit; x alone sets the tip diameter from the basic rack.
 
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -8,13 +8,13 @@
 
 #include <Eigen/Core>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "contact_forces.hpp"
 #include "nlcp.hpp"
 #include "detection.hpp"
 #include "fe_compliance.hpp"
 #include "stiffness_iso.hpp"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 #include "user_tables.hpp"
 #include "gearmesh/gearmesh.h"
 

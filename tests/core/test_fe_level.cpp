@@ -12,14 +12,14 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "fe_compliance.hpp"
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
 #include "model.hpp"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "test_support.hpp"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 
 namespace {
 

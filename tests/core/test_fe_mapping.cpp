@@ -39,12 +39,12 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "detection.hpp"
 #include "fe_compliance.hpp"
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "model.hpp"
 #include "test_support.hpp"
 
