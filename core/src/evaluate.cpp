@@ -13,35 +13,6 @@
 
 namespace gm {
 
-ForceSolve solve_forces(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n,
-                        const PassMode& mode) {
-  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
-  const double tol = m.params.solver_tolerance;
-  const int max_it = m.params.solver_max_iterations;
-  if (fe || !mode.quasi)  // the separable quasi-static solve writes the approaches itself
-    for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
-  if (fe) return fe_solve(m, d, kin, n, mode.all, mode.quasi, mode.load);
-  if (mode.quasi)
-    return solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(), n, mode.load,
-                                 0.0, tol, max_it, d.approach.data(), d.forces.data(),
-                                 d.slice_stiffness.data());
-  return solve_separable(d.laws.data(), d.approach.data(), n, tol, max_it, d.forces.data(),
-                         d.slice_stiffness.data());
-}
-
-gm_status solve_pass(const gm_model& m, gm_data& d, const gm_kinematics& kin, const PassMode& mode,
-                     int& n, ForceSolve& fs) {
-  n = prepare_slices(m, kin, d.slices.data(), d.laws.data(), mode.all, d.message);
-  if (n < 0) return GM_ERR_INPUT;
-  if (mode.quasi) balance_weights(m, d.slices.data(), kin, n, d.balance.data());
-  fs = solve_forces(m, d, kin, n, mode);
-  if (!fs.converged) {
-    d.message = fs.message;
-    return GM_ERR_SOLVER;
-  }
-  return GM_OK;
-}
-
 namespace {
 
 // Plain mode: one pass at the pose as given.
