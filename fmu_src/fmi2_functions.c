@@ -7,6 +7,7 @@
  * the instance, so instances run in parallel threads. Memory comes from malloc
  * (canNotUseMemoryManagementFunctions="true").
  */
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -62,6 +63,48 @@ static const char* const category_names[] = {
 
 /* ---- logging ---------------------------------------------------------------------------- */
 
+/* Length of the well-formed UTF-8 sequence at s[0..n) (RFC 3629: no overlong forms, no
+ * surrogates, at most U+10FFFF), or 0 if there is none. */
+static size_t utf8_sequence(const unsigned char* s, size_t n) {
+  unsigned char b = s[0];
+  size_t len;
+  unsigned char lo = 0x80, hi = 0xBF; /* range of the second byte */
+  if (b < 0x80) return 1;
+  if (b >= 0xC2 && b <= 0xDF) len = 2;
+  else if (b >= 0xE0 && b <= 0xEF) len = 3, lo = b == 0xE0 ? 0xA0 : 0x80, hi = b == 0xED ? 0x9F : 0xBF;
+  else if (b >= 0xF0 && b <= 0xF4) len = 4, lo = b == 0xF0 ? 0x90 : 0x80, hi = b == 0xF4 ? 0x8F : 0xBF;
+  else return 0;
+  if (n < len || s[1] < lo || s[1] > hi) return 0;
+  for (size_t i = 2; i < len; i++)
+    if (s[i] < 0x80 || s[i] > 0xBF) return 0;
+  return len;
+}
+
+/* Every message goes to the logger through here: out (4 n + 1 bytes) gets text[0..n) as valid
+ * UTF-8, with each byte that is not part of a well-formed sequence, and each control character
+ * other than tab and newline, written as \xNN. A message may echo bytes it did not make (a
+ * corrupted FMU state's GUID, a file name), and importers decode the message as UTF-8. */
+static void utf8_escape(const char* text, size_t n, char* out) {
+  static const char hex[] = "0123456789ABCDEF";
+  const unsigned char* s = (const unsigned char*)text;
+  size_t i = 0, k = 0;
+  while (i < n) {
+    size_t len = utf8_sequence(s + i, n - i);
+    if (len == 0 || (len == 1 && ((s[i] < 0x20 && s[i] != '\t' && s[i] != '\n') || s[i] == 0x7F))) {
+      out[k++] = '\\';
+      out[k++] = 'x';
+      out[k++] = hex[s[i] >> 4];
+      out[k++] = hex[s[i] & 15];
+      i++;
+      continue;
+    }
+    memcpy(out + k, s + i, len);
+    k += len;
+    i += len;
+  }
+  out[k] = '\0';
+}
+
 static void vlog(const instance* c, fmi2Status status, gm_log_category category, const char* format,
                  va_list args) {
   int always = category == GM_LOG_ERROR || category == GM_LOG_FATAL;
@@ -70,8 +113,10 @@ static void vlog(const instance* c, fmi2Status status, gm_log_category category,
   vsnprintf(text, sizeof text, format, args);
   size_t n = strlen(text);
   while (n && (text[n - 1] == '\n' || text[n - 1] == '\r')) text[--n] = '\0';
+  char safe[4 * sizeof text]; /* every byte escaped at most to 4 */
+  utf8_escape(text, n, safe);
   /* through "%s": a '%' in the message or instance name is never read as a conversion */
-  c->logger(c->environment, c->name, status, category_names[category], "%s", text);
+  c->logger(c->environment, c->name, status, category_names[category], "%s", safe);
 }
 
 static void log_event(const instance* c, const char* format, ...) {
@@ -426,15 +471,22 @@ fmi2Status fmi2SetString(fmi2Component component, const fmi2ValueReference vr[],
 /* ---- FMU state -------------------------------------------------------------------------- */
 
 /* Serialized FMU state, native byte order (the binary is per platform):
- *   "GearMesh" | u32 format version | GUID, NUL-padded to 40 bytes | u64 payload size | payload
+ *   "GearMesh" | u32 format version | GUID, NUL-padded to 40 bytes | u64 payload size |
+ *   u64 checksum | payload
  *   payload = f64 time | u32 mode | model payload (model_state_save)
- * Format 2: String values (u32 length + bytes) in the model payload; format 1 had none.
+ * Format 3: the checksum, 64-bit FNV-1a over every byte of the blob except the checksum field
+ * itself (header and payload); format 2 had none, format 1 no String values either.
  * An fmi2FMUstate holds exactly these bytes: taking, copying and serializing a state are one
- * path, and a state owns all its data (no pointer into the instance). */
+ * path, and a state owns all its data (no pointer into the instance). fmi2SetFMUstate and
+ * fmi2DeSerializeFMUstate check magic, format, size, checksum and GUID before anything is
+ * applied; a corrupted blob is refused with fmi2Error and the instance is unchanged
+ * (docs/reliability.md). */
 #define STATE_MAGIC "GearMesh"
-#define STATE_FORMAT 2u
+#define STATE_FORMAT 3u
 #define STATE_GUID_SIZE 40
-#define STATE_HEADER_SIZE (8 + 4 + STATE_GUID_SIZE + 8)
+#define STATE_SIZE_OFFSET (8 + 4 + STATE_GUID_SIZE)
+#define STATE_CHECKSUM_OFFSET (STATE_SIZE_OFFSET + 8)
+#define STATE_HEADER_SIZE (STATE_CHECKSUM_OFFSET + 8)
 #define STATE_PAYLOAD_OFFSET (8 + 4) /* model payload after time and mode */
 
 _Static_assert(sizeof GM_FMU_GUID <= STATE_GUID_SIZE, "GUID does not fit the state header");
@@ -444,28 +496,54 @@ typedef struct fmu_state {
   unsigned char bytes[];
 } fmu_state;
 
-/* Payload size if bytes[0..size) is a state of this FMU, else 0 (logged). */
+/* 64-bit FNV-1a of bytes[0..size) without the checksum field. Each step (xor a byte, multiply
+ * by an odd constant modulo 2^64) is a bijection of the running hash, so a change confined to
+ * one byte (every single-bit flip) always changes the result; other corruptions go undetected
+ * with a probability of about 2^-64. */
+static uint64_t state_checksum(const unsigned char* bytes, size_t size) {
+  uint64_t h = 14695981039346656037ull;
+  for (size_t i = 0; i < size; i++) {
+    if (i == STATE_CHECKSUM_OFFSET) i += 8;
+    if (i >= size) break;
+    h = (h ^ bytes[i]) * 1099511628211ull;
+  }
+  return h;
+}
+
+/* Payload size if bytes[0..size) is an intact state of this FMU, else 0 (logged). */
 static size_t check_state(const instance* c, const char* function, const unsigned char* bytes, size_t size) {
   char guid[STATE_GUID_SIZE] = GM_FMU_GUID;
   uint32_t format;
-  uint64_t payload;
-  if (size < STATE_HEADER_SIZE || memcmp(bytes, STATE_MAGIC, 8) != 0) {
-    error(c, "%s: not a GearMesh FMU state (%zu bytes)", function, size);
+  uint64_t payload, stored;
+  if (size < 12 || memcmp(bytes, STATE_MAGIC, 8) != 0) {
+    error(c, "%s: not a GearMesh FMU state (%zu bytes; it must start with \"" STATE_MAGIC "\")", function, size);
     return 0;
   }
   memcpy(&format, bytes + 8, sizeof format);
-  memcpy(&payload, bytes + 8 + 4 + STATE_GUID_SIZE, sizeof payload);
   if (format != STATE_FORMAT) {
-    error(c, "%s: FMU state format %u, this FMU reads format %u", function, (unsigned)format, STATE_FORMAT);
+    error(c, "%s: FMU state format %u, this FMU reads format %u only", function, (unsigned)format, STATE_FORMAT);
     return 0;
   }
-  if (memcmp(bytes + 12, guid, STATE_GUID_SIZE) != 0) {
-    error(c, "%s: FMU state is from another GearMesh build (GUID %.40s)", function, (const char*)bytes + 12);
+  if (size < STATE_HEADER_SIZE) {
+    error(c, "%s: FMU state is truncated (%zu bytes, the header alone has %d)", function, size, STATE_HEADER_SIZE);
     return 0;
   }
+  memcpy(&payload, bytes + STATE_SIZE_OFFSET, sizeof payload);
   if (payload != size - STATE_HEADER_SIZE || payload < STATE_PAYLOAD_OFFSET) {
     error(c, "%s: FMU state is truncated or padded (%zu bytes, header says %llu)", function, size,
           (unsigned long long)(payload + STATE_HEADER_SIZE));
+    return 0;
+  }
+  memcpy(&stored, bytes + STATE_CHECKSUM_OFFSET, sizeof stored);
+  const uint64_t computed = state_checksum(bytes, size);
+  if (stored != computed) {
+    error(c, "%s: FMU state is corrupted: checksum 0x%016llx, the %zu bytes give 0x%016llx; nothing was restored",
+          function, (unsigned long long)stored, size, (unsigned long long)computed);
+    return 0;
+  }
+  if (memcmp(bytes + 12, guid, STATE_GUID_SIZE) != 0) {
+    error(c, "%s: FMU state is from another GearMesh build (GUID %.40s, this build's %s)", function,
+          (const char*)bytes + 12, GM_FMU_GUID);
     return 0;
   }
   return (size_t)payload;
@@ -486,11 +564,12 @@ fmi2Status fmi2GetFMUstate(fmi2Component component, fmi2FMUstate* FMUstate) {
   memcpy(b, STATE_MAGIC, 8);
   memcpy(b + 8, &format, 4);
   memcpy(b + 12, guid, STATE_GUID_SIZE);
-  memcpy(b + 12 + STATE_GUID_SIZE, &payload, 8);
-  b += STATE_HEADER_SIZE;
-  memcpy(b, &c->time, 8);
-  memcpy(b + 8, &mode, 4);
-  model_state_save(c->model, b + STATE_PAYLOAD_OFFSET);
+  memcpy(b + STATE_SIZE_OFFSET, &payload, 8);
+  memcpy(b + STATE_HEADER_SIZE, &c->time, 8);
+  memcpy(b + STATE_HEADER_SIZE + 8, &mode, 4);
+  model_state_save(c->model, b + STATE_HEADER_SIZE + STATE_PAYLOAD_OFFSET);
+  const uint64_t checksum = state_checksum(b, size);
+  memcpy(b + STATE_CHECKSUM_OFFSET, &checksum, 8);
   return fmi2OK;
 }
 
@@ -639,11 +718,27 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
   (void)noSetFMUStatePriorToCurrentPoint;
   CHECK_MODE(StepComplete);
   double tc = currentCommunicationPoint, h = communicationStepSize;
-  if (!(h > 0.0)) return error(c, "fmi2DoStep: communicationStepSize = %g must be > 0", h);
-  /* the master's time is the sum of its steps: allow its rounding, nothing more */
-  if (!(fabs(tc - c->time) <= 1e-9 * fmax(1.0, fabs(c->time))))
-    return error(c, "fmi2DoStep: currentCommunicationPoint = %.17g, but the FMU is at t = %.17g", tc, c->time);
+  /* Time never runs backwards and stays finite (docs/reliability.md): the step is finite and
+   * positive, tc is the FMU's time (the end of the last step, or the time of the state set by
+   * fmi2SetFMUstate) up to the master's rounding, and the end tc + h is finite and later than
+   * the FMU's time. c->time is finite: fmi2SetupExperiment and fmi2SetFMUstate check it. */
+  if (!(h > 0.0) || !isfinite(h))
+    return error(c, "fmi2DoStep: communicationStepSize = %g s; allowed: finite and > 0 s (at most %g s from t = %.17g s)",
+                 h, DBL_MAX - fabs(c->time), c->time);
+  /* the master's time is the sum of its steps: allow its rounding, relative to the time (or to
+   * the step near t = 0), nothing more */
+  const double tolerance = 1e-9 * fmax(fabs(c->time), h);
+  if (!isfinite(tc) || !(fabs(tc - c->time) <= tolerance))
+    return error(c,
+                 "fmi2DoStep: currentCommunicationPoint = %.17g s, but the FMU is at t = %.17g s; allowed: the end "
+                 "of the last step (or the time of the state set by fmi2SetFMUstate) within %g s",
+                 tc, c->time, tolerance);
   double end = tc + h;
+  if (!isfinite(end) || !(end > c->time))
+    return error(c,
+                 "fmi2DoStep: step of communicationStepSize = %g s from t = %.17g s ends at %g s; allowed: a finite "
+                 "end later than t",
+                 h, tc, end);
   if (c->stop_defined && !(end <= c->stop_time + 1e-9 * fmax(1.0, fabs(c->stop_time))))
     return error(c, "fmi2DoStep: step to t = %.17g goes past stopTime = %.17g", end, c->stop_time);
   /* inputs are held over the step; the outputs published are those at tc + h */

@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "model.h"
 #include "values.h"
@@ -132,6 +133,15 @@ void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned) {
   mark_changed(m, v);
 }
 
+/* What a file that is not a regular file is, for messages. */
+static const char* file_kind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
+  return "not a regular file";
+}
+
 /* 1 if a '/'-separated component of path is "..". */
 static int has_parent_component(const char* path) {
   for (const char* s = path;; s++) {
@@ -169,6 +179,17 @@ static int resolve_resource(const fmu_model* m, const char* parameter, const cha
   if (!(*path = malloc(dir + size))) return snprintf(msg, n, "out of memory"), 1;
   memcpy(*path, m->resources, dir);
   memcpy(*path + dir, name, size);
+  /* Only regular files: opening a FIFO would block until a writer comes (forever), a device or
+   * a directory is no table. A name that does not exist is left to the core's message. */
+  struct stat st;
+  if (stat(*path, &st) == 0 && !S_ISREG(st.st_mode)) {
+    snprintf(msg, n,
+             "%s = \"%s\" is %s (%s); allowed: the name of a regular file inside the FMU's resources/ folder",
+             parameter, name, file_kind(st.st_mode), *path);
+    free(*path);
+    *path = NULL;
+    return 1;
+  }
   return 0;
 }
 

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #define N_VARIABLES GM_FMU_VARIABLE_COUNT
 
@@ -231,6 +232,14 @@ int values_read_start_file(gm_fmu_values* start, const char* resources, int* cou
   if (!path) return snprintf(msg, msg_size, "out of memory"), 1;
   memcpy(path, resources, n);
   memcpy(path + n, FMU_START_VALUES_FILE, sizeof FMU_START_VALUES_FILE);
+  /* only a regular file: opening a FIFO would block fmi2Instantiate until a writer comes */
+  struct stat st;
+  if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+    free(path);
+    snprintf(msg, msg_size, "resources/" FMU_START_VALUES_FILE ": not a regular file (mode 0%o); allowed: a "
+             "regular file or none", (unsigned)st.st_mode);
+    return 1;
+  }
   FILE* f = fopen(path, "rb");
   int err = errno;
   free(path);

@@ -9,6 +9,8 @@
 #include <fstream>
 #include <new>
 
+#include <sys/stat.h>
+
 #include "gearmesh/internal/geometry.hpp"
 
 namespace gm {
@@ -284,6 +286,12 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
     return GM_ERR_ARGUMENT;
   }
   const std::string what = std::string("compliance database '") + path + "'";
+  // a FIFO would block the open until a writer comes (forever), a directory or device is no file
+  struct stat st;
+  if (::stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+    msg = what + ": not a regular file (a directory, FIFO, socket or device); allowed: a .gcdb file";
+    return GM_ERR_PARAMETER;
+  }
   std::ifstream is(path, std::ios::binary);
   if (!is) {
     msg = what + ": cannot open the file (missing or not readable)";

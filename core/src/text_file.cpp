@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include <sys/stat.h>
+
 namespace gm::text {
 
 std::string quote(std::string_view t) {
@@ -53,6 +55,13 @@ bool to_double(std::string_view t, double& v, std::string& why) {
 
 bool read_file(const char* path, const char* what, const char* magic, std::string& text,
                std::string& msg) {
+  // a FIFO would block the open until a writer comes (forever), a directory or device is no file
+  struct stat st;
+  if (::stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+    msg = std::string(path) + ": not a regular file (a directory, FIFO, socket or device); allowed: the path "
+          "of a readable " + what + " ('" + magic + " 1')";
+    return false;
+  }
   std::FILE* f = std::fopen(path, "rb");
   if (!f) {
     msg = std::string(path) + ": cannot open the " + what + ": " + std::strerror(errno) +

@@ -13,7 +13,7 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 TEXT = (".c", ".h", ".cpp", ".hpp", ".py", ".md", ".txt", ".toml", ".html", ".sh", ".cmake")
 REFERENCE = re.compile(r'docs/([A-Za-z_]+\.md)(?:,?\s*(?:§(\d+)|"([^"\n]+)"))?')
 # a README and a quoted section: `README, "FMU interface"`, `reference_fe/README.md, "Outputs"`
-README_REFERENCE = re.compile(r'\b((?:[a-z_]+/)?README)(?:\.md)?(?:,|\s\()?\s*"([^"\n]+)"')
+README_REFERENCE = re.compile(r'\b((?:[a-z_]+/)?README)(?:\.md)?(?:,\s*|\s+\(?)"([^"\n]+)"')
 OUTSIDE = re.compile(r"\b(PHYSICS|DESIGN|FMI|STYLE)\.md\b")
 
 

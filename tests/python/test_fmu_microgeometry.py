@@ -359,7 +359,7 @@ def test_state_round_trip_with_a_deviation_file(new, fmu_path, tmp_path, resourc
         step_a(pose)
     blob = a.slave.serializeFMUstate(a.slave.getFMUstate())
     t_state = step_a.t
-    assert struct.unpack_from("<I", blob, 8)[0] == 2  # state format 2: with strings
+    assert struct.unpack_from("<I", blob, 8)[0] == 3  # state format 3: with strings and a checksum
     after = []
     for pose in poses[5:]:
         step_a(pose)

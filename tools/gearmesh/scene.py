@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import pathlib
+import re
 import tomllib
 from dataclasses import dataclass, field
 
@@ -151,53 +152,105 @@ class Scene:
 def _convert(where: str, key: Key, value):
     if key.kind is list:
         if not isinstance(value, list) or not value:
-            raise SceneError(f"{where} = {value!r}: expected a non-empty list of numbers")
+            raise SceneError(f"{where} = {_short(value)}: expected a non-empty list of numbers")
         return [_convert(f"{where}[{i}]", Key(key.variable, key.factor, key.lo, key.hi,
                                               unit=key.unit), v) for i, v in enumerate(value)]
     if key.kind is str:
         if not isinstance(value, str) or not value:
-            raise SceneError(f"{where} = {value!r}: expected a non-empty file name")
+            raise SceneError(f"{where} = {_short(value)}: expected a non-empty file name")
         return value
     if key.kind is bool:
         if not isinstance(value, bool):
-            raise SceneError(f"{where} = {value!r}: expected true or false")
+            raise SceneError(f"{where} = {_short(value)}: expected true or false")
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(f"{where} = {value!r}: expected a number")
+        raise SceneError(f"{where} = {_short(value)}: expected a number")
     if key.kind is int and not isinstance(value, int):
-        raise SceneError(f"{where} = {value!r}: expected a whole number")
-    if not (math.isfinite(value) and key.lo <= value <= key.hi):
+        raise SceneError(f"{where} = {_short(value)}: expected a whole number")
+    if not (key.lo <= value <= key.hi and (isinstance(value, int) or math.isfinite(value))):
         unit = f" {key.unit}" if key.unit else ""
-        raise SceneError(f"{where} = {value!r}{unit}: allowed range [{key.lo:g}, {key.hi:g}]{unit}")
+        raise SceneError(f"{where} = {_short(value)}{unit}: allowed range [{key.lo:g}, {key.hi:g}]{unit}")
     return value if key.kind is int else value * key.factor
 
 
 def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
-    """Validate a scene's TOML text; raise SceneError naming the first bad key."""
+    """Validate a scene's TOML text; raise SceneError naming the file (if a path is given) and
+    the first bad key, or the line of a syntax error. Nothing else is raised for any text."""
     path = pathlib.Path(path)
+    try:
+        return _parse_scene(text, path)
+    except SceneError as exc:
+        if str(path) == "<string>":
+            raise
+        raise SceneError(f"{path}: {exc}") from None
+
+
+def _table(where: str, value) -> dict:
+    if not isinstance(value, dict):
+        raise SceneError(f"{where} = {_short(value)}: expected a table ([{where}])")
+    return value
+
+
+def _short(value) -> str:
+    """repr of a value, cut to a readable length for messages."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _deep_line(text: str, depth: int = 100) -> int:
+    """The line where brackets or braces first nest `depth` deep (strings not parsed: a hint)."""
+    level = 0
+    for i, ch in enumerate(text):
+        level += ch in "[{"
+        level -= ch in "]}"
+        if level >= depth:
+            return text.count("\n", 0, i) + 1
+    return 1
+
+
+def _parse_scene(text: str, path: pathlib.Path) -> Scene:
+    if not isinstance(text, str):
+        raise SceneError(f"expected the scene as text, got {type(text).__name__}")
+    if text.startswith("\ufeff"):  # a UTF-8 byte-order mark (some Windows editors write one)
+        text = text[1:]
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{path}: not valid TOML: {exc}") from exc
-    meta = raw.get("scene", {})
-    unknown_meta = set(meta) - {"name", "description", "assumptions"}
+        raise SceneError(f"not valid TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"line {_deep_line(text)}: arrays or inline tables nested too deeply "
+                         "for the TOML reader; allowed: the flat tables of the scene format") from None
+    except ValueError as exc:  # an integer of more than 4300 digits (int's string limit)
+        long = re.search(r"[0-9_]{4301,}", text)
+        line = text.count("\n", 0, long.start()) + 1 if long else 1
+        raise SceneError(f"line {line}: not valid TOML: {exc}") from None
+    if not raw:
+        raise SceneError("empty scene (no table and no key, line 1); allowed: at least one of "
+                         "[scene], [pair], [gear1], [gear2], [model], [run]")
+    meta = _table("scene", raw.get("scene", {}))
+    unknown_meta = set(meta) - {"name", "description", "assumptions", "resource_root"}
     if unknown_meta:
         raise SceneError(f"scene.{sorted(unknown_meta)[0]}: unknown key; allowed: name, "
-                         "description, assumptions")
-    scene = Scene(name=str(meta.get("name", path.stem)), path=path,
-                  description=str(meta.get("description", "")),
-                  assumptions=[str(a) for a in meta.get("assumptions", [])])
+                         "description, assumptions, resource_root")
+    for key in ("name", "description"):
+        if key in meta and not isinstance(meta[key], str):
+            raise SceneError(f"scene.{key} = {_short(meta[key])}: expected a string")
+    assumptions = meta.get("assumptions", [])
+    if not isinstance(assumptions, list) or not all(isinstance(a, str) for a in assumptions):
+        raise SceneError(f"scene.assumptions = {_short(assumptions)}: expected a list of strings")
+    scene = Scene(name=meta.get("name", path.stem), path=path,
+                  description=meta.get("description", ""), assumptions=list(assumptions))
+    root = _resource_root(meta, path)
     for section, body in raw.items():
         if section in META_SECTIONS:
             continue
         if section not in SCHEMA:
             allowed = ", ".join(sorted(set(SCHEMA) | META_SECTIONS))
             raise SceneError(f"[{section}]: unknown section; allowed: {allowed}")
-        if not isinstance(body, dict):
-            raise SceneError(f"{section}: expected a table")
+        _table(section, body)
         for key, value in body.items():
             if section in ("gear1", "gear2") and key == "body":
-                scene.bodies[int(section[-1])] = _parse_body(section, value, path)
+                scene.bodies[int(section[-1])] = _parse_body(section, value, path, root)
                 continue
             spec = SCHEMA[section].get(key)
             if spec is None:
@@ -207,10 +260,7 @@ def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
                 raise SceneError(f"{section}.{key}: unknown key; allowed: {allowed}")
             value = _convert(f"{section}.{key}", spec, value)
             if spec.kind is str:  # a file beside the scene, shipped in the FMU's resources/
-                source = (path.parent / value).resolve()
-                if not source.is_file():
-                    raise SceneError(f"{section}.{key} = {value!r}: no such file next to the "
-                                     f"scene ({source})")
+                source = _resource_file(f"{section}.{key}", value, path, root)
                 name = f"{section}_{source.name}"
                 scene.resources[name] = source
                 value = name
@@ -223,16 +273,14 @@ def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
     if has_table and level != 1:
         raise SceneError(f"model.stiffness_table_file: used at model.stiffness_level = 1 only, "
                          f"this scene has {level}; allowed: level 1, or no stiffness table")
-    fe = raw.get("fe", {})
-    if not isinstance(fe, dict):
-        raise SceneError("fe: expected a table")
+    fe = _table("fe", raw.get("fe", {}))
     for key, value in fe.items():
         spec = FE_SCHEMA.get(key)
         if spec is None:
             raise SceneError(f"fe.{key}: unknown key; allowed: {', '.join(sorted(FE_SCHEMA))}")
         scene.fe[key] = _convert(f"fe.{key}", spec, value)
     _check_fe_level(scene, level)
-    for key, value in raw.get("run", {}).items():
+    for key, value in _table("run", raw.get("run", {})).items():
         spec = RUN_SCHEMA.get(key)
         if spec is None:
             raise SceneError(f"run.{key}: unknown key; allowed: {', '.join(sorted(RUN_SCHEMA))}")
@@ -240,11 +288,60 @@ def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
     return scene
 
 
-def _parse_body(section: str, body, path: pathlib.Path) -> dict:
+def _why(exc: Exception) -> str:
+    """The reason of an OSError without the (possibly very long) path it repeats."""
+    return exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+
+
+def _resource_root(meta: dict, path: pathlib.Path) -> pathlib.Path:
+    """The folder every file of the scene must lie in: the scene's own folder, or [scene]
+    resource_root (a relative path from the scene's folder to a directory, e.g. "..")."""
+    folder = path.parent.resolve()
+    if "resource_root" not in meta:
+        return folder
+    value = meta["resource_root"]
+    if not isinstance(value, str) or not value or pathlib.PurePath(value).is_absolute():
+        raise SceneError(f"scene.resource_root = {_short(value)}: expected a relative path from "
+                         f"the scene's folder ({folder}) to a directory, e.g. \"..\"")
+    try:
+        root = (folder / value).resolve()
+        is_dir = root.is_dir()
+    except (OSError, ValueError, RuntimeError) as exc:
+        raise SceneError(f"scene.resource_root = {_short(value)}: not a usable path ({_why(exc)}); "
+                         "allowed: a directory, relative to the scene's folder") from None
+    if not is_dir:
+        raise SceneError(f"scene.resource_root = {value!r}: {root} is not a directory; allowed: "
+                         "a directory, relative to the scene's folder")
+    return root
+
+
+def _resource_file(where: str, value: str, path: pathlib.Path, root: pathlib.Path) -> pathlib.Path:
+    """The resolved path of a file key's value: inside root (symlinks resolved) and a regular
+    file, else SceneError naming the key, the resolved path and the rule."""
+    try:
+        source = (path.parent / value).resolve()
+        inside = source.is_relative_to(root)
+        exists, regular = source.exists(), source.is_file()
+    except (OSError, ValueError, RuntimeError) as exc:  # NUL byte, name too long, symlink loop
+        raise SceneError(f"{where} = {_short(value)}: not a usable file name ({_why(exc)}); allowed: "
+                         "the name of a regular file inside the scene's folder") from None
+    if not inside:
+        raise SceneError(f"{where} = {value!r}: resolves to {source}, outside {root}; allowed: a "
+                         "file inside the scene's folder (after resolving symlinks), or inside "
+                         "[scene] resource_root if the scene sets one")
+    if not exists:
+        raise SceneError(f"{where} = {value!r}: no such file next to the scene ({source})")
+    if not regular:
+        raise SceneError(f"{where} = {value!r}: {source} is not a regular file (a directory, "
+                         "FIFO, device or socket); allowed: a regular file inside the scene's "
+                         "folder")
+    return source
+
+
+def _parse_body(section: str, body, path: pathlib.Path, root: pathlib.Path) -> dict:
     """[gear<i>.body]: keys, ranges, files, and the consistency that needs no gear geometry."""
     where = f"{section}.body"
-    if not isinstance(body, dict):
-        raise SceneError(f"{where}: expected a table ([{where}])")
+    _table(where, body)
     out: dict = {}
     for key, value in body.items():
         spec = BODY_SCHEMA.get(key)
@@ -252,11 +349,7 @@ def _parse_body(section: str, body, path: pathlib.Path) -> dict:
             raise SceneError(f"{where}.{key}: unknown key; allowed: {', '.join(sorted(BODY_SCHEMA))}")
         value = _convert(f"{where}.{key}", spec, value)
         if spec.kind is str:
-            source = (path.parent / value).resolve()
-            if not source.is_file():
-                raise SceneError(f"{where}.{key} = {value!r}: no such file next to the scene "
-                                 f"({source})")
-            value = source
+            value = _resource_file(f"{where}.{key}", value, path, root)
         out[key] = value
     if "compliance_file" in out and len(out) > 1:
         other = sorted(set(out) - {"compliance_file"})[0]
@@ -342,6 +435,34 @@ def _check_fe_level(scene: Scene, level: int) -> None:
                          "(compliance_file), nothing is built; allowed: leave [fe] out")
 
 
+MAX_SCENE_BYTES = 1 << 20  # a scene is a few kB; more is not a scene
+
+
 def load_scene(path: pathlib.Path | str) -> Scene:
+    """Read and validate a scene file. A file that is not UTF-8 TOML, or not a readable regular
+    file of at most 1 MiB, is a SceneError naming it (a UTF-8 byte-order mark is accepted); a
+    missing file is FileNotFoundError."""
     path = pathlib.Path(path)
-    return parse_scene(path.read_text(encoding="utf-8"), path)
+    if path.exists() and not path.is_file():
+        raise SceneError(f"{path}: not a regular file (a directory, FIFO, device or socket); "
+                         "allowed: a scene file (TOML)")
+    with open(path, "rb") as f:
+        data = f.read(MAX_SCENE_BYTES + 1)
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError(f"{path}: larger than {MAX_SCENE_BYTES} bytes; a scene is a small TOML "
+                         "file")
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise SceneError(f"{path}: line 1: starts with a UTF-16 byte-order mark; allowed: UTF-8 "
+                         "text (save the file as UTF-8)")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise SceneError(f"{path}: line {line}, column {column}: not valid UTF-8 (byte "
+                         f"0x{data[exc.start]:02x} at offset {exc.start}: {exc.reason}); allowed: "
+                         "UTF-8 text") from None
+    if "\x00" in text:
+        line = text.count("\n", 0, text.index("\x00")) + 1
+        raise SceneError(f"{path}: line {line}: contains a NUL character; a scene is text (TOML)")
+    return parse_scene(text, path)

@@ -65,10 +65,12 @@ def expected(case: Case, mode: str, step: float) -> bool | None:
         return None
     if mode == "large_step_chain" and case.name in CHAIN_TE_OPEN:
         return None
+    if mode.startswith("large_step") and step < 1e-3 and case.name in SMALL_STEP_OPEN:
+        return None
     if mode.startswith("large_step"):
         return True
     if mode == "explicit":
-        if step >= 1e-3 and case.contact and case.loaded:
+        if step >= 1e-3 and case.contact and case.loaded and case.name not in EXPLICIT_SURVIVES:
             return False
         return True if step <= 1e-5 and case.name in EXPLICIT_OK else None
     return True if step <= 1e-4 and case.name in IMPLICIT_OK else None
@@ -77,12 +79,19 @@ def expected(case: Case, mode: str, step: float) -> bool | None:
 # large_step_chain is judged against the same chain and cut with the gear pair converged
 # (stability_runs.cut_reference_te); not asserted where that reference is itself not converged
 # (measured, docs/stability.md).
-CHAIN_TE_OPEN = {
-    "wedging_0.5mm": "the reference does not converge: the wedged TE snaps through ~170 um at "
-                     "tooth events, and the trapezoidal reference's p-p at the samples moves by "
-                     "0.16-0.44 um between 5e-6, 2e-6 and 1e-6 s, while the FMU at tolerance 1e-9 "
-                     "and 1e-10 agrees with itself to 0.014 um",
+CHAIN_TE_OPEN: dict[str, str] = {}
+
+# The large-step mode below 1e-3 s, not asserted where measured off (the brief's steps are 1e-3
+# and 1e-2 s, where every case is asserted): docs/stability.md, "Measured".
+SMALL_STEP_OPEN = {
+    "damping_0": "undamped, the start transient rings on: at 1e-5 s the p-p is 0.092 um off the "
+                 "converged dynamics at dynamics.tolerance 1e-9 m, 0.0035 um at 1e-10, 0.0007 um "
+                 "at 1e-11 (the FMU's own error, converging with its tolerance)",
 }
+# Loaded cases the plain element under the explicit master survives at 1e-2 s (measured: at
+# 10 000 rpm a 1e-2 s step turns gear 1 by 10 rad, and the contact seen at the samples happens
+# to stay bounded); reported, not asserted either way.
+EXPLICIT_SURVIVES = {"speed_10000rpm"}
 
 # Cases the plain element passes under the project's masters at small steps (measured,
 # docs/stability.md); elsewhere the outcome is reported, not asserted.

@@ -179,6 +179,11 @@ def run(prep: Prepared, mode: str, h: float) -> Run:
     return r
 
 
+def reference_step(prep: Prepared) -> float:
+    """The TE reference's step: REFERENCE_STEP unless the case needs a finer one."""
+    return prep.case.reference_step or REFERENCE_STEP
+
+
 def converged_te(prep: Prepared, plant: str, times: np.ndarray) -> np.ndarray:
     """The TE of the converged dynamics of the same system at the given times: the plain element
     (model.dynamics 0) under the implicit master (gearmesh.drivetrain, trapezoidal rule, Newton)
@@ -190,7 +195,7 @@ def converged_te(prep: Prepared, plant: str, times: np.ndarray) -> np.ndarray:
         with GearMeshFMU(prep.fmu_path, prep.params) as fmu:
             fmu.set(prep.inputs)
             model = chain_plant(prep, fmu) if plant == "chain" else GearPairPlant(prep.pair)
-            master = Integrator(fmu, model, REFERENCE_STEP, True)
+            master = Integrator(fmu, model, reference_step(prep), True)
             master.advance(prep.case.t_end)
             res = master.result()
         prep.converged[plant] = (res.t[1:], np.asarray(res.mesh["mesh.te"], float))
@@ -404,7 +409,7 @@ def cut_reference_te(prep: Prepared, times: np.ndarray) -> np.ndarray:
     with GearMeshFMU(prep.fmu_path, prep.params) as fmu:
         fmu.set(prep.inputs)
         plant = GearPairPlant(pair)
-        master = Integrator(fmu, plant, REFERENCE_STEP, True)
+        master = Integrator(fmu, plant, reference_step(prep), True)
         t = 0.0
         for t_next in times:
             torque1 = side.torque1(t)
