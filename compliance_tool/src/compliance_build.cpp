@@ -227,69 +227,115 @@ std::vector<int> select_loaded(int n_roll, int n_face, double fraction) {
   return out;
 }
 
-gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOptions& o,
-                              ComplianceDb& out, BuildStats& stats, std::string& msg) {
-  out = ComplianceDb{};
-  stats = BuildStats{};
-  auto say = [&](const std::string& s) {
+namespace {
+
+constexpr double kMm = 1e3;  // the FE model is in mm, N, MPa
+
+// Load sets: (tooth class, flank) with their reading points.
+struct LoadSet {
+  int t = 0, f = 0;
+  const std::vector<Probe>* surf = nullptr;
+  std::vector<const std::vector<Probe>*> depth;  // d = -nc..nc
+};
+
+// build_compliance_db's working state, filled by the steps below in order.
+struct Build {
+  const gm_model_params& p;
+  const int gear;
+  const BuildOptions& o;
+  ComplianceDb& out;
+  BuildStats& stats;
+  std::string& msg;
+  gm_pair_geometry g{};
+  int z = 0, nc = 0;
+  bool user_mesh = false, cyclic = false;
+  int sym = 1, distinct = 1;        // symmetry order; distinct teeth to load
+  mesh::GearBodyOptions mesh_options{};
+  mesh::GearBodyMesh body{};
+  fe::Mesh fm{};                    // the body in mm
+  std::vector<double> roll{}, face{};  // tooth 0 flank A's lattice values, m
+  int n_roll = 0, n_face = 0, n_grid = 0;
+  std::vector<int> grid_node{};     // grid point -> body node
+  std::vector<Eigen::Vector3d> normal{};  // inward normal at each grid point
+  bool helical = false, load_b = false;
+  std::map<std::pair<int, int>, std::vector<Probe>> surf_cache{}, depth_cache{};
+  std::string loc_err{};
+  std::vector<LoadSet> sets{};
+  std::vector<int> loaded{}, unloaded{};
+  std::vector<std::vector<std::vector<double>>> result{};  // result[set][d] = C_d of that set
+
+  void say(const std::string& s) const {
     if (o.progress) o.progress(s);
-  };
-  if (gear != 0 && gear != 1) {
-    msg = "compliance_tool: gear must be 1 or 2";
+  }
+  int nd() const { return 2 * nc + 1; }
+};
+
+// The arguments and the gear's geometry.
+gm_status check_inputs(Build& B) {
+  const gm_model_params& p = B.p;
+  const BuildOptions& o = B.o;
+  if (B.gear != 0 && B.gear != 1) {
+    B.msg = "compliance_tool: gear must be 1 or 2";
     return GM_ERR_ARGUMENT;
   }
-  gm_pair_geometry g;
   char cmsg[1024] = {0};
-  if (gm_compute_geometry(&p, &g, cmsg, sizeof cmsg) != GM_OK) {
-    msg = cmsg;
+  if (gm_compute_geometry(&p, &B.g, cmsg, sizeof cmsg) != GM_OK) {
+    B.msg = cmsg;
     return GM_ERR_PARAMETER;
   }
-  const gm_gear_params& gp = p.gear[gear];
-  const int z = gp.teeth;
-  const int nc = o.coupled < 0 ? p.coupled_teeth : o.coupled;
-  if (nc < 0 || nc > int(kComplianceDbMaxCoupled) || 2 * nc + 1 > z) {
-    msg = "compliance_tool: coupled = " + std::to_string(nc) + ": allowed 0..20 with 2 n_c + 1 <= z = " +
-          std::to_string(z);
+  B.z = p.gear[B.gear].teeth;
+  B.nc = o.coupled < 0 ? p.coupled_teeth : o.coupled;
+  if (B.nc < 0 || B.nc > int(kComplianceDbMaxCoupled) || 2 * B.nc + 1 > B.z) {
+    B.msg = "compliance_tool: coupled = " + std::to_string(B.nc) +
+            ": allowed 0..20 with 2 n_c + 1 <= z = " + std::to_string(B.z);
     return GM_ERR_PARAMETER;
   }
   if (!(o.load_fraction > 0 && o.load_fraction <= 1)) {
-    msg = "compliance_tool: load fraction " + std::to_string(o.load_fraction) + ": allowed 0 < F <= 1";
+    B.msg = "compliance_tool: load fraction " + std::to_string(o.load_fraction) + ": allowed 0 < F <= 1";
     return GM_ERR_PARAMETER;
   }
   if (!(o.depth > 0) || !std::isfinite(o.depth)) {
-    msg = "compliance_tool: depth must be > 0 m";
+    B.msg = "compliance_tool: depth must be > 0 m";
     return GM_ERR_PARAMETER;
   }
+  return GM_OK;
+}
 
-  // Symmetry (decided before meshing: it sets which teeth the mesh must resolve). A body is
-  // cyclic per tooth unless lightening holes break it (symmetry order gcd(z, holes)), a user mesh
-  // (never assumed cyclic) or --every-tooth.
-  const bool user_mesh = !o.mesh.mesh_file.empty();
-  const int sym = user_mesh ? 1 : (o.mesh.holes > 0 ? std::gcd(z, o.mesh.holes) : z);
-  stats.symmetry = sym;
-  const bool cyclic = sym == z && !o.every_tooth;
-  // The mesher resolves tooth 0 and fine_teeth teeth each side at the full element counts
-  // (gear_mesh.hpp). A cyclic body loads tooth 0 and reads teeth up to +-n_c: fine_teeth >= n_c + 1
-  // (the read teeth and one beyond, so that no read tooth borders a coarse one). A body of
-  // symmetry order g loads the z/g distinct teeth 0 .. z/g - 1 (flank B through the mirror, from
-  // teeth 0 .. -(z/g - 1)) and reads +-n_c around each: fine_teeth >= z/g + n_c. Every tooth
-  // (--every-tooth, a user mesh): every tooth fine.
-  const int distinct = cyclic ? 1 : (o.every_tooth ? z : z / sym);
-  mesh::GearBodyOptions mesh_options = o.mesh;
-  if (o.every_tooth) mesh_options.fine_teeth = -1;
-  else if (mesh_options.fine_teeth >= 0)
-    mesh_options.fine_teeth = std::max(mesh_options.fine_teeth, distinct + nc);
+// Symmetry (decided before meshing: it sets which teeth the mesh must resolve). A body is
+// cyclic per tooth unless lightening holes break it (symmetry order gcd(z, holes)), a user mesh
+// (never assumed cyclic) or --every-tooth.
+// The mesher resolves tooth 0 and fine_teeth teeth each side at the full element counts
+// (gear_mesh.hpp). A cyclic body loads tooth 0 and reads teeth up to +-n_c: fine_teeth >= n_c + 1
+// (the read teeth and one beyond, so that no read tooth borders a coarse one). A body of
+// symmetry order g loads the z/g distinct teeth 0 .. z/g - 1 (flank B through the mirror, from
+// teeth 0 .. -(z/g - 1)) and reads +-n_c around each: fine_teeth >= z/g + n_c. Every tooth
+// (--every-tooth, a user mesh): every tooth fine.
+void plan_symmetry(Build& B) {
+  const BuildOptions& o = B.o;
+  const int z = B.z;
+  B.user_mesh = !o.mesh.mesh_file.empty();
+  B.sym = B.user_mesh ? 1 : (o.mesh.holes > 0 ? std::gcd(z, o.mesh.holes) : z);
+  B.stats.symmetry = B.sym;
+  B.cyclic = B.sym == z && !o.every_tooth;
+  B.distinct = B.cyclic ? 1 : (o.every_tooth ? z : z / B.sym);
+  B.mesh_options = o.mesh;
+  if (o.every_tooth) B.mesh_options.fine_teeth = -1;
+  else if (B.mesh_options.fine_teeth >= 0)
+    B.mesh_options.fine_teeth = std::max(B.mesh_options.fine_teeth, B.distinct + B.nc);
+}
 
-  // 1. Mesh.
-  say("meshing gear " + std::to_string(gear + 1) + " (z = " + std::to_string(z) + ") with gmsh ...");
-  mesh::GearBodyMesh body;
-  gm_status st = mesh::build_gear_body(p, g, gear, mesh_options, body, msg);
+// 1. Mesh, and the FE model in mm, N, MPa.
+gm_status mesh_body(Build& B) {
+  BuildStats& stats = B.stats;
+  B.say("meshing gear " + std::to_string(B.gear + 1) + " (z = " + std::to_string(B.z) + ") with gmsh ...");
+  gm_status st = mesh::build_gear_body(B.p, B.g, B.gear, B.mesh_options, B.body, B.msg);
   if (st != GM_OK) return st;
+  const mesh::GearBodyMesh& body = B.body;
   stats.mesh_seconds = body.mesh_seconds;
-  if (!o.write_mesh.empty()) {
-    st = mesh::write_gear_body_msh(body, o.write_mesh, msg);
+  if (!B.o.write_mesh.empty()) {
+    st = mesh::write_gear_body_msh(body, B.o.write_mesh, B.msg);
     if (st != GM_OK) return st;
-    say("wrote the body mesh to " + o.write_mesh);
+    B.say("wrote the body mesh to " + B.o.write_mesh);
   }
   stats.nodes = int(body.nodes.size());
   stats.elements = int(body.tets.size());
@@ -298,60 +344,63 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     std::ostringstream s;
     s << "  " << stats.nodes << " nodes, " << stats.elements << " TET10, " << body.clamped_nodes.size()
       << " clamped nodes, " << body.mesh_seconds << " s";
-    say(s.str());
+    B.say(s.str());
   }
   if (body.flanks.empty() || body.flanks[0][0].empty() || body.clamped_nodes.empty()) {
-    msg = "compliance_tool: the mesh has no flank or clamped nodes";
+    B.msg = "compliance_tool: the mesh has no flank or clamped nodes";
     return GM_ERR_PARAMETER;
   }
+  B.fm.nodes.reserve(body.nodes.size());
+  for (const auto& x : body.nodes) B.fm.nodes.push_back(x * kMm);
+  B.fm.tets = body.tets;
+  return GM_OK;
+}
 
-  // FE model in mm, N, MPa.
-  constexpr double mm = 1e3;
-  fe::Mesh fm;
-  fm.nodes.reserve(body.nodes.size());
-  for (const auto& x : body.nodes) fm.nodes.push_back(x * mm);
-  fm.tets = body.tets;
-
-  // 2. Flank grid of tooth 0, flank A.
-  const auto& flank = body.flanks[0][0];
-  // Roll values from the nodes of the first face level, the end face z = -b/2: the section
-  // itself, so its profile nodes (vertices and mid-edge nodes) lie exactly on the involute.
-  // Face values from the nodes on the form-circle edge (smallest roll): along a twisted
-  // (helical) layer that edge is a helix whose mid-layer nodes sit on the chord, a little
-  // inside the helix (radial sag R dtheta^2 / 8, about 2 um for 2.5 mm layers at beta 15 deg),
-  // which moves their roll distance by R/rho times that near the form circle: they are taken
-  // within a quarter of the roll spacing. Nodes of the mid levels that are midpoints of the
-  // layers' diagonals likewise sit slightly off the lattice values; every node is assigned to
-  // the nearest value and the largest offset is checked below.
+// 2. Flank grid of tooth 0, flank A.
+// Roll values from the nodes of the first face level, the end face z = -b/2: the section
+// itself, so its profile nodes (vertices and mid-edge nodes) lie exactly on the involute.
+// Face values from the nodes on the form-circle edge (smallest roll): along a twisted
+// (helical) layer that edge is a helix whose mid-layer nodes sit on the chord, a little
+// inside the helix (radial sag R dtheta^2 / 8, about 2 um for 2.5 mm layers at beta 15 deg),
+// which moves their roll distance by R/rho times that near the form circle: they are taken
+// within a quarter of the roll spacing. Nodes of the mid levels that are midpoints of the
+// layers' diagonals likewise sit slightly off the lattice values; every node is assigned to
+// the nearest value and the largest offset is checked below.
+gm_status flank_grid(Build& B) {
+  const auto& flank = B.body.flanks[0][0];
   const double face_min = std::min_element(flank.begin(), flank.end(), [](const auto& a, const auto& b) {
                             return a.face < b.face;
                           })->face;
   std::vector<double> rolls0;
   for (const auto& f : flank)
     if (std::fabs(f.face - face_min) < 1e-6) rolls0.push_back(f.roll);
-  const std::vector<double> roll = cluster(rolls0, 1e-6);
+  B.roll = cluster(rolls0, 1e-6);
+  const std::vector<double>& roll = B.roll;
   double roll_step = std::numeric_limits<double>::infinity();
   for (std::size_t i = 1; i < roll.size(); ++i) roll_step = std::min(roll_step, roll[i] - roll[i - 1]);
   std::vector<double> faces0;
   for (const auto& f : flank)
     if (f.roll - roll.front() < 0.25 * roll_step) faces0.push_back(f.face);
-  const std::vector<double> face = cluster(faces0, 1e-6);
-  const int n_roll = int(roll.size()), n_face = int(face.size()), n_grid = n_roll * n_face;
+  B.face = cluster(faces0, 1e-6);
+  const std::vector<double>& face = B.face;
+  const int n_roll = B.n_roll = int(roll.size()), n_face = B.n_face = int(face.size());
+  const int n_grid = B.n_grid = n_roll * n_face;
+  BuildStats& stats = B.stats;
   stats.grid = n_grid;
   if (int(flank.size()) != n_grid || n_grid > int(kComplianceDbMaxGrid)) {
-    msg = "compliance_tool: tooth 0's flank A has " + std::to_string(flank.size()) +
-          " nodes, not a lattice of " + std::to_string(n_roll) + " roll x " + std::to_string(n_face) +
-          " face values (or more than 10000)";
+    B.msg = "compliance_tool: tooth 0's flank A has " + std::to_string(flank.size()) +
+            " nodes, not a lattice of " + std::to_string(n_roll) + " roll x " + std::to_string(n_face) +
+            " face values (or more than 10000)";
     return GM_ERR_PARAMETER;
   }
-  std::vector<int> grid_node(n_grid, -1);
+  B.grid_node.assign(n_grid, -1);
   for (const auto& f : flank) {
     const int k = nearest(roll, f.roll) * n_face + nearest(face, f.face);
-    if (grid_node[k] >= 0) {
-      msg = "compliance_tool: two flank nodes fall on the same grid point";
+    if (B.grid_node[k] >= 0) {
+      B.msg = "compliance_tool: two flank nodes fall on the same grid point";
       return GM_ERR_PARAMETER;
     }
-    grid_node[k] = f.node;
+    B.grid_node[k] = f.node;
     const int ir = nearest(roll, f.roll);
     const double spacing = roll[std::min(ir + 1, n_roll - 1)] - roll[std::max(ir - 1, 0)];
     stats.max_roll_offset = std::max(stats.max_roll_offset, std::fabs(f.roll - roll[ir]) / (0.5 * spacing));
@@ -360,17 +409,21 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     stats.max_roll_offset = std::max(stats.max_roll_offset, std::fabs(f.face - face[iz]) / (0.5 * zspacing));
   }
   if (stats.max_roll_offset > 0.25) {
-    msg = "compliance_tool: tooth 0's flank A nodes are not a roll x face lattice (a node is " +
-          std::to_string(stats.max_roll_offset) + " grid spacings off its roll value)";
+    B.msg = "compliance_tool: tooth 0's flank A nodes are not a roll x face lattice (a node is " +
+            std::to_string(stats.max_roll_offset) + " grid spacings off its roll value)";
     return GM_ERR_PARAMETER;
   }
+  return GM_OK;
+}
 
-  // Inward normals (see the header).
+// Inward normals at the grid points (see the header).
+void flank_normals(Build& B) {
+  const mesh::GearBodyMesh& body = B.body;
   const double rb = body.base_radius;
   const double tan_bb = body.twist_rate * rb;  // tan(beta_b)
-  std::vector<Eigen::Vector3d> normal(n_grid);
-  for (int k = 0; k < n_grid; ++k) {
-    const Eigen::Vector3d P = body.nodes[grid_node[k]];
+  B.normal.resize(B.n_grid);
+  for (int k = 0; k < B.n_grid; ++k) {
+    const Eigen::Vector3d P = body.nodes[B.grid_node[k]];
     const double R = std::hypot(P.x(), P.y()), psi = std::atan2(P.y(), P.x());
     const double alpha = std::acos(std::min(1.0, rb / R));
     const Eigen::Vector3d T(rb * std::cos(psi - alpha), rb * std::sin(psi - alpha), P.z());
@@ -384,307 +437,351 @@ gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOpt
     if (n.dot(nt) < 0) n = -n;
     // Inward, into the tooth material: n points out of the external tooth, and out of the ring's
     // space, i.e. into the ring's tooth (gear_mesh.hpp: a ring's "tooth" k is space k).
-    normal[k] = body.ring ? n : -n;
+    B.normal[k] = body.ring ? n : -n;
   }
+}
 
-  // 3. Symmetry and the tooth sets to load.
-  // Distinct teeth 0 .. classes-1 (tooth t ~ t mod classes); every tooth when forced.
-  const int classes = distinct;
-  const bool helical = body.hand != 0;
-  // Flank B from flank A by the body's mirror symmetry (spur: the mirror through tooth 0's centre
-  // plane, y -> -y; helical: the half turn about tooth 0's radial centre line at mid-face,
-  // (x, y, z) -> (x, -y, -z), which also flips the face coordinate): a generated body has it
-  // unless a helical body's web is off mid-face. A user mesh is not assumed to have it.
-  const bool mirror_sym = !user_mesh && (!helical || std::fabs(o.mesh.web_offset) < 1e-12);
-  // Without it flank B is loaded explicitly (a cyclic body then has two flank sets, mirror = 0).
-  const bool load_b = !mirror_sym;
-  stats.tooth_sets = cyclic ? 1 : classes;
-  if (!cyclic) {
+// 3. Symmetry and the tooth sets to load: distinct teeth 0 .. distinct-1 (tooth t ~ t mod
+// distinct); every tooth when forced. Flank B from flank A by the body's mirror symmetry (spur:
+// the mirror through tooth 0's centre plane, y -> -y; helical: the half turn about tooth 0's
+// radial centre line at mid-face, (x, y, z) -> (x, -y, -z), which also flips the face
+// coordinate): a generated body has it unless a helical body's web is off mid-face. A user mesh
+// is not assumed to have it. Without it flank B is loaded explicitly (a cyclic body then has two
+// flank sets, mirror = 0).
+void choose_flank_sets(Build& B) {
+  B.helical = B.body.hand != 0;
+  const bool mirror_sym = !B.user_mesh && (!B.helical || std::fabs(B.o.mesh.web_offset) < 1e-12);
+  B.load_b = !mirror_sym;
+  B.stats.tooth_sets = B.cyclic ? 1 : B.distinct;
+  if (!B.cyclic) {
     std::ostringstream s;
-    s << "body symmetry order " << sym << " of z = " << z << (o.every_tooth ? " (every tooth forced)" : "")
-      << ": loading " << classes << " distinct teeth" << (load_b ? ", both flanks" : ", flank A (flank B by the mirror)");
-    say(s.str());
+    s << "body symmetry order " << B.sym << " of z = " << B.z << (B.o.every_tooth ? " (every tooth forced)" : "")
+      << ": loading " << B.distinct << " distinct teeth"
+      << (B.load_b ? ", both flanks" : ", flank A (flank B by the mirror)");
+    B.say(s.str());
   }
-  // Flank B of tooth 0 from flank A: the half turn H = diag(1, -1, -1) about tooth 0's radial
-  // centre line at mid-face maps flank A at face height -z onto flank B at height z (spur and
-  // helical alike: H keeps the hand). Flank B's grid point (i, j) is therefore H applied to flank
-  // A's point at roll row i moved along its helicoid from its height z_j to -z_j (the screw
-  // x -> Rot_z(hand c s) x + s e_z with s = -2 z_j, c = tan(beta_b) / r_b; a translation for a
-  // spur gear): exact on the involute helicoid, and at flank B's own heights z_j even when the
-  // face grid is not symmetric (a web off mid-face). Its normal turns the same way.
+}
+
+// Flank B of tooth 0 from flank A: the half turn H = diag(1, -1, -1) about tooth 0's radial
+// centre line at mid-face maps flank A at face height -z onto flank B at height z (spur and
+// helical alike: H keeps the hand). Flank B's grid point (i, j) is therefore H applied to flank
+// A's point at roll row i moved along its helicoid from its height z_j to -z_j (the screw
+// x -> Rot_z(hand c s) x + s e_z with s = -2 z_j, c = tan(beta_b) / r_b; a translation for a
+// spur gear): exact on the involute helicoid, and at flank B's own heights z_j even when the
+// face grid is not symmetric (a web off mid-face). Its normal turns the same way.
+Eigen::Vector3d to_flank_b(const Build& B, int k, const Eigen::Vector3d& x, bool point) {
   const Eigen::Matrix3d half_turn = Eigen::Vector3d(1, -1, -1).asDiagonal().toDenseMatrix();
-  auto to_flank_b = [&](int k, const Eigen::Vector3d& x, bool point) -> Eigen::Vector3d {
-    const double s = -2 * body.nodes[grid_node[k]].z();
-    const Eigen::Matrix3d screw =
-        Eigen::AngleAxisd(body.hand * body.twist_rate * s, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    return half_turn * (screw * x + (point ? s : 0.0) * Eigen::Vector3d::UnitZ());
-  };
-  // Face index of flank B's database set read through the mirror (the non-cyclic copies below):
-  // reversed for a helical gear (H flips the face), kept for a spur gear. Used only when the body
-  // has the mirror symmetry, whose face grid is then symmetric.
-  auto src_index = [&](int f, int k) {
-    if (f == 0 || !helical) return k;
-    return (k / n_face) * n_face + (n_face - 1 - k % n_face);
-  };
+  const double s = -2 * B.body.nodes[B.grid_node[k]].z();
+  const Eigen::Matrix3d screw =
+      Eigen::AngleAxisd(B.body.hand * B.body.twist_rate * s, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return half_turn * (screw * x + (point ? s : 0.0) * Eigen::Vector3d::UnitZ());
+}
 
-  // 4. Points: loads on the flank (surface) and readings at depth h, per (tooth, flank).
-  const auto t_loc = Clock::now();
-  say("locating points (bucket grid) ...");
-  Locator loc(fm);
-  std::map<std::pair<int, int>, std::vector<Probe>> surf_cache, depth_cache;
-  std::string loc_err;
-  auto points = [&](int t, int f, bool depth) -> const std::vector<Probe>* {
-    t = ((t % z) + z) % z;
-    auto& cache = depth ? depth_cache : surf_cache;
-    const auto key = std::make_pair(t, f);
-    auto it = cache.find(key);
-    if (it != cache.end()) return &it->second;
-    std::vector<Probe> v(n_grid);
-    const Eigen::Matrix3d rot = Eigen::AngleAxisd(2 * kPi * t / z, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    for (int k = 0; k < n_grid; ++k) {
-      Probe& pr = v[k];
-      if (!depth && t == 0 && f == 0) {  // the reference flank's own nodes
-        pr.n = normal[k];
-        pr.nodes.fill(grid_node[k]);
-        pr.weight.fill(0);
-        pr.weight[0] = 1;
-        continue;
-      }
-      const Eigen::Vector3d P = body.nodes[grid_node[k]];
-      Eigen::Vector3d x = depth ? Eigen::Vector3d(P + o.depth * normal[k]) : P, n = normal[k];
-      if (f == 1) x = to_flank_b(k, x, true), n = to_flank_b(k, n, false);
-      x = rot * x;
-      pr.n = rot * n;
-      // Helical: the normal has an axial component, so at a face end the depth point would leave
-      // the body; it is kept on the end face (z clamped to +-b/2).
-      if (depth) x.z() = std::clamp(x.z(), -0.5 * body.face_width, 0.5 * body.face_width);
-      const Eigen::Vector3d X = x * mm;
-      int e = -1;
-      Eigen::Vector3d xi;
-      const double best = loc.locate(X, e, xi);
-      if (!(best > (depth ? -1e-6 : -1e-3))) {
-        std::ostringstream s;
-        s << "compliance_tool: the " << (depth ? "point at depth h = " + std::to_string(o.depth) + " m below"
-                                               : std::string("flank point at"))
-          << " grid point " << k << " of tooth " << t << " flank " << (f ? "B" : "A")
-          << " lies outside the mesh" << (depth ? " (h too large?)" : " (the body is not the same on every tooth?)");
-        loc_err = s.str();
-        return nullptr;
-      }
-      pr.nodes = fm.tets[e];
-      pr.weight = tet10_shape(xi);
+// Face index of flank B's database set read through the mirror (the non-cyclic copies below):
+// reversed for a helical gear (H flips the face), kept for a spur gear. Used only when the body
+// has the mirror symmetry, whose face grid is then symmetric.
+int src_index(const Build& B, int f, int k) {
+  if (f == 0 || !B.helical) return k;
+  return (k / B.n_face) * B.n_face + (B.n_face - 1 - k % B.n_face);
+}
+
+// The probes of tooth t, flank f: loads on the flank (surface) or readings at depth h; cached
+// per (tooth, flank). Null with B.loc_err set when a point lies outside the mesh.
+const std::vector<Probe>* probes(Build& B, Locator& loc, int t, int f, bool depth) {
+  const int z = B.z;
+  t = ((t % z) + z) % z;
+  auto& cache = depth ? B.depth_cache : B.surf_cache;
+  const auto key = std::make_pair(t, f);
+  auto it = cache.find(key);
+  if (it != cache.end()) return &it->second;
+  std::vector<Probe> v(B.n_grid);
+  const Eigen::Matrix3d rot = Eigen::AngleAxisd(2 * kPi * t / z, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (int k = 0; k < B.n_grid; ++k) {
+    Probe& pr = v[k];
+    if (!depth && t == 0 && f == 0) {  // the reference flank's own nodes
+      pr.n = B.normal[k];
+      pr.nodes.fill(B.grid_node[k]);
+      pr.weight.fill(0);
+      pr.weight[0] = 1;
+      continue;
     }
-    return &cache.emplace(key, std::move(v)).first->second;
-  };
+    const Eigen::Vector3d P = B.body.nodes[B.grid_node[k]];
+    Eigen::Vector3d x = depth ? Eigen::Vector3d(P + B.o.depth * B.normal[k]) : P, n = B.normal[k];
+    if (f == 1) x = to_flank_b(B, k, x, true), n = to_flank_b(B, k, n, false);
+    x = rot * x;
+    pr.n = rot * n;
+    // Helical: the normal has an axial component, so at a face end the depth point would leave
+    // the body; it is kept on the end face (z clamped to +-b/2).
+    if (depth) x.z() = std::clamp(x.z(), -0.5 * B.body.face_width, 0.5 * B.body.face_width);
+    const Eigen::Vector3d X = x * kMm;
+    int e = -1;
+    Eigen::Vector3d xi;
+    const double best = loc.locate(X, e, xi);
+    if (!(best > (depth ? -1e-6 : -1e-3))) {
+      std::ostringstream s;
+      s << "compliance_tool: the " << (depth ? "point at depth h = " + std::to_string(B.o.depth) + " m below"
+                                             : std::string("flank point at"))
+        << " grid point " << k << " of tooth " << t << " flank " << (f ? "B" : "A")
+        << " lies outside the mesh" << (depth ? " (h too large?)" : " (the body is not the same on every tooth?)");
+      B.loc_err = s.str();
+      return nullptr;
+    }
+    pr.nodes = B.fm.tets[e];
+    pr.weight = tet10_shape(xi);
+  }
+  return &cache.emplace(key, std::move(v)).first->second;
+}
 
-  // Load sets: (tooth class, flank) with their reading points.
-  struct LoadSet {
-    int t = 0, f = 0;
-    const std::vector<Probe>* surf = nullptr;
-    std::vector<const std::vector<Probe>*> depth;  // d = -nc..nc
-  };
-  std::vector<LoadSet> sets;
-  for (int t = 0; t < classes; ++t)
-    for (int f = 0; f < (load_b ? 2 : 1); ++f) {
+// 4. Points: the load sets with their loads on the flank and readings at depth h.
+gm_status locate_points(Build& B) {
+  const auto t_loc = Clock::now();
+  B.say("locating points (bucket grid) ...");
+  Locator loc(B.fm);
+  for (int t = 0; t < B.distinct; ++t)
+    for (int f = 0; f < (B.load_b ? 2 : 1); ++f) {
       LoadSet ls;
       ls.t = t;
       ls.f = f;
-      ls.surf = points(t, f, false);
-      for (int d = -nc; d <= nc && ls.surf; ++d) {
-        ls.depth.push_back(points(t + d, f, true));
+      ls.surf = probes(B, loc, t, f, false);
+      for (int d = -B.nc; d <= B.nc && ls.surf; ++d) {
+        ls.depth.push_back(probes(B, loc, t + d, f, true));
         if (!ls.depth.back()) ls.surf = nullptr;
       }
       if (!ls.surf) {
-        msg = loc_err;
+        B.msg = B.loc_err;
         return GM_ERR_PARAMETER;
       }
-      sets.push_back(std::move(ls));
+      B.sets.push_back(std::move(ls));
     }
-  stats.locate_seconds = seconds_since(t_loc);
+  B.stats.locate_seconds = seconds_since(t_loc);
+  return GM_OK;
+}
 
-  // Loaded grid points (all, or a well-spread subset: see select_loaded).
-  const std::vector<int> loaded = select_loaded(n_roll, n_face, o.load_fraction);
-  std::vector<int> unloaded;
+// Loaded grid points (all, or a well-spread subset: see select_loaded).
+void choose_loaded(Build& B) {
+  B.loaded = select_loaded(B.n_roll, B.n_face, B.o.load_fraction);
   {
-    std::vector<char> is(n_grid, 0);
-    for (int k : loaded) is[k] = 1;
-    for (int k = 0; k < n_grid; ++k)
-      if (!is[k]) unloaded.push_back(k);
+    std::vector<char> is(B.n_grid, 0);
+    for (int k : B.loaded) is[k] = 1;
+    for (int k = 0; k < B.n_grid; ++k)
+      if (!is[k]) B.unloaded.push_back(k);
   }
-  const int nL = int(loaded.size());
-  stats.loaded = nL;
-  if (!unloaded.empty()) {
+  const int nL = int(B.loaded.size());
+  B.stats.loaded = nL;
+  if (!B.unloaded.empty()) {
     std::ostringstream s;
-    s << "loading " << nL << " of " << n_grid << " grid points (fraction " << o.load_fraction
-      << "), the other " << unloaded.size() << " from the reduction space";
-    say(s.str());
+    s << "loading " << nL << " of " << B.n_grid << " grid points (fraction " << B.o.load_fraction
+      << "), the other " << B.unloaded.size() << " from the reduction space";
+    B.say(s.str());
   }
+}
 
-  // 5. Assemble, clamp the bore, factorize.
+// Unloaded columns from the reduction space Psi = the loaded cases' displacement fields (the
+// paper's Psi): u_j ~ Psi a_j with (Psi^T K Psi) a_j = Psi^T f_j, the Galerkin (energy-best)
+// approximation in that space. Psi^T K Psi = Psi^T F_L = S_LL (the surface readings at the
+// loaded points), Psi^T f_j = S_jL; the readings at depth follow as C[:, L] a_j. Nothing but the
+// loaded solves is needed. S[k][c]: the surface reading at grid point k under loaded case c.
+void reduce_unloaded(const Build& B, const Eigen::MatrixXd& S, std::vector<std::vector<double>>& blocks) {
+  const std::vector<int>& loaded = B.loaded;
+  const std::vector<int>& unloaded = B.unloaded;
+  const int nL = int(loaded.size()), n_grid = B.n_grid, n_face = B.n_face, nd = B.nd();
+  Eigen::MatrixXd SLL(nL, nL), SjL(nL, unloaded.size());
+  for (int i = 0; i < nL; ++i) {
+    for (int l = 0; l < nL; ++l) SLL(i, l) = S(loaded[i], l);
+    for (std::size_t u = 0; u < unloaded.size(); ++u) SjL(i, u) = S(unloaded[u], i);
+  }
+  const Eigen::MatrixXd Ssym = 0.5 * (SLL + SLL.transpose());
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(Ssym);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive())
+    throw std::runtime_error("the loaded points' compliance matrix is not positive definite");
+  const Eigen::MatrixXd Acoef = ldlt.solve(SjL);  // nL x n_unloaded
+  for (int d = 0; d < nd; ++d)
+    for (int k = 0; k < n_grid; ++k) {
+      double* row = &blocks[d][std::size_t(k) * n_grid];
+      for (std::size_t u = 0; u < unloaded.size(); ++u) {
+        double v = 0;
+        for (int i = 0; i < nL; ++i) v += row[loaded[i]] * Acoef(i, u);
+        row[unloaded[u]] = v;
+      }
+    }
+  // The reduction space carries the global shapes but not the local field under the
+  // unloaded point itself (its own diagonal is where it errs most). Where both roll
+  // neighbours j -+ 1 row are loaded, the column is instead the mean of theirs shifted by
+  // one row (C[k][j] = (C[k+1][j+1] + C[k-1][j-1]) / 2 in roll rows: the local field moves
+  // with the load, second order along the profile), for the receivers k off the grid's
+  // first and last roll rows; the reduction space stays for the rest.
+  std::vector<char> is_loaded(n_grid, 0);
+  for (int k : loaded) is_loaded[k] = 1;
+  for (int j : unloaded) {
+    const int ir = j / n_face;
+    if (ir == 0 || ir == B.n_roll - 1 || !is_loaded[j - n_face] || !is_loaded[j + n_face]) continue;
+    for (int d = 0; d < nd; ++d)
+      for (int k = n_face; k < n_grid - n_face; ++k)
+        blocks[d][std::size_t(k) * n_grid + j] =
+            0.5 * (blocks[d][std::size_t(k + n_face) * n_grid + (j + n_face)] +
+                   blocks[d][std::size_t(k - n_face) * n_grid + (j - n_face)]);
+  }
+}
+
+// 6. One load set's solves: its loaded columns in batches, then the unloaded ones. done: the
+// solves so far (progress), of total; t0: when the solves started.
+void solve_set(Build& B, const fe::Solver& solver, std::size_t si, int total, int& done,
+               Clock::time_point t0) {
+  const LoadSet& ls = B.sets[si];
+  const std::vector<int>& loaded = B.loaded;
+  const int nL = int(loaded.size()), n_grid = B.n_grid, nd = B.nd();
+  const int batch = std::max(1, B.o.batch);
+  auto& blocks = B.result[si];
+  blocks.assign(nd, std::vector<double>(std::size_t(n_grid) * n_grid, 0.0));
+  Eigen::MatrixXd S(n_grid, nL);
+  for (int c0 = 0; c0 < nL; c0 += batch) {
+    const int nb = std::min(batch, nL - c0);
+    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(B.stats.dofs, nb);
+    for (int c = 0; c < nb; ++c) {
+      const Probe& lp = (*ls.surf)[loaded[c0 + c]];
+      for (int a = 0; a < 10; ++a)
+        if (lp.weight[a] != 0) F.block<3, 1>(3 * lp.nodes[a], c) += lp.weight[a] * lp.n;
+    }
+    const Eigen::MatrixXd U = solver.solve(F);
+    for (int c = 0; c < nb; ++c) {
+      const int j = loaded[c0 + c];
+      for (int d = 0; d < nd; ++d)
+        for (int k = 0; k < n_grid; ++k)
+          blocks[d][std::size_t(k) * n_grid + j] = reading((*ls.depth[d])[k], U, c) / kMm;  // m/N
+      if (!B.unloaded.empty())
+        for (int k = 0; k < n_grid; ++k) S(k, c0 + c) = reading((*ls.surf)[k], U, c);
+    }
+    done += nb;
+    std::ostringstream s;
+    s << "  solves " << done << "/" << total;
+    if (B.sets.size() > 1) s << " (tooth " << ls.t << (ls.f ? " flank B" : "") << ")";
+    s << ", " << eta_text(seconds_since(t0), done, total);
+    B.say(s.str());
+  }
+  if (!B.unloaded.empty()) reduce_unloaded(B, S, blocks);
+}
+
+// 5.-6. Assemble, clamp the bore, factorize; the solves of every load set.
+gm_status solve_all(Build& B) {
+  BuildStats& stats = B.stats;
+  const gm_gear_params& gp = B.p.gear[B.gear];
   fe::Material mat;
   mat.E = gp.youngs_modulus * 1e-6;  // MPa
   mat.nu = gp.poisson_ratio;
-  const int nd = 2 * nc + 1;
-  // result[set][d] = C_d of that set
-  std::vector<std::vector<std::vector<double>>> result(sets.size());
+  B.result.resize(B.sets.size());
   try {
-    say("assembling " + std::to_string(stats.dofs) + " dofs ...");
+    B.say("assembling " + std::to_string(stats.dofs) + " dofs ...");
     auto t0 = Clock::now();
-    const Eigen::SparseMatrix<double> K = fe::assemble_stiffness(fm, mat);
+    const Eigen::SparseMatrix<double> K = fe::assemble_stiffness(B.fm, mat);
     stats.assembly_seconds = seconds_since(t0);
-    say("factorizing (CHOLMOD, " + std::to_string(stats.dofs) + " dofs) ...");
+    B.say("factorizing (CHOLMOD, " + std::to_string(stats.dofs) + " dofs) ...");
     t0 = Clock::now();
-    fe::Solver solver(K, fe::dofs_of_nodes(body.clamped_nodes));
+    fe::Solver solver(K, fe::dofs_of_nodes(B.body.clamped_nodes));
     stats.factor_seconds = seconds_since(t0);
     {
       std::ostringstream s;
       s << "  assembly " << stats.assembly_seconds << " s, factorization " << stats.factor_seconds << " s";
-      say(s.str());
+      B.say(s.str());
     }
-
-    // 6. Solves: per load set, the loaded columns; S[k][c] = the surface reading at grid point k
-    // under loaded case c (for the reduction space).
     t0 = Clock::now();
-    const int total = int(sets.size()) * nL;
-    const int batch = std::max(1, o.batch);
+    const int total = int(B.sets.size()) * int(B.loaded.size());
     int done = 0;
-    for (std::size_t si = 0; si < sets.size(); ++si) {
-      const LoadSet& ls = sets[si];
-      auto& blocks = result[si];
-      blocks.assign(nd, std::vector<double>(std::size_t(n_grid) * n_grid, 0.0));
-      Eigen::MatrixXd S(n_grid, nL);
-      for (int c0 = 0; c0 < nL; c0 += batch) {
-        const int nb = std::min(batch, nL - c0);
-        Eigen::MatrixXd F = Eigen::MatrixXd::Zero(stats.dofs, nb);
-        for (int c = 0; c < nb; ++c) {
-          const Probe& lp = (*ls.surf)[loaded[c0 + c]];
-          for (int a = 0; a < 10; ++a)
-            if (lp.weight[a] != 0) F.block<3, 1>(3 * lp.nodes[a], c) += lp.weight[a] * lp.n;
-        }
-        const Eigen::MatrixXd U = solver.solve(F);
-        for (int c = 0; c < nb; ++c) {
-          const int j = loaded[c0 + c];
-          for (int d = 0; d < nd; ++d)
-            for (int k = 0; k < n_grid; ++k)
-              blocks[d][std::size_t(k) * n_grid + j] = reading((*ls.depth[d])[k], U, c) / mm;  // m/N
-          if (!unloaded.empty())
-            for (int k = 0; k < n_grid; ++k) S(k, c0 + c) = reading((*ls.surf)[k], U, c);
-        }
-        done += nb;
-        std::ostringstream s;
-        s << "  solves " << done << "/" << total;
-        if (sets.size() > 1) s << " (tooth " << ls.t << (ls.f ? " flank B" : "") << ")";
-        s << ", " << eta_text(seconds_since(t0), done, total);
-        say(s.str());
-      }
-      // Unloaded columns from the reduction space Psi = the loaded cases' displacement fields
-      // (the paper's Psi): u_j ~ Psi a_j with (Psi^T K Psi) a_j = Psi^T f_j, the Galerkin
-      // (energy-best) approximation in that space. Psi^T K Psi = Psi^T F_L = S_LL (the surface
-      // readings at the loaded points), Psi^T f_j = S_jL; the readings at depth follow as
-      // C[:, L] a_j. Nothing but the loaded solves is needed.
-      if (!unloaded.empty()) {
-        Eigen::MatrixXd SLL(nL, nL), SjL(nL, unloaded.size());
-        for (int i = 0; i < nL; ++i) {
-          for (int l = 0; l < nL; ++l) SLL(i, l) = S(loaded[i], l);
-          for (std::size_t u = 0; u < unloaded.size(); ++u) SjL(i, u) = S(unloaded[u], i);
-        }
-        const Eigen::MatrixXd Ssym = 0.5 * (SLL + SLL.transpose());
-        const Eigen::LDLT<Eigen::MatrixXd> ldlt(Ssym);
-        if (ldlt.info() != Eigen::Success || !ldlt.isPositive())
-          throw std::runtime_error("the loaded points' compliance matrix is not positive definite");
-        const Eigen::MatrixXd Acoef = ldlt.solve(SjL);  // nL x n_unloaded
-        for (int d = 0; d < nd; ++d)
-          for (int k = 0; k < n_grid; ++k) {
-            double* row = &blocks[d][std::size_t(k) * n_grid];
-            for (std::size_t u = 0; u < unloaded.size(); ++u) {
-              double v = 0;
-              for (int i = 0; i < nL; ++i) v += row[loaded[i]] * Acoef(i, u);
-              row[unloaded[u]] = v;
-            }
-          }
-        // The reduction space carries the global shapes but not the local field under the
-        // unloaded point itself (its own diagonal is where it errs most). Where both roll
-        // neighbours j -+ 1 row are loaded, the column is instead the mean of theirs shifted by
-        // one row (C[k][j] = (C[k+1][j+1] + C[k-1][j-1]) / 2 in roll rows: the local field moves
-        // with the load, second order along the profile), for the receivers k off the grid's
-        // first and last roll rows; the reduction space stays for the rest.
-        std::vector<char> is_loaded(n_grid, 0);
-        for (int k : loaded) is_loaded[k] = 1;
-        for (int j : unloaded) {
-          const int ir = j / n_face;
-          if (ir == 0 || ir == n_roll - 1 || !is_loaded[j - n_face] || !is_loaded[j + n_face]) continue;
-          for (int d = 0; d < nd; ++d)
-            for (int k = n_face; k < n_grid - n_face; ++k)
-              blocks[d][std::size_t(k) * n_grid + j] =
-                  0.5 * (blocks[d][std::size_t(k + n_face) * n_grid + (j + n_face)] +
-                         blocks[d][std::size_t(k - n_face) * n_grid + (j - n_face)]);
-        }
-      }
-    }
+    for (std::size_t si = 0; si < B.sets.size(); ++si) solve_set(B, solver, si, total, done, t0);
     stats.solve_seconds = seconds_since(t0);
     stats.solves = total;
   } catch (const std::exception& e) {
-    msg = std::string("compliance_tool: FE solve failed: ") + e.what();
-    out = ComplianceDb{};
+    B.msg = std::string("compliance_tool: FE solve failed: ") + e.what();
+    B.out = ComplianceDb{};
     return GM_ERR_SOLVER;
   }
+  return GM_OK;
+}
 
-  // The database's blocks: cyclic, one tooth set (flank A, then flank B if it was loaded); else z
-  // tooth sets (copies for the symmetric repeats),
-  // flank A then flank B (by the mirror: B of tooth t, offset d = A of tooth -t, offset -d, with
-  // the face index flipped for helical gears).
-  if (cyclic) {
+// The database's blocks: cyclic, one tooth set (flank A, then flank B if it was loaded); else z
+// tooth sets (copies for the symmetric repeats), flank A then flank B (by the mirror: B of tooth
+// t, offset d = A of tooth -t, offset -d, with the face index flipped for helical gears).
+void arrange_blocks(Build& B) {
+  ComplianceDb& out = B.out;
+  auto& result = B.result;
+  const int z = B.z, nc = B.nc, nd = B.nd(), n_grid = B.n_grid, classes = B.distinct;
+  if (B.cyclic) {
     out.blocks = std::move(result[0]);
-    if (load_b)
+    if (B.load_b)
       for (auto& b : result[1]) out.blocks.push_back(std::move(b));
-  } else {
-    out.blocks.resize(std::size_t(z) * 2 * nd);
-    auto set_of = [&](int t, int f) -> const std::vector<std::vector<double>>& {
-      const int c = ((t % classes) + classes) % classes;
-      return result[load_b ? 2 * c + f : c];
-    };
-    for (int t = 0; t < z; ++t)
-      for (int f = 0; f < 2; ++f)
-        for (int d = -nc; d <= nc; ++d) {
-          auto& dst = out.blocks[(std::size_t(t) * 2 + f) * nd + (d + nc)];
-          if (f == 0 || load_b) {
-            dst = set_of(t, f)[d + nc];
-            continue;
-          }
-          const auto& src = set_of(-t, 0)[-d + nc];
-          dst.resize(src.size());
-          for (int k = 0; k < n_grid; ++k)
-            for (int j = 0; j < n_grid; ++j)
-              dst[std::size_t(k) * n_grid + j] = src[std::size_t(src_index(1, k)) * n_grid + src_index(1, j)];
-        }
+    return;
   }
+  out.blocks.resize(std::size_t(z) * 2 * nd);
+  auto set_of = [&](int t, int f) -> const std::vector<std::vector<double>>& {
+    const int c = ((t % classes) + classes) % classes;
+    return result[B.load_b ? 2 * c + f : c];
+  };
+  for (int t = 0; t < z; ++t)
+    for (int f = 0; f < 2; ++f)
+      for (int d = -nc; d <= nc; ++d) {
+        auto& dst = out.blocks[(std::size_t(t) * 2 + f) * nd + (d + nc)];
+        if (f == 0 || B.load_b) {
+          dst = set_of(t, f)[d + nc];
+          continue;
+        }
+        const auto& src = set_of(-t, 0)[-d + nc];
+        dst.resize(src.size());
+        for (int k = 0; k < n_grid; ++k)
+          for (int j = 0; j < n_grid; ++j)
+            dst[std::size_t(k) * n_grid + j] = src[std::size_t(src_index(B, 1, k)) * n_grid + src_index(B, 1, j)];
+      }
+}
 
-  // 7. Header.
-  record_gear(out, p, g, gear);
-  out.bore_radius = body.clamped_radius;
+// 7. Header, then the database's own checks.
+gm_status write_header(Build& B) {
+  ComplianceDb& out = B.out;
+  const BuildOptions& o = B.o;
+  const gm_gear_params& gp = B.p.gear[B.gear];
+  record_gear(out, B.p, B.g, B.gear);
+  out.bore_radius = B.body.clamped_radius;
   const int nprof = std::max(1, o.mesh.elements_along_profile);
-  out.mesh_size = (roll.back() - roll.front()) / nprof;  // roll length per element along the profile
+  out.mesh_size = (B.roll.back() - B.roll.front()) / nprof;  // roll length per element along the profile
   out.mesh_order = 2;
   out.mesh_face_layers = std::uint32_t(std::max(1, o.mesh.elements_across_width));
   out.depth = o.depth;
   {
     std::ostringstream s;
-    s << "compliance_tool 1: gear " << gear + 1 << ", gmsh TET10 " << stats.nodes << " nodes "
-      << stats.elements << " elements, profile x width elements " << o.mesh.elements_along_profile
-      << " x " << o.mesh.elements_across_width << (body.ring ? ", outer rim" : ", bore")
-      << " clamped r = " << body.clamped_radius
+    s << "compliance_tool 1: gear " << B.gear + 1 << ", gmsh TET10 " << B.stats.nodes << " nodes "
+      << B.stats.elements << " elements, profile x width elements " << o.mesh.elements_along_profile
+      << " x " << o.mesh.elements_across_width << (B.body.ring ? ", outer rim" : ", bore")
+      << " clamped r = " << B.body.clamped_radius
       << " m, E " << gp.youngs_modulus << " Pa nu " << gp.poisson_ratio;
     if (!o.note.empty()) s << "; " << o.note;
     out.note = s.str();
   }
-  out.cyclic = cyclic ? 1 : 0;
-  out.mirror = cyclic && !load_b ? 1 : 0;
-  out.roll = roll;
-  out.face = face;
-  out.n_coupled = std::uint32_t(nc);
-  st = validate_compliance_db(out, "compliance_tool", msg);
+  out.cyclic = B.cyclic ? 1 : 0;
+  out.mirror = B.cyclic && !B.load_b ? 1 : 0;
+  out.roll = B.roll;
+  out.face = B.face;
+  out.n_coupled = std::uint32_t(B.nc);
+  const gm_status st = validate_compliance_db(out, "compliance_tool", B.msg);
   if (st != GM_OK) out = ComplianceDb{};
   return st;
+}
+
+}  // namespace
+
+gm_status build_compliance_db(const gm_model_params& p, int gear, const BuildOptions& o,
+                              ComplianceDb& out, BuildStats& stats, std::string& msg) {
+  out = ComplianceDb{};
+  stats = BuildStats{};
+  Build B{p, gear, o, out, stats, msg};
+  gm_status st = check_inputs(B);
+  if (st != GM_OK) return st;
+  plan_symmetry(B);
+  if ((st = mesh_body(B)) != GM_OK) return st;
+  if ((st = flank_grid(B)) != GM_OK) return st;
+  flank_normals(B);
+  choose_flank_sets(B);
+  if ((st = locate_points(B)) != GM_OK) return st;
+  choose_loaded(B);
+  if ((st = solve_all(B)) != GM_OK) return st;
+  arrange_blocks(B);
+  return write_header(B);
 }
 
 }  // namespace gm::ctool

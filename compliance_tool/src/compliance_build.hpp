@@ -2,7 +2,7 @@
 // one gear of validated parameters -> gear-body mesh (gear_mesh.hpp) -> bore clamped -> TET10
 // stiffness, one CHOLMOD factorization (fe_elasticity.hpp) -> unit normal loads on the flank grid
 // of the reference tooth -> normal displacements at depth h on that tooth and its +-n_c
-// neighbours -> ComplianceDb (core/src/compliance_db.hpp).
+// neighbours -> ComplianceDb (core/internal/gearmesh/internal/compliance_db.hpp).
 //
 // Definitions (all in the gear's body frame of gear_mesh.hpp):
 // * Flank grid: the nodes of tooth 0's flank A (gear_mesh's involute surface, form circle to tip,
@@ -64,7 +64,7 @@
 #include <utility>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "gear_mesh.hpp"
 #include "gearmesh/gearmesh.h"
 

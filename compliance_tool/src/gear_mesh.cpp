@@ -13,7 +13,7 @@
 #include <Eigen/Dense>
 #include <gmsh.h>
 
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "tooth_outline.hpp"
 
 namespace gm::mesh {

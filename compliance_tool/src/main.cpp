@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "compliance_build.hpp"
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "gearmesh/gearmesh.h"
 
 namespace {
@@ -145,15 +145,10 @@ void set_blas_threads(int n) {
   if (void* f = dlsym(RTLD_DEFAULT, "openblas_set_num_threads")) reinterpret_cast<Fn>(f)(n);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  const auto t_start = std::chrono::steady_clock::now();
+// Everything the command line says, as parsed.
+struct Cli {
   gm_model_params p;
-  gm_default_params(&p);
   gm::ctool::BuildOptions o;
-  o.mesh.elements_along_profile = 8;
-  o.mesh.elements_across_width = 6;
   std::string scene, out, mesh_file;
   int gear = 0, coupled = -1, threads = 0;
   // Body flags in mm (diameters); < 0 = not given.
@@ -162,195 +157,264 @@ int main(int argc, char** argv) {
   int holes = 0;
   bool web_o_given = false;
   std::vector<std::string> ignored;
+  Cli() {
+    gm_default_params(&p);
+    o.mesh.elements_along_profile = 8;
+    o.mesh.elements_across_width = 6;
+  }
+};
+
+constexpr int kGoOn = -1;    // a flag's handler: parsing goes on (else the exit status)
+constexpr double kBig = 1e6;  // mm
+
+// Real > lo (or >= lo if closed), <= hi.
+int real_flag(double& dst, const std::string& flag, const std::string& v, double lo, bool lo_closed,
+              double hi, const char* allowed) {
+  double d = 0;
+  if (!parse_double(v, d) || (lo_closed ? d < lo : d <= lo) || d > hi) return bad_value(flag, v, allowed);
+  dst = d;
+  return kGoOn;
+}
+int int_flag(int& dst, const std::string& flag, const std::string& v, int lo, int hi) {
+  int i = 0;
+  if (!parse_int(v, i) || i < lo || i > hi)
+    return bad_value(flag, v, "an integer " + std::to_string(lo) + ".." + std::to_string(hi));
+  dst = i;
+  return kGoOn;
+}
+int diameter_flag(double& dst, const std::string& flag, const std::string& v) {
+  return real_flag(dst, flag, v, 0, false, kBig, "a diameter in mm > 0");
+}
+
+int param_flag(Cli& c, const std::string& flag, const std::string& v) {
+  const auto eq = v.find('=');
+  if (eq == std::string::npos || eq == 0) return bad_value(flag, v, "NAME=VALUE");
+  std::string err;
+  const int r = set_param(c.p, v.substr(0, eq), v.substr(eq + 1), err);
+  if (r < 0) {
+    std::fprintf(stderr, "compliance_tool: --param %s\n", err.c_str());
+    return 2;
+  }
+  if (r == 0) c.ignored.push_back(v.substr(0, eq));
+  return kGoOn;
+}
+
+// The flags: name, whether a value follows, and what it sets (kGoOn, or the exit status).
+using S = const std::string&;
+struct Flag {
+  const char* name;
+  bool valued;
+  int (*set)(Cli& c, S flag, S v);
+};
+const Flag kFlags[] = {
+    {"-h", false, [](Cli&, S, S) { usage(stdout); return 0; }},
+    {"--help", false, [](Cli&, S, S) { usage(stdout); return 0; }},
+    {"--every-tooth", false, [](Cli& c, S, S) { c.o.every_tooth = true; return kGoOn; }},
+    {"--scene", true, [](Cli& c, S, S v) { c.scene = v; return kGoOn; }},
+    {"--out", true, [](Cli& c, S, S v) { c.out = v; return kGoOn; }},
+    {"--note", true, [](Cli& c, S, S v) { c.o.note = v; return kGoOn; }},
+    {"--mesh", true, [](Cli& c, S, S v) { c.mesh_file = v; return kGoOn; }},
+    {"--write-mesh", true, [](Cli& c, S, S v) { c.o.write_mesh = v; return kGoOn; }},
+    {"--gear", true, [](Cli& c, S f, S v) { return int_flag(c.gear, f, v, 1, 2); }},
+    {"--coupled", true,
+     [](Cli& c, S f, S v) { return int_flag(c.coupled, f, v, 0, int(gm::kComplianceDbMaxCoupled)); }},
+    {"--depth-mm", true,
+     [](Cli& c, S f, S v) {
+       double h = 0;
+       const int rc = real_flag(h, f, v, 0, false, kBig, "a depth in mm > 0");
+       c.o.depth = h * 1e-3;
+       return rc;
+     }},
+    {"--profile-elements", true,
+     [](Cli& c, S f, S v) { return int_flag(c.o.mesh.elements_along_profile, f, v, 1, 200); }},
+    {"--width-elements", true,
+     [](Cli& c, S f, S v) { return int_flag(c.o.mesh.elements_across_width, f, v, 1, 200); }},
+    {"--fillet-elements", true,
+     [](Cli& c, S f, S v) { return int_flag(c.o.mesh.elements_in_fillet, f, v, 1, 200); }},
+    {"--param", true, param_flag},
+    {"--bore-diameter-mm", true, [](Cli& c, S f, S v) { return diameter_flag(c.bore_d, f, v); }},
+    {"--rim-inner-diameter-mm", true, [](Cli& c, S f, S v) { return diameter_flag(c.rim_d, f, v); }},
+    {"--hub-diameter-mm", true, [](Cli& c, S f, S v) { return diameter_flag(c.hub_d, f, v); }},
+    {"--web-thickness-mm", true,
+     [](Cli& c, S f, S v) { return real_flag(c.web_t, f, v, 0, false, kBig, "a thickness in mm > 0"); }},
+    {"--web-offset-mm", true,
+     [](Cli& c, S f, S v) {
+       const int rc = real_flag(c.web_o, f, v, -kBig, true, kBig, "an offset in mm (finite)");
+       c.web_o_given = true;
+       return rc;
+     }},
+    {"--holes", true, [](Cli& c, S f, S v) { return int_flag(c.holes, f, v, 0, 1000); }},
+    {"--hole-diameter-mm", true, [](Cli& c, S f, S v) { return diameter_flag(c.hole_d, f, v); }},
+    {"--hole-circle-diameter-mm", true,
+     [](Cli& c, S f, S v) { return diameter_flag(c.hole_circle_d, f, v); }},
+    {"--ring-outer-diameter-mm", true, [](Cli& c, S f, S v) { return diameter_flag(c.ring_d, f, v); }},
+    {"--body-size-mm", true,
+     [](Cli& c, S f, S v) { return real_flag(c.body_size, f, v, 0, false, kBig, "a size in mm > 0"); }},
+    {"--load-fraction", true,
+     [](Cli& c, S f, S v) {
+       return real_flag(c.o.load_fraction, f, v, 0, false, 1, "a fraction 0 < F <= 1");
+     }},
+    {"--threads", true, [](Cli& c, S f, S v) { return int_flag(c.threads, f, v, 1, 256); }},
+};
+
+// Parse argv into c: kGoOn, or the exit status (help, bad usage).
+int parse_args(int argc, char** argv, Cli& c) {
   for (int a = 1; a < argc; ++a) {
     const std::string arg = argv[a];
-    if (arg == "-h" || arg == "--help") {
-      usage(stdout);
-      return 0;
-    }
-    if (arg == "--every-tooth") {
-      o.every_tooth = true;
-      continue;
-    }
-    static const char* const kValued[] = {
-        "--scene", "--out", "--note", "--gear", "--coupled", "--depth-mm", "--profile-elements",
-        "--width-elements", "--fillet-elements", "--param", "--bore-diameter-mm",
-        "--rim-inner-diameter-mm", "--hub-diameter-mm", "--web-thickness-mm", "--web-offset-mm",
-        "--holes", "--hole-diameter-mm", "--hole-circle-diameter-mm", "--ring-outer-diameter-mm",
-        "--mesh", "--body-size-mm", "--load-fraction", "--threads", "--write-mesh"};
-    if (std::find(std::begin(kValued), std::end(kValued), arg) == std::end(kValued)) {
+    const Flag* flag = nullptr;
+    for (const Flag& f : kFlags)
+      if (arg == f.name) flag = &f;
+    if (!flag) {
       std::fprintf(stderr, "compliance_tool: unknown argument '%s'%s\n", arg.c_str(),
                    arg == "--bore-mm" ? " (now --bore-diameter-mm, a diameter in mm)" : "");
       usage(stderr);
       return 2;
     }
-    if (a + 1 >= argc) {
+    if (flag->valued && a + 1 >= argc) {
       std::fprintf(stderr, "compliance_tool: %s needs a value\n", arg.c_str());
       usage(stderr);
       return 2;
     }
-    const std::string v = argv[++a];
-    double d = 0;
-    int i = 0;
-    // Real > lo (or >= lo if closed), <= hi.
-    auto real = [&](double& dst, double lo, bool lo_closed, double hi, const char* allowed) {
-      if (!parse_double(v, d) || (lo_closed ? d < lo : d <= lo) || d > hi) return bad_value(arg, v, allowed);
-      dst = d;
-      return 0;
-    };
-    auto integer = [&](int& dst, int lo, int hi) {
-      if (!parse_int(v, i) || i < lo || i > hi)
-        return bad_value(arg, v, "an integer " + std::to_string(lo) + ".." + std::to_string(hi));
-      dst = i;
-      return 0;
-    };
-    constexpr double big = 1e6;  // mm
-    int rc = 0;
-    if (arg == "--scene") scene = v;
-    else if (arg == "--out") out = v;
-    else if (arg == "--note") o.note = v;
-    else if (arg == "--mesh") mesh_file = v;
-    else if (arg == "--write-mesh") o.write_mesh = v;
-    else if (arg == "--gear") rc = integer(gear, 1, 2);
-    else if (arg == "--coupled") rc = integer(coupled, 0, int(gm::kComplianceDbMaxCoupled));
-    else if (arg == "--depth-mm") {
-      double h = 0;
-      rc = real(h, 0, false, big, "a depth in mm > 0");
-      o.depth = h * 1e-3;
-    } else if (arg == "--profile-elements") rc = integer(o.mesh.elements_along_profile, 1, 200);
-    else if (arg == "--width-elements") rc = integer(o.mesh.elements_across_width, 1, 200);
-    else if (arg == "--fillet-elements") rc = integer(o.mesh.elements_in_fillet, 1, 200);
-    else if (arg == "--bore-diameter-mm") rc = real(bore_d, 0, false, big, "a diameter in mm > 0");
-    else if (arg == "--rim-inner-diameter-mm") rc = real(rim_d, 0, false, big, "a diameter in mm > 0");
-    else if (arg == "--hub-diameter-mm") rc = real(hub_d, 0, false, big, "a diameter in mm > 0");
-    else if (arg == "--web-thickness-mm") rc = real(web_t, 0, false, big, "a thickness in mm > 0");
-    else if (arg == "--web-offset-mm") {
-      rc = real(web_o, -big, true, big, "an offset in mm (finite)");
-      web_o_given = true;
-    } else if (arg == "--holes") rc = integer(holes, 0, 1000);
-    else if (arg == "--hole-diameter-mm") rc = real(hole_d, 0, false, big, "a diameter in mm > 0");
-    else if (arg == "--hole-circle-diameter-mm") rc = real(hole_circle_d, 0, false, big, "a diameter in mm > 0");
-    else if (arg == "--ring-outer-diameter-mm") rc = real(ring_d, 0, false, big, "a diameter in mm > 0");
-    else if (arg == "--body-size-mm") rc = real(body_size, 0, false, big, "a size in mm > 0");
-    else if (arg == "--load-fraction") rc = real(o.load_fraction, 0, false, 1, "a fraction 0 < F <= 1");
-    else if (arg == "--threads") rc = integer(threads, 1, 256);
-    else if (arg == "--param") {
-      const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0) return bad_value(arg, v, "NAME=VALUE");
-      std::string err;
-      const int r = set_param(p, v.substr(0, eq), v.substr(eq + 1), err);
-      if (r < 0) {
-        std::fprintf(stderr, "compliance_tool: --param %s\n", err.c_str());
-        return 2;
-      }
-      if (r == 0) ignored.push_back(v.substr(0, eq));
-    }
-    if (rc != 0) return rc;
+    const int rc = flag->set(c, arg, flag->valued ? std::string(argv[++a]) : std::string());
+    if (rc != kGoOn) return rc;
   }
-  if (gear == 0 || out.empty()) {
+  if (c.gear == 0 || c.out.empty()) {
     std::fprintf(stderr, "compliance_tool: --gear and --out are required\n");
     usage(stderr);
     return 2;
   }
-  if (!ignored.empty())
+  if (!c.ignored.empty())
     std::fprintf(stderr, "compliance_tool: %zu parameter(s) that do not change the body ignored\n",
-                 ignored.size());
+                 c.ignored.size());
+  return kGoOn;
+}
 
-  // Flags that must go together, and values against the gear (exit 1: the value does not fit).
-  auto misfit = [](const std::string& text) {
-    std::fprintf(stderr, "compliance_tool: %s\n", text.c_str());
-    return 1;
-  };
-  auto mm = [](double x) {
-    std::ostringstream s;
-    s << x << " mm";
-    return s.str();
-  };
-  if ((rim_d > 0) != (hub_d > 0))
+int misfit(const std::string& text) {
+  std::fprintf(stderr, "compliance_tool: %s\n", text.c_str());
+  return 1;
+}
+
+std::string mm(double x) {
+  std::ostringstream s;
+  s << x << " mm";
+  return s.str();
+}
+
+// Flags that must go together (exit 1: the value does not fit).
+int check_combinations(const Cli& c) {
+  if ((c.rim_d > 0) != (c.hub_d > 0))
     return misfit("--rim-inner-diameter-mm and --hub-diameter-mm go together (a web between hub and rim)");
-  if ((web_t > 0 || web_o_given) && !(rim_d > 0))
+  if ((c.web_t > 0 || c.web_o_given) && !(c.rim_d > 0))
     return misfit("--web-thickness-mm / --web-offset-mm need a web (--rim-inner-diameter-mm and --hub-diameter-mm)");
-  if (holes > 0 && !(hole_d > 0 && hole_circle_d > 0))
+  if (c.holes > 0 && !(c.hole_d > 0 && c.hole_circle_d > 0))
     return misfit("--holes needs --hole-diameter-mm and --hole-circle-diameter-mm");
-  if (holes == 0 && (hole_d > 0 || hole_circle_d > 0))
+  if (c.holes == 0 && (c.hole_d > 0 || c.hole_circle_d > 0))
     return misfit("--hole-diameter-mm / --hole-circle-diameter-mm need --holes N (N >= 1)");
-  const bool ring = p.pair.internal != 0 && gear == 2;
-  if (ring_d > 0 && !ring)
+  const bool ring = c.p.pair.internal != 0 && c.gear == 2;
+  if (c.ring_d > 0 && !ring)
     return misfit("--ring-outer-diameter-mm is for the internal ring gear (pair.internal=1, --gear 2)");
+  return kGoOn;
+}
+
+// The web between hub and rim against the bore, the root diameter d_f and the face width b (mm).
+int check_web(const Cli& c, double bore, double d_f, double b) {
+  if (!(c.rim_d < d_f))
+    return misfit("--rim-inner-diameter-mm " + mm(c.rim_d) + ": allowed below the root diameter " + mm(d_f));
+  if (!(c.hub_d > bore && c.hub_d < c.rim_d))
+    return misfit("--hub-diameter-mm " + mm(c.hub_d) + ": allowed between the bore " + mm(bore) +
+                  " and the rim's inner diameter " + mm(c.rim_d));
+  if (c.web_t > b) return misfit("--web-thickness-mm " + mm(c.web_t) + ": allowed up to the face width " + mm(b));
+  const double wt = c.web_t > 0 ? c.web_t : b;
+  if (std::fabs(c.web_o) + 0.5 * wt > 0.5 * b * (1 + 1e-9))
+    return misfit("--web-offset-mm " + mm(c.web_o) + ": the web (thickness " + mm(wt) +
+                  ") must stay within the face width " + mm(b) + ", |offset| <= " + mm(0.5 * (b - wt)));
+  return kGoOn;
+}
+
+// The lightening holes inside the disc or web annulus, not overlapping (mm).
+int check_holes(const Cli& c, double bore, double d_f) {
+  const double in = c.rim_d > 0 ? c.hub_d : bore, outer = c.rim_d > 0 ? c.rim_d : d_f;
+  if (!(c.hole_circle_d - c.hole_d > in && c.hole_circle_d + c.hole_d < outer))
+    return misfit("--hole-circle-diameter-mm " + mm(c.hole_circle_d) + " with --hole-diameter-mm " +
+                  mm(c.hole_d) + ": the holes must lie inside the " + (c.rim_d > 0 ? "web" : "disc") +
+                  " annulus " + mm(in) + " .. " + mm(outer) + " (hole circle +- hole diameter)");
+  if (!(c.hole_d < c.hole_circle_d * std::sin(3.14159265358979323846 / c.holes)))
+    return misfit("--hole-diameter-mm " + mm(c.hole_d) + ": " + std::to_string(c.holes) +
+                  " holes on the circle " + mm(c.hole_circle_d) + " overlap; allowed below " +
+                  mm(c.hole_circle_d * std::sin(3.14159265358979323846 / c.holes)));
+  return kGoOn;
+}
+
+// The body flags against the gear (exit 1: the value does not fit).
+int check_body_fits(const Cli& c) {
+  const bool ring = c.p.pair.internal != 0 && c.gear == 2;
   gm_pair_geometry geo;
   {
     char cmsg[1024] = {0};
-    if (gm_compute_geometry(&p, &geo, cmsg, sizeof cmsg) != GM_OK) return misfit(cmsg);
+    if (gm_compute_geometry(&c.p, &geo, cmsg, sizeof cmsg) != GM_OK) return misfit(cmsg);
   }
-  const double d_f = geo.gear[gear - 1].d_f * 1e3, b = p.gear[gear - 1].face_width * 1e3;
-  if (!ring && mesh_file.empty()) {
-    const double bore = bore_d > 0 ? bore_d : 0.4 * d_f;
+  const double d_f = geo.gear[c.gear - 1].d_f * 1e3, b = c.p.gear[c.gear - 1].face_width * 1e3;
+  if (!ring && c.mesh_file.empty()) {
+    const double bore = c.bore_d > 0 ? c.bore_d : 0.4 * d_f;
     if (!(bore < d_f))
-      return misfit("--bore-diameter-mm " + mm(bore_d) + ": allowed below the root diameter " + mm(d_f));
-    if (rim_d > 0) {
-      if (!(rim_d < d_f))
-        return misfit("--rim-inner-diameter-mm " + mm(rim_d) + ": allowed below the root diameter " + mm(d_f));
-      if (!(hub_d > bore && hub_d < rim_d))
-        return misfit("--hub-diameter-mm " + mm(hub_d) + ": allowed between the bore " + mm(bore) +
-                      " and the rim's inner diameter " + mm(rim_d));
-      if (web_t > b) return misfit("--web-thickness-mm " + mm(web_t) + ": allowed up to the face width " + mm(b));
-      const double wt = web_t > 0 ? web_t : b;
-      if (std::fabs(web_o) + 0.5 * wt > 0.5 * b * (1 + 1e-9))
-        return misfit("--web-offset-mm " + mm(web_o) + ": the web (thickness " + mm(wt) +
-                      ") must stay within the face width " + mm(b) + ", |offset| <= " + mm(0.5 * (b - wt)));
+      return misfit("--bore-diameter-mm " + mm(c.bore_d) + ": allowed below the root diameter " + mm(d_f));
+    if (c.rim_d > 0) {
+      const int rc = check_web(c, bore, d_f, b);
+      if (rc != kGoOn) return rc;
     }
-    if (holes > 0) {
-      const double in = rim_d > 0 ? hub_d : bore, outer = rim_d > 0 ? rim_d : d_f;
-      if (!(hole_circle_d - hole_d > in && hole_circle_d + hole_d < outer))
-        return misfit("--hole-circle-diameter-mm " + mm(hole_circle_d) + " with --hole-diameter-mm " +
-                      mm(hole_d) + ": the holes must lie inside the " + (rim_d > 0 ? "web" : "disc") +
-                      " annulus " + mm(in) + " .. " + mm(outer) + " (hole circle +- hole diameter)");
-      if (!(hole_d < hole_circle_d * std::sin(3.14159265358979323846 / holes)))
-        return misfit("--hole-diameter-mm " + mm(hole_d) + ": " + std::to_string(holes) +
-                      " holes on the circle " + mm(hole_circle_d) + " overlap; allowed below " +
-                      mm(hole_circle_d * std::sin(3.14159265358979323846 / holes)));
+    if (c.holes > 0) {
+      const int rc = check_holes(c, bore, d_f);
+      if (rc != kGoOn) return rc;
     }
   }
-  if (ring && ring_d > 0 && !(ring_d > d_f))
-    return misfit("--ring-outer-diameter-mm " + mm(ring_d) + ": allowed above the ring's root diameter " + mm(d_f));
-  if (ring_d > 0) o.mesh.outer_radius = 0.5e-3 * ring_d;
-  o.mesh.mesh_file = mesh_file;
+  if (ring && c.ring_d > 0 && !(c.ring_d > d_f))
+    return misfit("--ring-outer-diameter-mm " + mm(c.ring_d) + ": allowed above the ring's root diameter " + mm(d_f));
+  return kGoOn;
+}
 
-  o.coupled = coupled >= 0 ? coupled : (p.coupled_teeth > 0 ? p.coupled_teeth : 1);
-  if (bore_d > 0) o.mesh.bore_radius = 0.5e-3 * bore_d;
-  if (rim_d > 0) o.mesh.rim_inner_radius = 0.5e-3 * rim_d;
-  if (hub_d > 0) o.mesh.hub_radius = 0.5e-3 * hub_d;
-  if (web_t > 0) o.mesh.web_thickness = 1e-3 * web_t;
-  o.mesh.web_offset = 1e-3 * web_o;
-  o.mesh.holes = holes;
-  if (holes > 0) {
-    o.mesh.hole_radius = 0.5e-3 * hole_d;
-    o.mesh.hole_circle_radius = 0.5e-3 * hole_circle_d;
+// The build options from the checked flags (SI).
+void apply_body_options(Cli& c) {
+  gm::ctool::BuildOptions& o = c.o;
+  if (c.ring_d > 0) o.mesh.outer_radius = 0.5e-3 * c.ring_d;
+  o.mesh.mesh_file = c.mesh_file;
+  o.coupled = c.coupled >= 0 ? c.coupled : (c.p.coupled_teeth > 0 ? c.p.coupled_teeth : 1);
+  if (c.bore_d > 0) o.mesh.bore_radius = 0.5e-3 * c.bore_d;
+  if (c.rim_d > 0) o.mesh.rim_inner_radius = 0.5e-3 * c.rim_d;
+  if (c.hub_d > 0) o.mesh.hub_radius = 0.5e-3 * c.hub_d;
+  if (c.web_t > 0) o.mesh.web_thickness = 1e-3 * c.web_t;
+  o.mesh.web_offset = 1e-3 * c.web_o;
+  o.mesh.holes = c.holes;
+  if (c.holes > 0) {
+    o.mesh.hole_radius = 0.5e-3 * c.hole_d;
+    o.mesh.hole_circle_radius = 0.5e-3 * c.hole_circle_d;
   }
-  if (body_size > 0) o.mesh.body_size = 1e-3 * body_size;
-  if (threads > 0) {
-    o.mesh.threads = threads;
-    set_blas_threads(threads);
+  if (c.body_size > 0) o.mesh.body_size = 1e-3 * c.body_size;
+  if (c.threads > 0) {
+    o.mesh.threads = c.threads;
+    set_blas_threads(c.threads);
   }
-  if (!scene.empty()) o.note = "scene " + scene + (o.note.empty() ? "" : "; " + o.note);
+  if (!c.scene.empty()) o.note = "scene " + c.scene + (o.note.empty() ? "" : "; " + o.note);
   o.progress = [](const std::string& s) { std::fprintf(stderr, "compliance_tool: %s\n", s.c_str()); };
+}
 
+// Build the database, write it and print the summary.
+int build_and_write(const Cli& c, std::chrono::steady_clock::time_point t_start) {
   gm::ComplianceDb db;
   gm::ctool::BuildStats stats;
   std::string msg;
-  gm_status st = gm::ctool::build_compliance_db(p, gear - 1, o, db, stats, msg);
+  gm_status st = gm::ctool::build_compliance_db(c.p, c.gear - 1, c.o, db, stats, msg);
   if (st != GM_OK) {
     std::fprintf(stderr, "compliance_tool: %s\n", msg.c_str());
     return 1;
   }
-  st = gm::write_compliance_db(out.c_str(), db, msg);
+  st = gm::write_compliance_db(c.out.c_str(), db, msg);
   if (st != GM_OK) {
     std::fprintf(stderr, "compliance_tool: %s\n", msg.c_str());
     return 1;
   }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   std::fprintf(stderr, "compliance_tool: wrote %s (%d x %d grid, n_c = %u, %s, %zu tooth set(s))\n",
-               out.c_str(), int(db.roll.size()), int(db.face.size()), db.n_coupled,
+               c.out.c_str(), int(db.roll.size()), int(db.face.size()), db.n_coupled,
                db.cyclic ? "cyclic" : "every tooth", db.tooth_sets());
   std::printf("compliance_tool: nodes=%d elements=%d dofs=%d grid=%d tooth_sets=%d loaded=%d solves=%d "
               "mesh_s=%.3f locate_s=%.3f assembly_s=%.3f factor_s=%.3f solve_s=%.3f total_s=%.3f "
@@ -359,4 +423,17 @@ int main(int argc, char** argv) {
               stats.solves, stats.mesh_seconds, stats.locate_seconds, stats.assembly_seconds,
               stats.factor_seconds, stats.solve_seconds, total, peak_rss_mib());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const auto t_start = std::chrono::steady_clock::now();
+  Cli c;
+  int rc = parse_args(argc, argv, c);
+  if (rc == kGoOn) rc = check_combinations(c);
+  if (rc == kGoOn) rc = check_body_fits(c);
+  if (rc != kGoOn) return rc;
+  apply_body_options(c);
+  return build_and_write(c, t_start);
 }

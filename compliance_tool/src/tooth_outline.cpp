@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 
 namespace gm::mesh {
 namespace {

@@ -1,5 +1,5 @@
 // The transverse outline of one tooth of an external gear, sampled from the core's own tooth
-// profile (core/src/tooth_compliance.hpp: tooth_fillet_station, tooth_involute_station and the
+// profile (core/internal/gearmesh/internal/tooth_compliance.hpp: tooth_fillet_station, tooth_involute_station and the
 // ToothSection that build_tooth_section derives from the pair geometry). Nothing here re-derives
 // the involute or the trochoid: every point comes from those two functions.
 //
@@ -26,7 +26,7 @@
 #include <Eigen/Core>
 
 #include "gearmesh/gearmesh.h"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 
 namespace gm::mesh {
 

@@ -10,7 +10,7 @@
 
 #include "dynamics.hpp"
 #include "evaluate.hpp"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "microgeometry.hpp"
 #include "model.hpp"
 #include "params.hpp"
@@ -287,6 +287,7 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
       d->fe_dual_c.resize(c, c);
       d->fe_saved_force.resize(c);
       d->fe_saved_key.resize(c);
+      d->fe_assembly.reserve(gm::fe_view(*m), c);  // gm_evaluate then allocates nothing
     }
     d->message.reserve(256);
     *out = d;

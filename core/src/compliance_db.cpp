@@ -1,5 +1,5 @@
 // Compliance database file: see compliance_db.hpp for the format.
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 
 #include <algorithm>
 #include <array>
@@ -11,7 +11,7 @@
 
 #include <sys/stat.h>
 
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 
 namespace gm {
 

@@ -9,7 +9,7 @@
 #pragma once
 
 #include "detection.hpp"
-#include "hertz.hpp"
+#include "gearmesh/internal/hertz.hpp"
 
 namespace gm {
 

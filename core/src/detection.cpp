@@ -8,7 +8,7 @@
 
 #include <Eigen/Geometry>
 
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 
 namespace gm {
 namespace {

@@ -1,13 +1,12 @@
-// One evaluation: inputs -> detection -> slice forces -> resultants and TE (docs/design.md, "core").
+// One evaluation: inputs -> detection -> slice forces -> resultants and TE (docs/design.md,
+// "core"). The stages are in pipeline.hpp; gm_evaluate in evaluate.cpp, its directional
+// derivative in derivatives.cpp, the capability check of the levels in laws.hpp.
 #pragma once
 
+#include "laws.hpp"
 #include "model.hpp"
 
 namespace gm {
-
-// Check that m can be evaluated by this build (levels and effects implemented so far);
-// returns GM_ERR_PARAMETER with msg naming the parameter otherwise.
-gm_status check_capabilities(const gm_model_params& p, std::string& msg);
 
 gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin, gm_result& res);
 

@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <limits>
 
-#include "model.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 
 namespace gm {
 namespace {
@@ -115,9 +115,9 @@ struct DbFlank {
   bool flip_face = false;  // and the face coordinate reversed (helical)
 };
 
-bool ring_gear(const gm_model& m, int g) { return g == 1 && m.layout.sign < 0; }
+bool ring_gear(const FeView& m, int g) { return g == 1 && m.layout.sign < 0; }
 
-DbFlank db_flank(const gm_model& m, int g, int flank) {
+DbFlank db_flank(const FeView& m, int g, int flank) {
   const ComplianceDb& db = m.compliance[g];
   DbFlank r;
   r.side = ring_gear(m, g) ? -flank : flank;
@@ -127,7 +127,7 @@ DbFlank db_flank(const gm_model& m, int g, int flank) {
 }
 
 // Whether some slice on gear g reads its face reversed (the strip table then holds both).
-bool may_flip_face(const gm_model& m, int g) {
+bool may_flip_face(const FeView& m, int g) {
   return m.compliance[g].mirror && m.compliance[g].helix_angle != 0;
 }
 
@@ -141,7 +141,7 @@ int tooth_offset(int ti, int tj, int z) {
 }
 
 // The database's tooth (modulo z) of the slice's tooth (ring: space) index on flank `flank`.
-int db_tooth(const gm_model& m, int g, int flank, int tooth) {
+int db_tooth(const FeView& m, int g, int flank, int tooth) {
   const int z = int(m.compliance[g].teeth);
   return tooth_mod(ring_gear(m, g) && flank < 0 ? tooth - 1 : tooth, z);
 }
@@ -149,7 +149,7 @@ int db_tooth(const gm_model& m, int g, int flank, int tooth) {
 // Face position of a slice on gear g as the database reads it: from its mid-face along its
 // axis, m, reversed when read through a helical mirror.
 template <class T>
-T face_position(const gm_model& m, int g, const ContactSliceT<T>& s, const T& uz) {
+T face_position(const FeView& m, int g, const ContactSliceT<T>& s, const T& uz) {
   const T y = s.point.z() - uz - m.layout.axial_offset[g];
   return db_flank(m, g, s.flank).flip_face ? T(-y) : y;
 }
@@ -166,7 +166,7 @@ FeSpot<T> fe_spot(const ComplianceDb& db, const T& roll, const T& face, const T&
 
 // The database block between receiver tooth ti and load tooth tj (database teeth, modulo z, of
 // db_tooth) on the slices' flanks, or -1 when they are not coupled.
-int block_of(const gm_model& m, int g, int flank_i, int ti, int flank_j, int tj) {
+int block_of(const FeView& m, int g, int flank_i, int ti, int flank_j, int tj) {
   const ComplianceDb& db = m.compliance[g];
   if (flank_i != flank_j) return -1;
   const int z = int(db.teeth);
@@ -177,14 +177,14 @@ int block_of(const gm_model& m, int g, int flank_i, int ti, int flank_j, int tj)
     d = -d;
     t = tooth_mod(-tj, z);
   }
-  if (std::abs(d) > std::min<int>(m.params.coupled_teeth, int(db.n_coupled))) return -1;
+  if (std::abs(d) > std::min<int>(m.coupled_teeth, int(db.n_coupled))) return -1;
   const std::size_t set = db.cyclic ? 0 : std::size_t(t);
   const std::size_t f = (db.mirror || r.side > 0) ? 0 : 1;
   return int(db.block_index(set, f, d));
 }
 
 template <class T>
-T fe_entry(const gm_model& m, int g, const ContactSliceT<T>& si, const FeSpot<T>& pi,
+T fe_entry(const FeView& m, int g, const ContactSliceT<T>& si, const FeSpot<T>& pi,
            const ContactSliceT<T>& sj, const FeSpot<T>& pj) {
   const ComplianceDb& db = m.compliance[g];
   const int k = block_of(m, g, si.flank, db_tooth(m, g, si.flank, si.tooth[g]), sj.flank,
@@ -217,7 +217,7 @@ T fe_entry(const gm_model& m, int g, const ContactSliceT<T>& si, const FeSpot<T>
 }  // namespace
 
 template <class T>
-T fe_pair_compliance(const gm_model& m, const ContactSliceT<T>& si, const ContactSliceT<T>& sj,
+T fe_pair_compliance(const FeView& m, const ContactSliceT<T>& si, const ContactSliceT<T>& sj,
                      const T uz[2]) {
   T c = 0;
   for (int g = 0; g < 2; ++g) {
@@ -229,12 +229,12 @@ T fe_pair_compliance(const gm_model& m, const ContactSliceT<T>& si, const Contac
   return c;
 }
 
-template double fe_pair_compliance(const gm_model&, const ContactSlice&, const ContactSlice&,
+template double fe_pair_compliance(const FeView&, const ContactSlice&, const ContactSlice&,
                                    const double[2]);
-template Dual fe_pair_compliance(const gm_model&, const ContactSliceT<Dual>&,
+template Dual fe_pair_compliance(const FeView&, const ContactSliceT<Dual>&,
                                  const ContactSliceT<Dual>&, const Dual[2]);
 
-void fe_assemble_reference(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+void fe_assemble_reference(const FeView& m, const ContactSlice* slices, const int* index, int n,
                            const double uz[2], Eigen::MatrixXd& C) {
   for (int a = 0; a < n; ++a)
     for (int b = 0; b <= a; ++b)
@@ -242,6 +242,31 @@ void fe_assemble_reference(const gm_model& m, const ContactSlice* slices, const 
 }
 
 // ---- FeAssembly ----
+
+void FeAssembly::reserve(const FeView& m, int capacity) {
+  const std::size_t c = std::size_t(std::max(capacity, 0));
+  // groups: the candidates of one tooth pair and flank, at most model.slices of them
+  const std::size_t groups = std::max<std::size_t>(1, c / std::size_t(std::max(m.layout.slices, 1)));
+  group_first_.reserve(c + 1);
+  uniform_.reserve(2 * c);
+  consecutive_.reserve(2 * c);
+  for (int g = 0; g < 2; ++g) {
+    Gear& G = gear_[g];
+    const ComplianceDb& db = m.compliance[g];
+    const std::size_t strips = std::size_t(m.layout.slices) * (may_flip_face(m, g) ? 2 : 1);
+    const std::size_t nr = db.roll.size();
+    G.spots.resize(std::max(G.spots.size(), c));
+    G.strips.reserve(strips);
+    G.shares.reserve(strips * db.face.size());
+    const std::size_t per_call = groups * (2 * std::size_t(db.n_coupled) + 1) * db.flank_sets();
+    const std::size_t slots = db.cyclic ? db.block_count() : std::min(db.block_count(), 2 * per_call);
+    if (G.blocks.size() < slots) G.blocks.resize(slots);
+    for (Block& B : G.blocks) {
+      B.chunk.reserve(nr * nr);
+      B.pool.reserve(nr * nr * strips * strips);
+    }
+  }
+}
 
 void FeAssembly::invalidate() {
   for (Gear& G : gear_) {
@@ -269,7 +294,7 @@ std::size_t FeAssembly::cached_values() const {
 
 // The strip of face interval [lo, hi] on gear g, added if new (then every chunk of the gear is
 // dropped and this call computes directly); -1 if the table is full (a face interval changed).
-int FeAssembly::strip_of(const gm_model& m, int g, double lo, double hi) {
+int FeAssembly::strip_of(const FeView& m, int g, double lo, double hi) {
   Gear& G = gear_[g];
   for (std::size_t s = 0; s < G.strips.size(); ++s)
     if (G.strips[s].lo == lo && G.strips[s].hi == hi) return int(s);
@@ -288,7 +313,7 @@ int FeAssembly::strip_of(const gm_model& m, int g, double lo, double hi) {
 }
 
 // sum_m q_sm (sum_n q_s'n C_d[(a, m)][(b, n)]): the one function both paths use.
-double FeAssembly::strip_value(const gm_model& m, int g, int block, int a, int b, int si,
+double FeAssembly::strip_value(const FeView& m, int g, int block, int a, int b, int si,
                                int sj) const {
   const ComplianceDb& db = m.compliance[g];
   const Gear& G = gear_[g];
@@ -310,7 +335,7 @@ double FeAssembly::strip_value(const gm_model& m, int g, int block, int a, int b
   return sum;
 }
 
-int FeAssembly::chunk_at(const gm_model& m, int g, Block& B, int a, int b) {
+int FeAssembly::chunk_at(const FeView& m, int g, Block& B, int a, int b) {
   const int nr = int(m.compliance[g].roll.size());
   int& at = B.chunk[std::size_t(a) * std::size_t(nr) + std::size_t(b)];
   if (at < 0) {
@@ -324,7 +349,7 @@ int FeAssembly::chunk_at(const gm_model& m, int g, Block& B, int a, int b) {
   return at;
 }
 
-int FeAssembly::slot_of(const gm_model& m, int g, const ContactSlice& si, const Spot& pi,
+int FeAssembly::slot_of(const FeView& m, int g, const ContactSlice& si, const Spot& pi,
                         const ContactSlice& sj, const Spot& pj) {
   const int k = block_of(m, g, si.flank, pi.tooth, sj.flank, pj.tooth);
   if (k < 0) return -1;
@@ -350,7 +375,7 @@ int FeAssembly::slot_of(const gm_model& m, int g, const ContactSlice& si, const 
   return free_slot;
 }
 
-void FeAssembly::assemble(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int* index, int n,
                           const double uz[2], Eigen::MatrixXd& C) {
   // groups: consecutive candidates of the same tooth pair and flank share their blocks
   group_first_.clear();

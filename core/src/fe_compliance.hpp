@@ -45,31 +45,47 @@
 
 #include <Eigen/Core>
 
+#include "gearmesh/internal/compliance_db.hpp"
 #include "detection.hpp"
 #include "dual.hpp"
 
-struct gm_model;
-
 namespace gm {
+
+// What the FE level reads of the model (model.hpp's fe_view(m) makes it): the two gears'
+// compliance databases, the detection layout (mesh sign, slices, axial offsets) and
+// model.coupled_teeth.
+struct FeView {
+  const ComplianceDb* compliance;  // [2], gear 1 and gear 2
+  const MeshLayout& layout;
+  int coupled_teeth;
+};
 
 // Reference: C^1 + C^2 between receiver si and load sj, straight from the databases (every
 // interpolation weight and face share recomputed), over double or dual numbers (the roll, face
 // position and width carry the derivative). uz: the gears' axial displacements, m.
 template <class T>
-T fe_pair_compliance(const gm_model& m, const ContactSliceT<T>& si, const ContactSliceT<T>& sj,
+T fe_pair_compliance(const FeView& m, const ContactSliceT<T>& si, const ContactSliceT<T>& sj,
                      const T uz[2]);
 
 // The whole matrix by the reference, for candidates index[0..n) (C's top-left n x n).
-void fe_assemble_reference(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+void fe_assemble_reference(const FeView& m, const ContactSlice* slices, const int* index, int n,
                            const double uz[2], Eigen::MatrixXd& C);
 
 class FeAssembly {
  public:
+  // Size every buffer for a model whose evaluations have at most `capacity` candidates
+  // (gm_data_create), so that assemble allocates nothing: the face strips and their shares, the
+  // per-candidate spots and groups, and for each block slot the chunk index and a pool that
+  // holds every chunk (n_roll^2 S^2 values, S the strips). Slots: every block of a cyclic
+  // database, else at most twice the blocks one call can use (the previous call's are dropped
+  // at its end), and never more than the database has, so the cache holds at most the
+  // database's size times (S/n_face)^2. Beyond these bounds assemble still works, allocating.
+  void reserve(const FeView& m, int capacity);
   // Forget every cached value (model or data reset, FMU state restored); results do not
   // depend on it, only the time of the next call does.
   void invalidate();
   // C's top-left n x n for candidates index[0..n); C must be at least n x n.
-  void assemble(const gm_model& m, const ContactSlice* slices, const int* index, int n,
+  void assemble(const FeView& m, const ContactSlice* slices, const int* index, int n,
                 const double uz[2], Eigen::MatrixXd& C);
   // Whether the last assemble used cached strip values for gear g (false: computed directly).
   bool cached(int g) const { return !gear_[g].direct; }
@@ -101,13 +117,13 @@ class FeAssembly {
     std::vector<Spot> spots;      // per candidate of the call
     bool direct = true;           // this call computes strip values directly
   };
-  int strip_of(const gm_model& m, int g, double lo, double hi);
+  int strip_of(const FeView& m, int g, double lo, double hi);
   void clear_chunks(Gear& G);
-  int slot_of(const gm_model& m, int g, const ContactSlice& si, const Spot& pi,
+  int slot_of(const FeView& m, int g, const ContactSlice& si, const Spot& pi,
               const ContactSlice& sj, const Spot& pj);
   // offset of chunk (a, b) in B.pool, computed if new (the pool may grow: no pointers kept)
-  int chunk_at(const gm_model& m, int g, Block& B, int a, int b);
-  double strip_value(const gm_model& m, int g, int block, int a, int b, int si, int sj) const;
+  int chunk_at(const FeView& m, int g, Block& B, int a, int b);
+  double strip_value(const FeView& m, int g, int block, int a, int b, int si, int sj) const;
 
   Gear gear_[2];
   std::vector<int> group_first_;  // groups (consecutive candidates of one tooth pair and

@@ -1,4 +1,4 @@
-#include "hertz.hpp"
+#include "gearmesh/internal/hertz.hpp"
 
 #include <cmath>
 #include <limits>

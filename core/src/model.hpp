@@ -8,13 +8,13 @@
 
 #include <Eigen/Core>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "contact_forces.hpp"
 #include "nlcp.hpp"
 #include "detection.hpp"
 #include "fe_compliance.hpp"
 #include "stiffness_iso.hpp"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 #include "user_tables.hpp"
 #include "gearmesh/gearmesh.h"
 
@@ -68,3 +68,12 @@ struct gm_data {
   std::vector<gm::Dual> dual_forces, dual_stiffness, dual_balance;
   std::string message;                   // last error ("" if none)
 };
+
+namespace gm {
+
+// The FE level's narrow view of the model (fe_compliance.hpp).
+inline FeView fe_view(const gm_model& m) {
+  return FeView{m.compliance, m.layout, m.params.coupled_teeth};
+}
+
+}  // namespace gm

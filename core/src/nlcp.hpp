@@ -29,7 +29,7 @@
 
 #include <Eigen/Core>
 
-#include "hertz.hpp"
+#include "gearmesh/internal/hertz.hpp"
 
 namespace gm {
 

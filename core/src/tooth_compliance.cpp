@@ -1,6 +1,6 @@
 // Analytical tooth compliance: Weber's beam terms and Sainsot's foundation term (model, sources
 // and limits in tooth_compliance.hpp).
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 
 #include <algorithm>
 #include <cmath>

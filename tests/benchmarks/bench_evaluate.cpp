@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
 

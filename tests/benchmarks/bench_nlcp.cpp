@@ -15,7 +15,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
-#include "hertz.hpp"
+#include "gearmesh/internal/hertz.hpp"
 #include "nlcp.hpp"
 
 namespace {

@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "compliance_build.hpp"
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "gearmesh/gearmesh.h"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 
 namespace {
 

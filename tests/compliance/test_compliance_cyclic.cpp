@@ -18,7 +18,7 @@
 #include <string>
 
 #include "compliance_build.hpp"
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "gearmesh/gearmesh.h"
 
 namespace {

@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "fe_elasticity.hpp"
-#include "hertz.hpp"
+#include "gearmesh/internal/hertz.hpp"
 
 namespace {
 

@@ -15,7 +15,7 @@
 
 #include "gear_mesh.hpp"
 #include "gearmesh/gearmesh.h"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 
 namespace {
 

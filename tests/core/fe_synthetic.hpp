@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "gearmesh/gearmesh.h"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 
 namespace gm_test {
 

@@ -1,4 +1,4 @@
-// The compliance database file (core/src/compliance_db.hpp): round trip, explicit byte order,
+// The compliance database file (core/internal/gearmesh/internal/compliance_db.hpp): round trip, explicit byte order,
 // corrupt and hostile files, and the check against the gear a model is created for.
 #include <gtest/gtest.h>
 
@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
-#include "geometry.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "test_support.hpp"
 
 namespace {

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "detection.hpp"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "params.hpp"
 #include "test_support.hpp"
 

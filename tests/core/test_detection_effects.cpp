@@ -11,7 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "detection.hpp"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "microgeometry.hpp"
 #include "params.hpp"
 #include "test_support.hpp"

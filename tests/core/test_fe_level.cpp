@@ -12,14 +12,14 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "fe_compliance.hpp"
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
 #include "model.hpp"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "test_support.hpp"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 
 namespace {
 
@@ -250,7 +250,7 @@ TEST(FeLevel, RestoredStateIsDeterministicAndWithinToleranceOfTheWarmRun) {
 }
 
 // Level 5 quasi-static: a run over poses starts each pass loop from the TE extrapolated from
-// the last two solves (evaluate.cpp, predicted_te). The answer is the pass loop's fixed point
+// the last two solves (fe_solve.cpp, predicted_te). The answer is the pass loop's fixed point
 // whatever the start: an instance reset before every pose (starting from TE = 0, no history)
 // gives the same TE and forces within the solver's tolerance, in more solver iterations; a load
 // change drops the extrapolation (the two runs then agree as well).
@@ -322,11 +322,11 @@ TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
       if (pairs != last_pairs) ++events;
       last_pairs = pairs;
       const double uz[2] = {k.u[0][2], k.u[1][2]};
-      cached.assemble(m, slices.data(), index.data(), na, uz, Cc);
+      cached.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, Cc);
       (cached.cached(0) && cached.cached(1) ? cached_calls : direct_calls)++;
       gm::FeAssembly fresh;
-      fresh.assemble(m, slices.data(), index.data(), na, uz, Cf);
-      gm::fe_assemble_reference(m, slices.data(), index.data(), na, uz, Cr);
+      fresh.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, Cf);
+      gm::fe_assemble_reference(gm::fe_view(m), slices.data(), index.data(), na, uz, Cr);
       const double scale = Cr.topLeftCorner(na, na).cwiseAbs().maxCoeff();
       ASSERT_GT(scale, 0);
       for (int a = 0; a < na; ++a)

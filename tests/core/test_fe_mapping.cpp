@@ -39,12 +39,12 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "detection.hpp"
 #include "fe_compliance.hpp"
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "model.hpp"
 #include "test_support.hpp"
 
@@ -284,8 +284,8 @@ TEST(FeMapping, EachSliceReadsTheDatabaseEntryItsGeometryNames) {
           ASSERT_GT(n, 0) << what << ": " << msg;
           for (int a = 0; a < n; ++a) index[std::size_t(a)] = a;
           const double uz[2] = {0, 0};
-          assembly.assemble(m, slices.data(), index.data(), n, uz, Cc);
-          gm::fe_assemble_reference(m, slices.data(), index.data(), n, uz, Cr);
+          assembly.assemble(gm::fe_view(m), slices.data(), index.data(), n, uz, Cc);
+          gm::fe_assemble_reference(gm::fe_view(m), slices.data(), index.data(), n, uz, Cr);
           std::vector<Located> at;
           for (int a = 0; a < n; ++a) {
             const gm::ContactSlice& sa = slices[std::size_t(a)];

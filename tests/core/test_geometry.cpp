@@ -5,7 +5,7 @@
 #include <cmath>
 #include <string>
 
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 
 namespace {
 

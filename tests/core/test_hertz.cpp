@@ -8,7 +8,7 @@
 #include <limits>
 #include <string>
 
-#include "hertz.hpp"
+#include "gearmesh/internal/hertz.hpp"
 
 namespace {
 

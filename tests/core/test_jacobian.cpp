@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "fe_synthetic.hpp"
 #include "test_support.hpp"
 

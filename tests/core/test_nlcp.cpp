@@ -17,7 +17,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
-#include "hertz.hpp"
+#include "gearmesh/internal/hertz.hpp"
 #include "nlcp.hpp"
 
 // Counting malloc (glibc): every heap allocation in this process goes through here (operator new

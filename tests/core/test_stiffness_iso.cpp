@@ -7,7 +7,7 @@
 #include <limits>
 #include <string>
 
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "stiffness_iso.hpp"
 #include "test_support.hpp"
 

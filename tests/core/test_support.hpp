@@ -9,10 +9,10 @@
 #include <string>
 #include <utility>
 
-#include "compliance_db.hpp"
+#include "gearmesh/internal/compliance_db.hpp"
 #include "detection.hpp"
 #include "gearmesh/gearmesh.h"
-#include "geometry.hpp"
+#include "gearmesh/internal/geometry.hpp"
 #include "microgeometry.hpp"
 #include "params.hpp"
 

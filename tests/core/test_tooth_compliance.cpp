@@ -9,10 +9,10 @@
 #include <cstdio>
 #include <string>
 
-#include "geometry.hpp"
-#include "hertz.hpp"
+#include "gearmesh/internal/geometry.hpp"
+#include "gearmesh/internal/hertz.hpp"
 #include "stiffness_iso.hpp"
-#include "tooth_compliance.hpp"
+#include "gearmesh/internal/tooth_compliance.hpp"
 #include "test_support.hpp"
 
 namespace {

@@ -3,15 +3,14 @@
 // closed forms, stiffness level 1 (a constant table is level 0; a table linear in roll angle gives
 // each slice the stiffness at its own roll angle) and the TE excitation (the unloaded TE of a
 // perfect pair is the table at every level; under load the loaded TE is shifted by it; both
-// flanks open by it), and that evaluating with the tables allocates nothing.
+// flanks open by it). That evaluating with the tables allocates nothing is checked by
+// tests/alloc/test_no_alloc.cpp (its own executable: it replaces operator new).
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <new>
 #include <random>
 #include <string>
 #include <vector>
@@ -20,19 +19,6 @@
 #include "gearmesh/gearmesh.h"
 #include "test_support.hpp"
 #include "user_tables.hpp"
-
-// Counting operator new: every C++ allocation of the process goes through here.
-namespace {
-std::atomic<bool> g_count_news{false};
-std::atomic<long> g_news{0};
-}  // namespace
-void* operator new(std::size_t size) {
-  if (g_count_news.load(std::memory_order_relaxed)) g_news.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size ? size : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -644,43 +630,6 @@ TEST(UserTables, TeExcitationRateEntersTheDamping) {
   const double rate = kUm / kDeg * omega1;  // d(TE_exc)/dt, m/s: the flanks open at this rate
   EXPECT_NEAR(ref.normal_force - still.normal_force, still.pairs_in_contact * 2e4 * 0.023 * rate,
               1e-6 * ref.normal_force);
-}
-
-TEST(UserTables, EvaluatingWithTablesDoesNotAllocate) {
-  // The counter works: a known allocation is seen.
-  std::vector<double>* volatile probe = nullptr;
-  g_news = 0;
-  g_count_news = true;
-  probe = new std::vector<double>(3);
-  g_count_news = false;
-  delete probe;
-  ASSERT_GE(g_news.load(), 1) << "operator new counting does not work here";
-
-  const std::string k_path = write_temp("alloc_k.txt", stiffness_text({{17, 12}, {23, 15.5}, {29, 12}}));
-  const std::string te_path = write_temp("alloc_te.txt", sine_te_text(57, 24, 1.0));
-  for (int quasi_static : {0, 1}) {
-    gm_model_params p = paper();
-    p.slices = 5;
-    p.quasi_static = quasi_static;
-    p.stiffness_level = GM_STIFFNESS_USER_VARIABLE;
-    p.stiffness_table = k_path.c_str();
-    p.te_table = te_path.c_str();
-    Instance in(p);
-    gm_kinematics k{};
-    gm_result r{};
-    k.load_torque = 150;
-    g_news = 0;
-    g_count_news = true;
-    gm_status st = GM_OK;
-    for (int s = 0; s < 50 && st == GM_OK; ++s) {
-      k.phi[0] = 0.002 * s;
-      k.phi[1] = (4e-6 - in.rb(0) * k.phi[0]) / in.rb(1);
-      st = gm_evaluate(in.m, in.d, &k, &r);
-    }
-    g_count_news = false;
-    EXPECT_EQ(st, GM_OK) << gm_data_message(in.d);
-    EXPECT_EQ(g_news.load(), 0) << "quasi_static " << quasi_static;
-  }
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
 """Stiffness level 5 (FE) through the FMU: a scene FMU with two synthetic compliance databases
-(.gcdb, core/src/compliance_db.hpp, written here byte by byte) as resources gear<i>.compliance
+(.gcdb, core/internal/gearmesh/internal/compliance_db.hpp, written here byte by byte) as resources gear<i>.compliance
 evaluates; in single contact the slice force lies below the database's linear bound TE / (2 c)
 (the local Hertz law adds compliance) and above half of it; a database for another tooth count is
 refused naming gear1.compliance; fmi2GetDirectionalDerivative at level 5 (smooth databases on a

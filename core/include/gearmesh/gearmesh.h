@@ -103,8 +103,9 @@ typedef struct gm_model_params {
                                    angle within one pitch, or NULL; read at gm_model_create, not
                                    kept. Formats and meaning: core/src/user_tables.hpp */
   const char* compliance[2];    /* level 5 (required there, refused at other levels): path of each
-                                   gear's compliance database (.gcdb, core/src/compliance_db.hpp),
-                                   or NULL; read at gm_model_create, not kept */
+                                   gear's compliance database (.gcdb, core/internal/gearmesh/
+                                   internal/compliance_db.hpp), or NULL; read at
+                                   gm_model_create, not kept */
 } gm_model_params;
 
 /* Derived geometry of one gear (ISO 21771; diameters are magnitudes, also for the ring). */

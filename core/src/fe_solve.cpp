@@ -1,0 +1,186 @@
+// The force-solve stage of level 5: the coupled solve over the candidates (NlcpSolver on the
+// compliance C of the databases, assembled by FeAssembly), plain and quasi-static, and the
+// quasi-static TE history.
+#include "fe_solve.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace gm {
+namespace {
+
+constexpr double kNlcpRelativeTolerance = 1e-10;  // NlcpOptions' default
+
+// The solved set (every candidate with `all`, else those with Delta > 0) in d.fe_index; its
+// number. Zeroes d.forces and d.slice_stiffness of all n candidates.
+int fe_select(gm_data& d, int n, bool all) {
+  int na = 0;
+  for (int i = 0; i < n; ++i) {
+    d.forces[i] = 0;
+    d.slice_stiffness[i] = 0;
+    if (all || d.approach[i] > 0) d.fe_index[na++] = i;
+  }
+  return na;
+}
+
+// The solved set's identities, local laws, approaches and TE gains, its compliance C (cached
+// assembly), and the warm start: the previous call's forces when the candidates are the same.
+void fe_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na) {
+  const ContactSlice* S = d.slices.data();
+  for (int a = 0; a < na; ++a) {
+    const ContactSlice& sa = S[d.fe_index[a]];
+    d.fe_key[a] = ((static_cast<long long>(sa.tooth[0]) * 100003 + sa.tooth[1]) * 2 +
+                   (sa.flank > 0)) * 4099 + a;
+    d.fe_laws[a] = d.laws[d.fe_index[a]].local;
+    d.fe_delta[a] = d.approach[d.fe_index[a]];
+    d.fe_weights[a] = sa.te_gain;
+  }
+  const double uz[2] = {kin.u[0][2], kin.u[1][2]};
+  d.fe_assembly.assemble(fe_view(m), S, d.fe_index.data(), na, uz, d.fe_compliance);
+  bool same = d.fe_prev_n == na;
+  for (int a = 0; same && a < na; ++a) same = d.fe_key[a] == d.fe_prev_key[a];
+  if (!same) d.fe_force.head(na).setZero();
+  for (int a = 0; a < na; ++a) d.fe_prev_key[a] = d.fe_key[a];
+  d.fe_prev_n = na;
+}
+
+// The solver's options for this call.
+void fe_set_options(const gm_model& m, gm_data& d, int na) {
+  NlcpOptions opt = d.nlcp->options();
+  // NlcpSolver's own tolerances (1e-15 m + 1e-10 |Delta|): model.solver_tolerance (1e-10 m by
+  // default) on the rigid approach would leave the load balance ~1e-5 off
+  opt.tolerance = std::min(opt.tolerance, m.params.solver_tolerance);
+  // The relative part on the approaches that can load a slice: the open candidates of the
+  // quasi-static solve (backlash gaps of ~100 um) would loosen it by their size. A
+  // model.solver_tolerance below the absolute part (1e-15 m) tightens it in proportion.
+  double closing = 0, all_max = 0;
+  for (int a = 0; a < na; ++a) {
+    closing = std::max(closing, d.fe_delta[a]);
+    all_max = std::max(all_max, std::fabs(d.fe_delta[a]));
+  }
+  const double rel = kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-15);
+  opt.relative_tolerance = all_max > 0 && closing > 0 ? rel * closing / all_max : rel;
+  opt.max_iterations = m.params.solver_max_iterations;
+  d.nlcp->set_options(opt);
+}
+
+// Quasi-static at zero load: the rigid approach at which the first slice a positive load would
+// close touches; no force.
+double fe_touch_lambda(gm_data& d, int na) {
+  double lambda = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < na; ++a)
+    if (d.fe_weights[a] > 0) lambda = std::min(lambda, -d.fe_delta[a] / d.fe_weights[a]);
+  if (!std::isfinite(lambda)) lambda = 0;
+  d.fe_force.head(na).setZero();
+  return lambda;
+}
+
+// Quasi-static under load: w^T F = total with w = sign(load) te_gain; the balance b (with
+// friction) differs from w, so total is rescaled until sum b_i F_i = load. out.lambda is the
+// rigid approach.
+NlcpResult fe_solve_balanced(gm_data& d, int na, double load, ForceSolve& out) {
+  const auto Cn = d.fe_compliance.topLeftCorner(na, na);
+  const double sgn = load > 0 ? 1.0 : -1.0;
+  d.fe_weights.head(na) *= sgn;
+  double total = std::fabs(load), lambda = 0;
+  NlcpResult res;
+  for (int outer = 0; outer < 30; ++outer) {
+    lambda = 0;
+    res = d.nlcp->solve_total(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_weights.head(na),
+                              total, d.fe_force.head(na), lambda);
+    out.iterations += res.iterations;
+    if (res.status != NlcpStatus::converged) break;
+    double bal = 0;
+    for (int a = 0; a < na; ++a) bal += d.balance[d.fe_index[a]] * d.fe_force[a];
+    if (!(bal * sgn > 0)) break;
+    if (std::fabs(bal - load) <= 1e-12 * std::fabs(load)) break;
+    total *= load / bal;
+  }
+  out.lambda = sgn * lambda;
+  return res;
+}
+
+// Forces, and each loaded slice's tangent stiffness: row sums of (C_AA + diag f'_A)^-1, so
+// that their sum is the mesh stiffness under a uniform approach.
+void fe_store(gm_data& d, int na) {
+  const auto Cn = d.fe_compliance.topLeftCorner(na, na);
+  d.nlcp->loaded_row_sums(Cn, d.fe_force.head(na), d.fe_work.head(na));
+  for (int a = 0; a < na; ++a) {
+    d.forces[d.fe_index[a]] = d.fe_force[a];
+    d.slice_stiffness[d.fe_index[a]] = d.fe_work[a];
+  }
+}
+
+}  // namespace
+
+ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool all,
+                    bool quasi, double load) {
+  ForceSolve out;
+  const ContactSlice* S = d.slices.data();
+  const int na = fe_select(d, n, all);
+  if (na == 0) {
+    if (quasi) {  // no candidate: nothing to balance
+      out.converged = false;
+      out.message = "no candidate slice to carry the load";
+    }
+    d.fe_prev_n = 0;
+    return out;
+  }
+  fe_gather(m, d, kin, na);
+  fe_set_options(m, d, na);
+  NlcpResult res;
+  if (!quasi) {
+    const auto Cn = d.fe_compliance.topLeftCorner(na, na);
+    res = d.nlcp->solve(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_force.head(na));
+    out.iterations = res.iterations;
+  } else if (load == 0) {
+    out.lambda = fe_touch_lambda(d, na);
+    for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
+    return out;
+  } else {
+    res = fe_solve_balanced(d, na, load, out);
+    for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
+  }
+  out.residual = res.residual;
+  if (res.status != NlcpStatus::converged) {
+    out.converged = false;
+    out.message = res.message && *res.message ? res.message
+                                               : "level 5 (FE): the coupled force solve did not "
+                                                 "converge; raise model.solver_max_iterations";
+    return out;
+  }
+  fe_store(d, na);
+  return out;
+}
+
+// Level 5 quasi-static: the TE to detect at first. The solved TE is a smooth function of gear
+// 1's angle between mesh events, so it is extrapolated linearly from the last two solves when
+// they were made at the same load torque and this step is no longer than twice theirs; else
+// the last solved TE. Only where the pass loop starts: the answer is the same fixed point (to
+// the pass loop's tolerance), reached with fewer solver iterations and passes.
+double predicted_te(gm_data& d, double phi, double load_torque) {
+  gm_data::TeHistory& h = d.te_history;
+  if (d.fe_prev_n < 0) h.n = 0;  // reset or restored state: cold
+  if (h.n < 2 || h.load[0] != load_torque || h.load[1] != load_torque) return d.te_estimate;
+  const double step = h.phi[0] - h.phi[1];
+  if (step == 0 || std::fabs(phi - h.phi[0]) > 2 * std::fabs(step)) return d.te_estimate;
+  return d.te_estimate + (h.te[0] - h.te[1]) / step * (phi - h.phi[0]);
+}
+
+void record_te(gm_data& d, double phi, double te, double load_torque) {
+  gm_data::TeHistory& h = d.te_history;
+  if (h.n > 0 && phi == h.phi[0] && load_torque == h.load[0]) {  // the same pose again
+    h.te[0] = te;
+    return;
+  }
+  h.phi[1] = h.phi[0];
+  h.te[1] = h.te[0];
+  h.load[1] = h.load[0];
+  h.phi[0] = phi;
+  h.te[0] = te;
+  h.load[0] = load_torque;
+  h.n = std::min(h.n + 1, 2);
+}
+
+}  // namespace gm

@@ -1,0 +1,24 @@
+// The force-solve stage of level 5 (fe_solve.cpp): the coupled solve over the candidates with
+// the compliance C of the databases (docs/physics.md §5), and the quasi-static TE history that
+// predicts its first pass.
+#pragma once
+
+#include "model.hpp"
+
+namespace gm {
+
+// The coupled solve of level 5 over the candidates (all: every candidate, the quasi-static
+// setting; else those with Delta > 0). Plain (quasi false): forces for the approaches
+// d.approach. Quasi-static: the rigid approach lambda along te_gain with sum_i b_i F_i = load
+// (b: d.balance), added to d.approach. Writes d.forces and d.slice_stiffness for all n
+// candidates (0 where not loaded).
+ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool all,
+                    bool quasi, double load);
+
+// Level 5 quasi-static: the TE to detect at first (extrapolated from the last two solves).
+double predicted_te(gm_data& d, double phi, double load_torque);
+
+// Level 5 quasi-static: record a solved TE at gear 1's angle phi and the load torque.
+void record_te(gm_data& d, double phi, double te, double load_torque);
+
+}  // namespace gm

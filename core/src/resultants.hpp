@@ -1,0 +1,141 @@
+// The output stage of the evaluation, over double and over dual numbers: elastic energy,
+// forces, moments and the other outputs from solved slice forces, and the quasi-static
+// load-balance weights (docs/physics.md §6, §7). Templates defined here so that the evaluation
+// inlines them.
+#pragma once
+
+#include <cmath>
+#include <type_traits>
+
+#include <Eigen/Geometry>
+
+#include "model.hpp"
+
+namespace gm {
+
+// The Real outputs of gm_result over a scalar type, and the integer ones.
+template <class T>
+struct ResultT {
+  T force[2][3] = {};
+  T moment[2][3] = {};
+  T normal_force = 0, stiffness = 0, friction_power = 0, max_line_load = 0;
+  T elastic_energy = 0, damping_power = 0;
+  int pairs_in_contact = 0, flank = 0;
+};
+
+
+namespace resultants_detail {
+
+inline bool same_local_law(const LocalLaw& a, const LocalLaw& b) {
+  return a.width == b.width && a.reduced_radius == b.reduced_radius &&
+         a.body[0].depth == b.body[0].depth && a.body[1].depth == b.body[1].depth &&
+         a.body[0].youngs_modulus == b.body[0].youngs_modulus &&
+         a.body[1].youngs_modulus == b.body[1].youngs_modulus &&
+         a.body[0].poisson_ratio == b.body[0].poisson_ratio &&
+         a.body[1].poisson_ratio == b.body[1].poisson_ratio;
+}
+
+}  // namespace resultants_detail
+
+// Elastic potential of the loaded slices at solved forces, J: U = sum_i int_0^Delta_i F dDelta.
+// With the complementary energy Psi(F) = F.C.F/2 + sum_i P_i(F_i) (C the coupled compliance of
+// level 5, or diag(c_i); P_i = int f_i) and C F + f(F) = Delta on the loaded set,
+// U = F.Delta - Psi(F) = sum_i [F_i (Delta_i + f_i(F_i))/2 - P_i(F_i)]: one formula for every
+// level that needs no C. It holds along the solution, so the same formula over dual numbers (with
+// the implicit derivative of F) is U's exact derivative. Forces before damping.
+template <class T>
+T elastic_energy(const ContactSliceT<T>* slices, const SliceLawT<T>* laws, const T* forces, int n) {
+  T u = 0, last = 0;
+  for (int i = 0; i < n; ++i) {
+    const T& F = forces[i];
+    if (!(F > 0)) continue;
+    if constexpr (std::is_same_v<T, double>) {
+      // the next slice of an aligned spur pair: the same law, force and approach, the same term
+      if (i > 0 && F == forces[i - 1] && slices[i].approach == slices[i - 1].approach &&
+          resultants_detail::same_local_law(laws[i].local, laws[i - 1].local)) {
+        u += last;
+        continue;
+      }
+    }
+    LocalLawValueT<T> local;  // zero without a local law
+    if (laws[i].local.width > 0) local = local_law_value(laws[i].local, F);
+    last = 0.5 * F * (slices[i].approach + local.approach) - local.energy;
+    u += last;
+  }
+  return u;
+}
+
+// Forces, moments and the other outputs from solved slice forces.
+template <class T, class K>
+void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
+                const T* slice_stiffness, const K& kin, int n, ResultT<T>& r) {
+  GM_AD_USING;
+  using std::fmax;
+  using V3 = Eigen::Matrix<T, 3, 1>;
+  const MeshLayout& L = m.layout;
+  const double cb2 = L.cos_beta_b * L.cos_beta_b;
+  const V3 c[2] = {V3(kin.u[0][0], kin.u[0][1], kin.u[0][2]),
+                   V3(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2])};
+  V3 f[2] = {V3::Zero(), V3::Zero()};
+  V3 mom[2] = {V3::Zero(), V3::Zero()};
+  const double mu = m.params.friction_coefficient, v0 = m.params.friction_velocity;
+  int last_loaded_pair = -1;
+  for (int i = 0; i < n; ++i) {
+    const ContactSliceT<T>& s = slices[i];
+    T F = forces[i];
+    if (F <= 0) continue;
+    // contact damping on the normal approach rate, loaded slices only, never adhesive (docs/physics.md §7)
+    if (m.params.damping != 0) {
+      const T damped = fmax(T(0.0), T(F + m.params.damping * s.width * s.approach_rate));
+      r.damping_power += (damped - F) * s.approach_rate;  // the damper's force times its rate
+      F = damped;
+    }
+    forces[i] = F;
+    V3 on2 = F * s.normal;  // gear 1 pushes gear 2 along the normal
+    if (mu != 0) {
+      // regularized Coulomb friction along the profile tangent, opposing the sliding of the
+      // flanks (docs/physics.md §7); evaluated from the converged normal forces
+      const T friction = mu * F * tanh(s.sliding_velocity / v0);
+      on2 += friction * s.tangent;
+      r.friction_power += friction * s.sliding_velocity;
+    }
+    f[1] += on2;
+    f[0] -= on2;
+    mom[1] += (s.point - c[1]).cross(on2);
+    mom[0] -= (s.point - c[0]).cross(on2);
+    r.normal_force += F;
+    r.stiffness += slice_stiffness[i] * cb2;  // along the transverse line of action
+    r.flank |= s.flank > 0 ? 1 : 2;
+    r.max_line_load = fmax(r.max_line_load, T(F / s.width));
+    if (s.pair != last_loaded_pair) {
+      ++r.pairs_in_contact;
+      last_loaded_pair = s.pair;
+    }
+  }
+  for (int i = 0; i < 2; ++i) {
+    for (int a = 0; a < 3; ++a) {
+      r.force[i][a] = f[i][a];
+      r.moment[i][a] = mom[i][a];
+    }
+  }
+}
+
+// Load-balance weights of the quasi-static solve: the moment of a slice's unit normal force
+// (with its friction) about gear 2's axis, as a force along the TE coordinate (docs/physics.md §6).
+template <class T, class K>
+void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K& kin, int n,
+                     T* balance) {
+  GM_AD_USING;
+  using V3 = Eigen::Matrix<T, 3, 1>;
+  const MeshLayout& L = m.layout;
+  const V3 c2(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2]);
+  const double mu = m.params.friction_coefficient, v0 = m.params.friction_velocity;
+  for (int i = 0; i < n; ++i) {
+    const ContactSliceT<T>& s = slices[i];
+    V3 dir = s.normal;
+    if (mu != 0) dir += T(mu * tanh(s.sliding_velocity / v0)) * s.tangent;
+    balance[i] = -(s.point - c2).cross(dir).z() / (L.sign * L.base_radius[1]);
+  }
+}
+
+}  // namespace gm
