@@ -11,19 +11,14 @@ from __future__ import annotations
 
 import argparse
 import csv
-import datetime
 import json
-import os
 import pathlib
-import platform
-import subprocess
-import sys
 import time
 
 import numpy as np
 
-from . import analysis, ccx, run3d, scene
-from .report import _changes, _cost, _g, _git_commit, _portable_args
+from . import analysis, run3d, scene
+from .report import _changes, _cost, _g, provenance
 
 
 def run_scene(path, out_dir, n, models, torques, study_every, study_models, friction, cache,
@@ -93,16 +88,8 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
                             _g(s["pp_te_m"]), _g(s["order1_m"]), _g(s["order2_m"]),
                             _g(s["order3_m"])])
     pr = base_model.pair
-    repo = pathlib.Path(__file__).resolve().parents[1]
     prov = {
-        "scene": spec.name,
-        "scene_file": pathlib.Path(path).name,
-        "command": "python -m reference_fe " + " ".join(_portable_args(sys.argv[1:])),
-        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": _git_commit(repo),
-        "ccx_version": ccx.ccx_version(),
-        "python": platform.python_version(),
-        "gmsh_version": __import__("gmsh").__version__,
+        **provenance(spec.name, path),
         "model": {
             "description": "2-D, both complete gears to the bore, CPE6 (plane stress by the "
                            "equivalent plane-strain material), gear 2's bore clamped, gear 1's "

@@ -15,7 +15,7 @@ triangle6 (corners, then the mid-sides of edges 1-2, 2-3, 3-1) is CalculiX's CPE
 """
 from __future__ import annotations
 
-import math
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -237,6 +237,25 @@ def surface_elements(surf: int, gmsh_types):
     return xy, blocks, index
 
 
+@contextlib.contextmanager
+def gmsh_model(name: str, verbose: bool = False):
+    """A gmsh model named `name` for the block (gmsh initialized for it unless it already
+    is); removed afterwards, gmsh finalized again if this started it."""
+    import gmsh
+
+    own = not gmsh.isInitialized()
+    if own:
+        gmsh.initialize(["-noenv"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
+        gmsh.model.add(name)
+        yield
+    finally:
+        gmsh.model.remove()
+        if own:
+            gmsh.finalize()
+
+
 def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> GearMesh:
     """Mesh the whole gear g; teeth `fine` (indices, tooth k centred at k 2 pi / z) are the
     refined ones whose flank A and tip form the contact surface."""
@@ -245,12 +264,7 @@ def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> Ge
     prof = modified_profile(g)
     z = g.z
     fine = sorted({k % z for k in fine})
-    own = not gmsh.isInitialized()
-    if own:
-        gmsh.initialize(["-noenv"])
-    try:
-        gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
-        gmsh.model.add(f"gear{g.index}")
+    with gmsh_model(f"gear{g.index}", verbose):
         occ = gmsh.model.occ
         ol = add_teeth(occ, g, prof, range(z), fine, closed=True)
         outer = occ.addCurveLoop(ol.curves)
@@ -269,7 +283,3 @@ def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> Ge
         faces = edge_faces([tri], index, ol.contact)
         return GearMesh(nodes=xy, tri6=tri, bore=bore, contact_faces=faces,
                         contact_teeth=fine)
-    finally:
-        gmsh.model.remove()
-        if own:
-            gmsh.finalize()

@@ -108,12 +108,7 @@ def section(g: Gear, size: Size3D, teeth, fine, hold_cuts=True, verbose=False):
     import gmsh
 
     prof = modified_profile(g)
-    own = not gmsh.isInitialized()
-    if own:
-        gmsh.initialize(["-noenv"])
-    try:
-        gmsh.option.setNumber("General.Terminal", 1 if verbose else 0)
-        gmsh.model.add(f"sector{g.index}")
+    with mesh.gmsh_model(f"sector{g.index}", verbose):
         occ = gmsh.model.occ
         ol = mesh.add_teeth(occ, g, prof, teeth, fine, closed=False)
         a0 = (teeth[0] - 0.5) * g.tau
@@ -142,10 +137,6 @@ def section(g: Gear, size: Size3D, teeth, fine, hold_cuts=True, verbose=False):
         bore = np.array(sorted(held))
         faces = mesh.edge_faces(blocks, index, ol.contact)
         return xy, blocks, bore, faces
-    finally:
-        gmsh.model.remove()
-        if own:
-            gmsh.finalize()
 
 
 def extrude(xy: np.ndarray, blocks, b: float, layers: int):

@@ -2,13 +2,16 @@
 portable command line), CSV number format, the relative changes of a study, the cost."""
 from __future__ import annotations
 
+import datetime
 import os
 import pathlib
+import platform
 import subprocess
+import sys
 
 import numpy as np
 
-from . import analysis
+from . import analysis, ccx
 
 
 def _git_commit(path: pathlib.Path) -> str:
@@ -47,6 +50,20 @@ def _portable_args(args):
                 pass
         out.append(a)
     return out
+
+
+def provenance(scene_name: str, scene_path) -> dict:
+    """The head of a JSON provenance record: scene, command, date, commit, tool versions."""
+    return {
+        "scene": scene_name,
+        "scene_file": pathlib.Path(scene_path).name,
+        "command": "python -m reference_fe " + " ".join(_portable_args(sys.argv[1:])),
+        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "git_commit": _git_commit(pathlib.Path(__file__).resolve().parents[1]),
+        "ccx_version": ccx.ccx_version(),
+        "python": platform.python_version(),
+        "gmsh_version": __import__("gmsh").__version__,
+    }
 
 
 def _changes(base, other, torques):

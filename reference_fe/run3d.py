@@ -15,15 +15,12 @@ generation resumes. Frictionless. Regenerate only on purpose.
 from __future__ import annotations
 
 import csv
-import datetime
 import json
 import pathlib
-import platform
-import sys
 import time
 
-from . import analysis, ccx, model3d, scene
-from .report import _changes, _cost, _g, _git_commit, _portable_args
+from . import analysis, model3d, scene
+from .report import _changes, _cost, _g, provenance
 
 SECTOR_DEG = 120.0     # the base sector; the study's larger one: 240 deg
 STUDIES = (("mesh-1", {"level": -1}), ("penalty_x10", {"penalty_factor": 10.0}),
@@ -105,16 +102,8 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log):
                         _g(s["mean_te_m"]), _g(s["pp_te_m"]), _g(s["order1_m"]),
                         _g(s["order2_m"]), _g(s["order3_m"])])
     pr = base_model.pair
-    repo = pathlib.Path(__file__).resolve().parents[1]
     prov = {
-        "scene": spec.name,
-        "scene_file": pathlib.Path(path).name,
-        "command": "python -m reference_fe " + " ".join(_portable_args(sys.argv[1:])),
-        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": _git_commit(repo),
-        "ccx_version": ccx.ccx_version(),
-        "python": platform.python_version(),
-        "gmsh_version": __import__("gmsh").__version__,
+        **provenance(spec.name, path),
         "model": {
             "description": "3-D sectors of both gears (120 deg, rim to the bore), "
                            "C3D20R hexahedra (C3D15 wedges where the section mesh kept a "

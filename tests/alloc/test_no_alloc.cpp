@@ -75,17 +75,6 @@ namespace {
 
 using namespace gm_test;
 
-std::string write_text(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + "gearmesh_no_alloc_" + name;
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  EXPECT_NE(f, nullptr) << path;
-  if (f) {
-    std::fwrite(text.data(), 1, text.size(), f);
-    std::fclose(f);
-  }
-  return path;
-}
-
 // Gear 1's pitch of a z1 gear sampled by a sine of 1 um (TE table), and a stiffness table over
 // gear 1's roll angle (deg, N/(mm um)).
 std::string te_table(int z1) {
@@ -147,8 +136,8 @@ TEST_P(Evaluate, AllocatesNothingOnceWarm) {
   p.quasi_static = c.quasi_static;
   p.stiffness_level = c.level;
   const std::string tag = "l" + std::to_string(c.level) + "q" + std::to_string(c.quasi_static);
-  const std::string te_path = write_text(tag + "_te.txt", te_table(p.gear[0].teeth));
-  const std::string k_path = write_text(tag + "_k.txt", kStiffnessTable);
+  const std::string te_path = write_temp("no_alloc_" + tag + "_te.txt", te_table(p.gear[0].teeth));
+  const std::string k_path = write_temp("no_alloc_" + tag + "_k.txt", kStiffnessTable);
   p.te_table = te_path.c_str();
   if (c.level == GM_STIFFNESS_USER_VARIABLE) p.stiffness_table = k_path.c_str();
   std::string db_path[2];

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -133,6 +134,18 @@ inline std::string write_db(const std::string& name, const gm::ComplianceDb& db)
   const std::string path = ::testing::TempDir() + name;
   std::string msg;
   EXPECT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
+  return path;
+}
+
+// A text file in the test's temporary directory (name prefixed with "gearmesh_"); its path.
+inline std::string write_temp(const std::string& name, const std::string& text) {
+  const std::string path = ::testing::TempDir() + "gearmesh_" + name;
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  EXPECT_NE(f, nullptr) << path;
+  if (f) {
+    std::fwrite(text.data(), 1, text.size(), f);
+    std::fclose(f);
+  }
   return path;
 }
 

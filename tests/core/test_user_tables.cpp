@@ -44,18 +44,6 @@ std::string read_text(const std::string& path) {
   return text;
 }
 
-// A file in the test's temporary directory; its path.
-std::string write_temp(const std::string& name, const std::string& text) {
-  const std::string path = testing::TempDir() + "gearmesh_user_tables_" + name;
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  EXPECT_NE(f, nullptr) << path;
-  if (f) {
-    std::fwrite(text.data(), 1, text.size(), f);
-    std::fclose(f);
-  }
-  return path;
-}
-
 std::string stiffness_error(const std::string& text) {
   gm::StiffnessTable t;
   std::string msg;
@@ -361,7 +349,7 @@ std::string create_error(const gm_model_params& p) {
 }
 
 TEST(UserTables, ModelRefusesWhatItCannotUse) {
-  const std::string good = write_temp("good_k.txt", stiffness_text({{17, 15}, {29, 15}}));
+  const std::string good = write_temp("user_tables_good_k.txt", stiffness_text({{17, 15}, {29, 15}}));
   gm_model_params p = paper();
   p.stiffness_level = GM_STIFFNESS_USER_VARIABLE;
   std::string msg = create_error(p);  // level 1 without a table
@@ -372,7 +360,7 @@ TEST(UserTables, ModelRefusesWhatItCannotUse) {
   p.stiffness_table = good.c_str();
   EXPECT_EQ(create_error(p), "");
 
-  const std::string bad = write_temp("bad_k.txt", "gearmesh-stiffness-table 1\n17 15\n29 -1\n");
+  const std::string bad = write_temp("user_tables_bad_k.txt", "gearmesh-stiffness-table 1\n17 15\n29 -1\n");
   p.stiffness_table = bad.c_str();
   msg = create_error(p);
   EXPECT_EQ(msg.rfind("model.stiffness_table: " + bad + ":3: stiffness -1", 0), 0u) << msg;
@@ -382,13 +370,13 @@ TEST(UserTables, ModelRefusesWhatItCannotUse) {
   EXPECT_EQ(msg.rfind("model.stiffness_table: /nonexistent/k.txt: cannot open", 0), 0u) << msg;
 
   // radians instead of degrees: the table misses gear 1's active profile (17.7 .. 28.2 deg)
-  const std::string radians = write_temp("rad_k.txt", stiffness_text({{0.3, 15}, {0.5, 15}}));
+  const std::string radians = write_temp("user_tables_rad_k.txt", stiffness_text({{0.3, 15}, {0.5, 15}}));
   p.stiffness_table = radians.c_str();
   msg = create_error(p);
   EXPECT_NE(msg.find("model.stiffness_table"), std::string::npos) << msg;
   EXPECT_NE(msg.find("active profile, 17.65"), std::string::npos) << msg;
   EXPECT_NE(msg.find("allowed"), std::string::npos) << msg;
-  const std::string beyond = write_temp("beyond_k.txt", stiffness_text({{28.5, 15}, {40, 15}}));
+  const std::string beyond = write_temp("user_tables_beyond_k.txt", stiffness_text({{28.5, 15}, {40, 15}}));
   p.stiffness_table = beyond.c_str();
   EXPECT_NE(create_error(p).find("miss gear 1's active profile"), std::string::npos);
 
@@ -408,7 +396,7 @@ TEST(UserTables, ModelRefusesWhatItCannotUse) {
   EXPECT_EQ(msg.rfind("gear1.compliance = \"\"", 0), 0u) << msg;
 
   // the TE table: bad file named with its parameter, at any level
-  const std::string bad_te = write_temp("bad_te.txt", "gearmesh-te-table 1\n0 1\n7 1\n");
+  const std::string bad_te = write_temp("user_tables_bad_te.txt", "gearmesh-te-table 1\n0 1\n7 1\n");
   q = paper();
   q.te_table = bad_te.c_str();
   msg = create_error(q);
@@ -418,8 +406,8 @@ TEST(UserTables, ModelRefusesWhatItCannotUse) {
 }
 
 TEST(UserTables, PathsAreReadAtCreationAndNotKept) {
-  const std::string k = write_temp("kept_k.txt", stiffness_text({{17, 15}, {29, 15}}));
-  const std::string te = write_temp("kept_te.txt", sine_te_text(57, 24, 1.0));
+  const std::string k = write_temp("user_tables_kept_k.txt", stiffness_text({{17, 15}, {29, 15}}));
+  const std::string te = write_temp("user_tables_kept_te.txt", sine_te_text(57, 24, 1.0));
   gm_model_params p = paper();
   p.stiffness_level = GM_STIFFNESS_USER_VARIABLE;
   p.stiffness_table = k.c_str();
@@ -435,7 +423,7 @@ TEST(UserTables, PathsAreReadAtCreationAndNotKept) {
 // Level 1 with a constant table of 15 N/(mm um) is level 0 with k' = 1.5e10 N/m^2: the same
 // results bit for bit over a pitch, spur and helical with slices, flank A and flank B.
 TEST(UserTables, ConstantTableReproducesLevelZero) {
-  const std::string path = write_temp("const_k.txt", stiffness_text({{0, 15}, {40, 15}}));
+  const std::string path = write_temp("user_tables_const_k.txt", stiffness_text({{0, 15}, {40, 15}}));
   gm_model_params spur = paper();
   gm_model_params helical = paper();
   helical.pair.helix_angle = 15 * kPi / 180;
@@ -482,7 +470,7 @@ TEST(UserTables, ConstantTableReproducesLevelZero) {
 // A table linear in roll angle, k(theta) = (theta/deg - 5) N/(mm um): each loaded slice gets the
 // stiffness at its own roll angle roll[0]/r_b1, found here by detection itself.
 TEST(UserTables, LinearTableGivesEachSliceTheStiffnessAtItsRollAngle) {
-  const std::string path = write_temp("linear_k.txt", stiffness_text({{10, 5}, {40, 35}}));
+  const std::string path = write_temp("user_tables_linear_k.txt", stiffness_text({{10, 5}, {40, 35}}));
   const auto k_of = [](double roll_angle) { return (roll_angle / kDeg - 5) * kNmmUm; };
   // spur, single contact near the pitch point: F = k(theta) b TE, mesh stiffness k(theta) b
   gm_model_params p = paper();
@@ -537,8 +525,8 @@ TEST(UserTables, LinearTableGivesEachSliceTheStiffnessAtItsRollAngle) {
 // at every phi1, at every level.
 TEST(UserTables, UnloadedTeIsTheTeTableAtEveryLevel) {
   const int rows = 24;
-  const std::string te_path = write_temp("sine_te.txt", sine_te_text(57, rows, 1.0));
-  const std::string k_path = write_temp("level1_k.txt", stiffness_text({{17, 12}, {23, 15.5}, {29, 12}}));
+  const std::string te_path = write_temp("user_tables_sine_te.txt", sine_te_text(57, rows, 1.0));
+  const std::string k_path = write_temp("user_tables_level1_k.txt", stiffness_text({{17, 12}, {23, 15.5}, {29, 12}}));
   for (int level : {0, 1, 2, 3, 4}) {
     gm_model_params p = paper();
     p.quasi_static = 1;
@@ -563,7 +551,7 @@ TEST(UserTables, UnloadedTeIsTheTeTableAtEveryLevel) {
 // shifted by -TE_exc (A) and +TE_exc (B): both flanks open by TE_exc.
 TEST(UserTables, TeExcitationShiftsTheLoadedTeAndOpensBothFlanks) {
   const int rows = 24;
-  const std::string te_path = write_temp("sine_te_loaded.txt", sine_te_text(57, rows, 1.0));
+  const std::string te_path = write_temp("user_tables_sine_te_loaded.txt", sine_te_text(57, rows, 1.0));
   gm_model_params plain = paper();
   plain.quasi_static = 1;
   for (auto& g : plain.gear)  // keep the tip edges off the mate, as in test_forces
@@ -608,7 +596,7 @@ TEST(UserTables, TeExcitationShiftsTheLoadedTeAndOpensBothFlanks) {
 // The excitation's rate enters the approach rate: damping sees d(TE_exc)/dt = slope omega_1.
 TEST(UserTables, TeExcitationRateEntersTheDamping) {
   // rises by 1 um/deg from 0 to 3 deg, falls back to 0 over the rest of the pitch (360/57 deg)
-  const std::string te_path = write_temp("ramp_te.txt", "gearmesh-te-table 1\n0 0\n3 3\n");
+  const std::string te_path = write_temp("user_tables_ramp_te.txt", "gearmesh-te-table 1\n0 0\n3 3\n");
   gm_model_params p = paper();
   p.damping = 2e4;
   gm_model_params q = p;

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import shutil
 
 import pytest
 
@@ -52,3 +53,11 @@ def new(fmu_dir, md):
     yield make
     for inst in made:
         inst.free()
+
+
+@pytest.fixture
+def ccx_installed():
+    """CalculiX on the path; a failure, not a skip, when it is missing (tools/bootstrap.sh
+    installs calculix-ccx)."""
+    if shutil.which("ccx") is None:
+        pytest.fail("CalculiX (ccx) not installed: tools/bootstrap.sh installs calculix-ccx")

@@ -10,7 +10,7 @@ import os
 import struct
 import threading
 import time
-from ctypes import POINTER, byref, c_char, c_double, c_size_t, c_ubyte, cast, create_string_buffer
+from ctypes import POINTER, byref, c_double, c_size_t, c_ubyte, cast, create_string_buffer
 
 import pytest
 from fmpy.fmi1 import FMICallException

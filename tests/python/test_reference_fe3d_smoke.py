@@ -21,7 +21,6 @@ from __future__ import annotations
 import csv
 import math
 import pathlib
-import shutil
 import sys
 import tempfile
 
@@ -33,10 +32,7 @@ sys.path.insert(0, str(REPO))
 from reference_fe import mesh3d, model3d, scene  # noqa: E402
 
 
-@pytest.fixture(autouse=True)
-def _ccx_installed():
-    if shutil.which("ccx") is None:   # a failure, not a skip: bootstrap must install it
-        pytest.fail("CalculiX (ccx) not installed: tools/bootstrap.sh installs calculix-ccx")
+pytestmark = pytest.mark.usefixtures("ccx_installed")
 
 
 def te_2d(model: str, torque: float, position: int = 0) -> float:

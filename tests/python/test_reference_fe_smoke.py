@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import pathlib
-import shutil
 import sys
 import tempfile
 
@@ -34,10 +33,7 @@ from reference_fe import analysis, mesh, scene  # noqa: E402
 
 
 
-@pytest.fixture(autouse=True)
-def _ccx_installed():
-    if shutil.which("ccx") is None:   # a failure, not a skip: bootstrap must install it
-        pytest.fail("CalculiX (ccx) not installed: tools/bootstrap.sh installs calculix-ccx")
+pytestmark = pytest.mark.usefixtures("ccx_installed")
 
 
 def iso_single_pair_stiffness(spec: scene.PairSpec, torque: float, rb1: float) -> float:

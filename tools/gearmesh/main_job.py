@@ -71,8 +71,9 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
     with GearMeshFMU(fmu_path, instance_name=scene.name) as fmu:
         rev = revolution_at_approach(fmu, run["approach_um"], run["points_per_pitch"],
                                      progress=f"{scene.name}: revolution")
-    loaded, loaded_by_level = None, {}
-    for level, path in fmus.items() if run["torques_Nm"] else ():
+    loaded_by_level = {}
+    swept = fmus if run["torques_Nm"] else {}  # the loaded TE per level
+    for level, path in swept.items():
         with GearMeshFMU(path, {"model.quasi_static": True}, instance_name=scene.name) as fmu:
             loaded_by_level[level] = loaded_te_sweep(
                 fmu, run["torques_Nm"], run["speed_rpm"], run["te_pitches"],

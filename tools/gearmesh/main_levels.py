@@ -13,6 +13,7 @@ import numpy as np
 
 from gearmesh.accuracy_reference import (curve_error, errors, positions_path, read_positions,
                                          read_summary, summary_path)
+from gearmesh.accuracy_report import pct
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.compliance import with_databases
 from gearmesh.prescribed_motion import mesh_order_amplitudes
@@ -123,9 +124,5 @@ def accuracy_lines(name: str, fmus: dict[int, pathlib.Path],
             cell = {r["quantity"]: r["band_error"] for r in rows
                     if r["level"] == level and r["torque_Nm"] == torque}
             lines.append(f"| {level} | {torque:g} | " + " | ".join(
-                _pct(cell.get(q, math.nan)) for q in ("mean", "pp", "order1", "curve")) + " |")
+                pct(cell.get(q, math.nan)) for q in ("mean", "pp", "order1", "curve")) + " |")
     return lines + [""], rows
-
-
-def _pct(x: float) -> str:
-    return "n/a" if not math.isfinite(x) else f"{100 * x:+.1f} %"

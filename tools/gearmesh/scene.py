@@ -29,8 +29,9 @@ class Key:
     factor: float = 1.0  # scene unit -> SI
     lo: float = -math.inf
     hi: float = math.inf
-    kind: type = float   # float, int, bool, str or list (of floats)
+    kind: type = float   # float, int, bool, str or list (of `item`)
     unit: str = ""       # the unit the key's name carries, for messages
+    item: type = float   # a list's items: float or int
 
 
 DEG = math.pi / 180.0
@@ -131,7 +132,7 @@ RUN_SCHEMA: dict[str, Key] = {
     "speed_rpm": Key("", 2 * 3.141592653589793 / 60, -1e5, 1e5, unit="rpm"),
     "te_pitches": Key("", 1, 1, 1000, kind=int),
     "friction_sweep": Key("", 1.0, 0.0, 2.0, kind=list),
-    "levels": Key("", 1, 0, 5, kind=list),  # stiffness levels of the main job's loaded TE
+    "levels": Key("", 1, 0, 5, kind=list, item=int),  # stiffness levels of the main job's loaded TE
 }
 
 
@@ -154,7 +155,8 @@ def _convert(where: str, key: Key, value):
         if not isinstance(value, list) or not value:
             raise SceneError(f"{where} = {_short(value)}: expected a non-empty list of numbers")
         return [_convert(f"{where}[{i}]", Key(key.variable, key.factor, key.lo, key.hi,
-                                              unit=key.unit), v) for i, v in enumerate(value)]
+                                              kind=key.item, unit=key.unit), v)
+                for i, v in enumerate(value)]
     if key.kind is str:
         if not isinstance(value, str) or not value:
             raise SceneError(f"{where} = {_short(value)}: expected a non-empty file name")

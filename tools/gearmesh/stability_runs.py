@@ -21,7 +21,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import pathlib
-import tempfile
 import time
 from dataclasses import dataclass, field
 
@@ -32,7 +31,7 @@ from fmpy.fmi1 import FMICallException
 from gearmesh.drivetrain import Drivetrain, DrivetrainPlant, Integrator
 from gearmesh.fmu_driver import FMUError, GearMeshFMU, _unpacked
 from gearmesh.gear_pair import GearPair, GearPairPlant, Shaft
-from gearmesh.stability_cases import SETTLE, SHAFT_C, SHAFT_K, Case, Geometry, driven_pair
+from gearmesh.stability_cases import SHAFT_C, SHAFT_K, Case, Geometry, driven_pair
 
 MODES = ["explicit", "implicit", "large_step", "large_step_chain"]
 CHAIN_J, CHAIN_KP, CHAIN_KI = 2.0, 50.0, 500.0
@@ -381,8 +380,9 @@ class ChainSide:
     def shafts(self, t: float) -> tuple[Shaft, Shaft]:
         """The shafts with their far ends moving from t as the FMU moves them over a step."""
         u = self.inputs(t)
-        return tuple(dataclasses.replace(s, phi0=u[f"gear{i}.shaft_phi"] - u[f"gear{i}.shaft_omega"] * t,
-                                         omega=u[f"gear{i}.shaft_omega"])
+        return tuple(Shaft(s.stiffness, s.damping,
+                           phi0=u[f"gear{i}.shaft_phi"] - u[f"gear{i}.shaft_omega"] * t,
+                           omega=u[f"gear{i}.shaft_omega"])
                      for i, s in ((1, self.shaft1), (2, self.shaft2)))
 
     def advance(self, t: float, dt: float, shaft_torque1: float, shaft_torque2: float) -> None:
