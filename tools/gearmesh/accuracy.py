@@ -1,6 +1,6 @@
 """`gearmesh accuracy`: the error of every setting (stiffness level, slices, coupled teeth) against
-the FE reference of scenarios/reference/ (reference_fe/README.md), with its cost per evaluation
-measured in the same run. Writes accuracy.md, accuracy.csv and accuracy_pareto.png to the output
+the FE references of scenarios/reference/ (reference_fe/README.md: the 2-D band of whole gears
+and the 3-D sectors), with its cost per evaluation measured in the same run. Writes accuracy.md, accuracy.csv and accuracy_pareto.png to the output
 folder (docs/validation.md)."""
 from __future__ import annotations
 
@@ -10,8 +10,9 @@ import sys
 from tqdm import tqdm
 
 from gearmesh import accuracy_iso, accuracy_ledger, accuracy_report, accuracy_settings
-from gearmesh.accuracy_reference import (ReferenceError, curve_error, errors, positions_path,
-                                         read_positions, read_summary, summary_path)
+from gearmesh.accuracy_reference import (KINDS, Reference, ReferenceError, curve_error, errors,
+                                         positions_path, read_positions, read_summary,
+                                         summary_path)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.accuracy_timing import round_trip
 from gearmesh.scene import Scene
@@ -70,41 +71,68 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
     return fmu, plan
 
 
+def references(scene: Scene, reference_dir: pathlib.Path | None) -> list[Reference]:
+    """The scene's 2-D and 3-D references that exist in the folder."""
+    folder = reference_dir or default_reference_dir(scene)
+    found = []
+    for kind in KINDS:
+        path = summary_path(folder, scene.name, kind)
+        if path.is_file():
+            reference = read_summary(path)
+            if reference.scene != scene.name:
+                raise ReferenceError(f"{path}: rows of scene {reference.scene!r}, not "
+                                     f"{scene.name!r}")
+            found.append(reference)
+    return found
+
+
+def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, preset: str,
+            round_trip_s: float, repeats: int, progress: bool) -> list[dict]:
+    """The rows of every setting of the plan against one reference."""
+    torques = accuracy_settings.torques(preset, reference.torques)
+    curves = read_positions(positions_path(reference.path.parent, scene.name, reference.kind),
+                            reference.n_positions)
+    rows = []
+    for setting, values in tqdm(plan, desc=f"{scene.name} ({reference.kind})",
+                                disable=not progress, leave=False):
+        result = sweep(fmu, values, torques, reference.n_positions, repeats)
+        cost = {"plain_us": (result.plain_step - round_trip_s) * 1e6,
+                "plain_raw_us": result.plain_step * 1e6,
+                "quasi_static_us": (result.qs_step - round_trip_s) * 1e6,
+                "quasi_static_raw_us": result.qs_step * 1e6, "round_trip_us": round_trip_s * 1e6}
+        for torque in torques:
+            curve = curve_error(curves, torque, result.te[torque], reference.models)
+            for e in errors(reference, torque, result.summary[torque]) + ([curve] if curve else []):
+                rows.append({"scene": scene.name, "reference": reference.kind,
+                             "setting": setting.label, "level": setting.level,
+                             "slices": setting.slices,
+                             "coupled_teeth": "" if setting.coupled is None else setting.coupled,
+                             "torque_Nm": torque, **e, **cost})
+    return rows
+
+
 def run(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
         reference_dir: pathlib.Path | None, preset: str, repeats: int = 2,
         progress: bool = True) -> tuple[list[dict], list[str]]:
-    """The tidy rows (accuracy_report.COLUMNS) of every scene with a reference, and the notes."""
+    """The tidy rows (accuracy_report.COLUMNS) of every scene with a reference (2-D, 3-D or
+    both), and the notes."""
     notes: list[str] = []
     rows: list[dict] = []
     base = round_trip(generic_fmu)
     notes.append(f"bare fmpy round trip (fmi2DoStep without contact work): {base * 1e6:.1f} µs")
     for scene in scenes:
-        path = summary_path(reference_dir or default_reference_dir(scene), scene.name)
-        if not path.is_file():
-            notes.append(f"{scene.name}: skipped, no reference summary {path.name} in "
-                         f"{path.parent}")
+        found = references(scene, reference_dir)
+        if not found:
+            folder = reference_dir or default_reference_dir(scene)
+            notes.append(f"{scene.name}: skipped, no reference summary "
+                         f"{summary_path(folder, scene.name).name} or "
+                         f"{summary_path(folder, scene.name, '3d').name} in {folder}")
             continue
-        reference = read_summary(path)
-        if reference.scene != scene.name:
-            raise ReferenceError(f"{path}: rows of scene {reference.scene!r}, not {scene.name!r}")
-        torques = accuracy_settings.torques(preset, reference.torques)
-        curves = read_positions(positions_path(path.parent, scene.name), reference.n_positions)
         folder = out / scene.name
         folder.mkdir(parents=True, exist_ok=True)
         fmu, plan = scene_fmu(scene, generic_fmu, folder, preset, notes)
-        for setting, values in tqdm(plan, desc=scene.name, disable=not progress, leave=False):
-            result = sweep(fmu, values, torques, reference.n_positions, repeats)
-            cost = {"plain_us": (result.plain_step - base) * 1e6,
-                    "plain_raw_us": result.plain_step * 1e6,
-                    "quasi_static_us": (result.qs_step - base) * 1e6,
-                    "quasi_static_raw_us": result.qs_step * 1e6, "round_trip_us": base * 1e6}
-            for torque in torques:
-                curve = curve_error(curves, torque, result.te[torque])
-                for e in errors(reference, torque, result.summary[torque]) + ([curve] if curve else []):
-                    rows.append({"scene": scene.name, "setting": setting.label,
-                                 "level": setting.level, "slices": setting.slices,
-                                 "coupled_teeth": "" if setting.coupled is None else setting.coupled,
-                                 "torque_Nm": torque, **e, **cost})
+        for reference in found:
+            rows += compare(scene, reference, fmu, plan, preset, base, repeats, progress)
     return rows, notes
 
 
@@ -125,10 +153,10 @@ def main(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
     md_path = out / "accuracy.md"
     md_path.write_text(accuracy_report.markdown(entries, tolerance, notes))
     png = accuracy_report.plot(out / "accuracy_pareto.png", entries)
-    for scene in dict.fromkeys(e["scene"] for e in entries):
-        best = accuracy_report.cheapest_within([e for e in entries if e["scene"] == scene],
-                                               tolerance)
-        print(f"{scene}: cheapest within {100 * tolerance:g} %: "
+    for scene, kind in dict.fromkeys((e["scene"], e["reference"]) for e in entries):
+        best = accuracy_report.cheapest_within(
+            [e for e in entries if (e["scene"], e["reference"]) == (scene, kind)], tolerance)
+        print(f"{scene} ({kind} reference): cheapest within {100 * tolerance:g} %: "
               + (f"{best['setting']} ({100 * best['score']:.1f} %, {best['plain_us']:.1f} µs "
                  "plain)" if best else "none"))
     print(f"gearmesh accuracy: {md_path}, {csv_path}, {png}")

@@ -1,6 +1,7 @@
-"""The FE reference of a scene (reference_fe/README.md, "Outputs") and the errors against it.
+"""The FE references of a scene (reference_fe/README.md, "Outputs", "3-D cases") and the errors
+against them.
 
-`<scene>.reference_fe.summary.csv` holds, per model (plane_strain, plane_stress) and torque, the
+2-D: `<scene>.reference_fe.summary.csv` holds, per model (plane_strain, plane_stress) and torque, the
 mean, peak-to-peak and mesh orders 1-3 of the loaded TE over one pitch. The 3-D truth lies between
 the two models: the band [min, max] of the two values of each quantity. The error of a product
 value against the band is 0 inside it, else the signed distance to the nearer edge relative to
@@ -11,6 +12,12 @@ lies between the two models at every position can have a larger p-p than either 
 plane strain where two pairs carry, soft like plane stress where one does). So the TE curve is
 also compared position by position (`<scene>.reference_fe.te.csv`): the quantity "curve" is the
 worst signed distance of the product's TE to the band of the two models at the same position.
+
+3-D: `<scene>.reference_fe3d.summary.csv` holds one model (3-D sectors of both gears, a name
+starting with "3d_"); its "band" is that one value, so the band error is the relative error. Its
+mean TE is biased low by the sectors' held cut faces (reference_fe/README.md, "3-D cases"), so a
+3-D reference scores the ripple only (SCORED["3d"]: p-p and mesh orders 1-2; at its 8 positions
+per pitch order 3 aliases with order 5); mean, order 3 and curve are shown, not scored.
 """
 from __future__ import annotations
 
@@ -19,9 +26,14 @@ import math
 import pathlib
 from dataclasses import dataclass
 
-MODELS = ("plane_stress", "plane_strain")
+MODELS = ("plane_stress", "plane_strain")  # of a 2-D reference
+MODEL_3D_PREFIX = "3d_"  # the one model of a 3-D reference: 3d_spur, 3d_helical, ...
+KINDS = ("2d", "3d")
+_FILE_STEM = {"2d": "reference_fe", "3d": "reference_fe3d"}
 QUANTITIES = ("mean", "pp", "order1", "order2", "order3")  # the summary's <q>_te_m / <q>_m columns
 CURVE = "curve"  # the TE position by position against the per-position band (te.csv)
+# The quantities a reference of each kind scores (a setting's score: the largest |band error|).
+SCORED = {"2d": QUANTITIES, "3d": ("pp", "order1", "order2")}
 _COLUMNS = {"mean": "mean_te_m", "pp": "pp_te_m", "order1": "order1_m", "order2": "order2_m",
             "order3": "order3_m"}
 _REQUIRED = ("scene", "model", "torque_Nm", "n_positions", *_COLUMNS.values())
@@ -38,29 +50,43 @@ class Reference:
     n_positions: int
     # (model, torque in N m) -> quantity -> value in m
     values: dict[tuple[str, float], dict[str, float]]
+    kind: str = "2d"  # one of KINDS
+    models: tuple[str, ...] = MODELS  # 2-D: MODELS; 3-D: its one model
 
     @property
     def torques(self) -> list[float]:
         return sorted({t for _, t in self.values})
 
     def band(self, torque: float, quantity: str) -> tuple[float, float]:
-        a, b = (self.values[(m, torque)][quantity] for m in MODELS)
-        return min(a, b), max(a, b)
+        values = [self.values[(m, torque)][quantity] for m in self.models]
+        return min(values), max(values)
 
 
-def summary_path(reference_dir: pathlib.Path, scene_name: str) -> pathlib.Path:
-    return pathlib.Path(reference_dir) / f"{scene_name}.reference_fe.summary.csv"
+def summary_path(reference_dir: pathlib.Path, scene_name: str, kind: str = "2d") -> pathlib.Path:
+    return pathlib.Path(reference_dir) / f"{scene_name}.{_FILE_STEM[kind]}.summary.csv"
+
+
+def _kind_of(path: pathlib.Path, models: set[str]) -> tuple[str, tuple[str, ...]]:
+    """2-D: every model in MODELS; 3-D: one model named 3d_*."""
+    if models <= set(MODELS):
+        return "2d", MODELS
+    if len(models) == 1 and min(models).startswith(MODEL_3D_PREFIX):
+        return "3d", (min(models),)
+    raise ReferenceError(f"{path}: model(s) {', '.join(sorted(models))}; allowed: "
+                         f"{', '.join(MODELS)} (2-D) or one model {MODEL_3D_PREFIX}* (3-D)")
 
 
 def read_summary(path: pathlib.Path) -> Reference:
-    """Read a summary; lines starting with '#' are comments. Every torque must have both models
-    and one n_positions for the whole file."""
+    """Read a summary; lines starting with '#' are comments; rows of a "case" other than "base"
+    (a 3-D file's studies) are skipped. 2-D: every torque must have both models; 3-D: one model.
+    One n_positions for the whole file."""
     path = pathlib.Path(path)
     try:
         with path.open(newline="") as fh:
             rows = list(csv.DictReader(line for line in fh if not line.lstrip().startswith("#")))
     except OSError as exc:
         raise ReferenceError(f"{path}: cannot read the reference summary ({exc.strerror})") from exc
+    rows = [r for r in rows if r.get("case", "base") == "base"]
     if not rows:
         raise ReferenceError(f"{path}: no rows")
     missing = [c for c in _REQUIRED if c not in rows[0]]
@@ -69,10 +95,8 @@ def read_summary(path: pathlib.Path) -> Reference:
                              f"{', '.join(_REQUIRED)}")
     values: dict[tuple[str, float], dict[str, float]] = {}
     scenes, counts = set(), set()
+    kind, models = _kind_of(path, {row["model"] for row in rows})
     for line, row in enumerate(rows, start=2):
-        if row["model"] not in MODELS:
-            raise ReferenceError(f"{path}: row {line}: model = {row['model']!r}; allowed: "
-                                 f"{', '.join(MODELS)}")
         try:
             torque = float(row["torque_Nm"])
             counts.add(int(row["n_positions"]))
@@ -91,20 +115,21 @@ def read_summary(path: pathlib.Path) -> Reference:
     if len(counts) != 1 or min(counts) < 4:
         raise ReferenceError(f"{path}: n_positions = {sorted(counts)}; allowed: one value >= 4")
     for model, torque in list(values):
-        other = MODELS[1 - MODELS.index(model)]
-        if (other, torque) not in values:
-            raise ReferenceError(f"{path}: {model} at {torque:g} N m has no {other} row "
-                                 "(the band needs both models)")
-    return Reference(scenes.pop(), path, counts.pop(), values)
+        for other in models:
+            if (other, torque) not in values:
+                raise ReferenceError(f"{path}: {model} at {torque:g} N m has no {other} row "
+                                     "(the band needs both models)")
+    return Reference(scenes.pop(), path, counts.pop(), values, kind, models)
 
 
-def positions_path(reference_dir: pathlib.Path, scene_name: str) -> pathlib.Path:
-    return pathlib.Path(reference_dir) / f"{scene_name}.reference_fe.te.csv"
+def positions_path(reference_dir: pathlib.Path, scene_name: str, kind: str = "2d") -> pathlib.Path:
+    return pathlib.Path(reference_dir) / f"{scene_name}.{_FILE_STEM[kind]}.te.csv"
 
 
 def read_positions(path: pathlib.Path, n_positions: int) -> dict[tuple[str, float], list[float]]:
-    """(model, torque) -> TE at positions 0..n-1 of the base cases (mesh level 0, the file's
-    default penalty: the rows with n_positions = n); {} when the file does not exist."""
+    """(model, torque) -> TE at positions 0..n-1 of the base cases (case "base" where the file
+    has the column, mesh level 0, the rows with n_positions = n); {} when the file does not
+    exist."""
     path = pathlib.Path(path)
     if not path.is_file():
         return {}
@@ -113,7 +138,8 @@ def read_positions(path: pathlib.Path, n_positions: int) -> dict[tuple[str, floa
         for line, row in enumerate(csv.DictReader(l for l in fh if not l.lstrip().startswith("#")),
                                    start=2):
             try:
-                if int(row["n_positions"]) != n_positions or row.get("mesh_level", "0") != "0":
+                if (int(row["n_positions"]) != n_positions or row.get("mesh_level", "0") != "0"
+                        or row.get("case", "base") != "base"):
                     continue
                 key = (row["model"], float(row["torque_Nm"]))
                 curves.setdefault(key, {})[int(row["position"])] = float(row["te_m"])
@@ -129,26 +155,31 @@ def read_positions(path: pathlib.Path, n_positions: int) -> dict[tuple[str, floa
 
 
 def curve_error(positions: dict[tuple[str, float], list[float]], torque: float,
-                te) -> dict | None:
+                te, models: tuple[str, ...] = MODELS) -> dict | None:
     """The "curve" row of a product TE at the reference's positions: at the position where the
-    TE lies farthest outside the band of the two models there, the product's and the models'
+    TE lies farthest outside the band of the models there, the product's and the models'
     values and the signed distance; against each model the worst relative error over the
-    positions. None without both models' curves at this torque."""
-    if any((m, torque) not in positions for m in MODELS):
+    positions. None without every model's curve at this torque."""
+    if any((m, torque) not in positions for m in models):
         return None
     worst = None
     for k, value in enumerate(te):
-        a, b = (positions[(m, torque)][k] for m in MODELS)
-        d = band_error(value, min(a, b), max(a, b))
+        here = [positions[(m, torque)][k] for m in models]
+        d = band_error(value, min(here), max(here))
         if worst is None or abs(d) > abs(worst[0]):
             worst = (d, k)
     d, k = worst
     row = {"quantity": CURVE, "product_m": float(te[k]), "band_error": d}
-    for m in MODELS:
+    for m in models:
         ref = positions[(m, torque)]
-        row[f"{m}_m"] = ref[k]
-        row[f"error_{m}"] = max((relative_error(v, r) for v, r in zip(te, ref)), key=abs)
+        row[f"{column(m)}_m"] = ref[k]
+        row[f"error_{column(m)}"] = max((relative_error(v, r) for v, r in zip(te, ref)), key=abs)
     return row
+
+
+def column(model: str) -> str:
+    """A model's name in the error rows: the 2-D model's own, "fe3d" for any 3-D model."""
+    return "fe3d" if model.startswith(MODEL_3D_PREFIX) else model
 
 
 def relative_error(value: float, reference: float) -> float:
@@ -173,8 +204,8 @@ def errors(reference: Reference, torque: float, product: dict[str, float]) -> li
         low, high = reference.band(torque, q)
         row = {"quantity": q, "product_m": product[q],
                "band_error": band_error(product[q], low, high)}
-        for m in MODELS:
-            row[f"{m}_m"] = reference.values[(m, torque)][q]
-            row[f"error_{m}"] = relative_error(product[q], reference.values[(m, torque)][q])
+        for m in reference.models:
+            row[f"{column(m)}_m"] = reference.values[(m, torque)][q]
+            row[f"error_{column(m)}"] = relative_error(product[q], reference.values[(m, torque)][q])
         rows.append(row)
     return rows

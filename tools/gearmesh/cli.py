@@ -61,12 +61,12 @@ def main(argv: list[str] | None = None) -> int:
     p_acc.add_argument("--tolerance", default="5%", help="error allowed for the cheapest "
                        "setting, e.g. 5%% or 0.05; (0, 100%%] (default 5%%)")
     p_acc.add_argument("--settings", default="full", choices=("quick", "full"),
-                       help="quick: levels 2-4 at 10 slices, 50 and 350 N m (the CI ledger); "
-                       "full: levels 0-5 x slices 1/3/10/20/40 x coupled teeth 0-3, every "
+                       help="quick: levels 2-4 at 10 slices, the lowest and highest reference "
+                       "torque (the CI ledger); full: levels 0-5 x slices 1/3/10/20/40 x coupled teeth 0-3, every "
                        "reference torque (default)")
     p_acc.add_argument("--reference", type=pathlib.Path, help="folder of the "
-                       "<scene>.reference_fe.summary.csv files (default: reference/ next to "
-                       "each scene)")
+                       "<scene>.reference_fe.summary.csv (2-D) and <scene>.reference_fe3d.summary.csv "
+                       "(3-D) files (default: reference/ next to each scene)")
     args = parser.parse_args(argv)
 
     if args.command == "stability":
