@@ -151,6 +151,20 @@ def test_positions_reader_3d_skips_studies():
     assert row["band_error"] == 0.0 and row["error_fe3d"] == 0.0
 
 
+def test_sweep_torque_is_gear1s(fmu_path, tmp_path):
+    """The references load gear 1 (reference_fe/README.md); the FMU's mesh.load_torque is gear
+    2's. On the 31/47 helical pair the sweep must put the reference's torque on gear 1: the
+    contact moment on gear 1 about its axis (gear1.mz, an output the sweep does not set) is the
+    torque, not 31/47 of it."""
+    scene = load_scene(REPO / "scenarios" / "fe" / "helical_fe.toml")
+    values = {**scene.parameters, "model.stiffness": 4}
+    for i in (1, 2):
+        values.pop(f"gear{i}.compliance", None)
+    fmu = build_scene_fmu(fmu_path, values, {}, tmp_path / "h.fmu")
+    result = sweep(fmu, {}, [100.0], 8, repeats=1)
+    assert abs(result.gear1_torque[100.0]) == pytest.approx(100.0, rel=1e-4)
+
+
 def test_level1_table_reproduces_level2(fmu_path, tmp_path):
     """Level 1 with the table made from the level-2 curve gives level 2's loaded TE: its mean
     within 0.2 %, each position within 1.5 % (beyond the path's ends, where a loaded tip edge

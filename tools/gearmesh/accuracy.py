@@ -35,9 +35,19 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
     """The scene's FMU with level 1's table and the cached level-5 databases as resources, and
     per setting the start values that select it. Returns (fmu path, [(Setting, values)])."""
     base = {k: v for k, v in scene.parameters.items() if k not in _PER_SETTING}
-    iso = accuracy_iso.iso_stiffness(generic_fmu, base)
-    table = accuracy_iso.write_table(iso, folder / f"{scene.name}.{TABLE}")
-    resources = {**scene.resources, TABLE: table}
+    resources = dict(scene.resources)
+    try:
+        iso = accuracy_iso.iso_stiffness(generic_fmu, base)
+    except accuracy_iso.NotApplicable as exc:
+        iso = None
+        notes.append(f"{scene.name}: levels 0 and 1 skipped: {exc}")
+    else:
+        table = accuracy_iso.write_table(iso, folder / f"{scene.name}.{TABLE}")
+        resources[TABLE] = table
+        notes.append(f"{scene.name}: level 0 at c_gamma_alpha = {iso.c_gamma_alpha / 1e9:.4g} "
+                     f"N/(mm µm) (L0(c_ga)) or c' (L0(c')), level 1 with the level-2 curve "
+                     f"({table.name}; c' = {iso.c_prime / 1e9:.4g} N/(mm µm), eps_alpha = "
+                     f"{iso.contact_ratio:.4g})")
     coupled_dbs = {}
     if preset == "full":
         for c in accuracy_settings.COUPLED:
@@ -55,6 +65,8 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
     fmu = build_scene_fmu(generic_fmu, base, resources, folder / f"{scene.name}.accuracy.fmu")
     plan = []
     for s in accuracy_settings.settings(preset, tuple(coupled_dbs)):
+        if iso is None and s.level in (0, 1):
+            continue
         values = s.parameters()
         if s.level == 0:
             values["model.user_stiffness"] = (iso.c_gamma_alpha if s.constant == "c_ga"
@@ -65,9 +77,6 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
             for i, path in coupled_dbs[s.coupled].items():
                 values[f"gear{i}.compliance"] = f"accuracy_{path.stem[:16]}.gcdb"
         plan.append((s, values))
-    notes.append(f"{scene.name}: level 0 at c_gamma_alpha = {iso.c_gamma_alpha / 1e9:.4g} "
-                 f"N/(mm µm) (L0(c_ga)) or c' (L0(c')), level 1 with the level-2 curve ({table.name}; c' = "
-                 f"{iso.c_prime / 1e9:.4g} N/(mm µm), eps_alpha = {iso.contact_ratio:.4g})")
     return fmu, plan
 
 

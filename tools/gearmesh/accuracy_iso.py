@@ -64,6 +64,10 @@ def face_overlap(values: dict) -> float:
     return hi - lo
 
 
+class NotApplicable(ValueError):
+    """The pair is not an external spur pair: levels 0 and 1 have no ISO input here."""
+
+
 def iso_stiffness(fmu_path, start_values: dict | None = None) -> IsoStiffness:
     """c_gamma_alpha, c', eps_alpha and the path's roll angles of the pair in `fmu_path` (with
     `start_values` set on top of its own). External spur pairs only (the table's roll angle is
@@ -81,7 +85,7 @@ def iso_stiffness(fmu_path, start_values: dict | None = None) -> IsoStiffness:
                      *(f"gear{i}.{n}" for i in (1, 2)
                        for n in ("face_width", "axial_offset"))])
         if g["pair.internal"] or g["pair.helix_angle"] != 0.0:
-            raise ValueError("levels 0 and 1 from ISO: external spur pairs only "
+            raise NotApplicable("levels 0 and 1 from ISO: external spur pairs only "
                              f"(pair.internal = {bool(g['pair.internal'])}, pair.helix_angle = "
                              f"{g['pair.helix_angle']:g} rad; allowed: false, 0)")
         kin = pair_kinematics(fmu)

@@ -32,6 +32,7 @@ KINDS = ("2d", "3d")
 _FILE_STEM = {"2d": "reference_fe", "3d": "reference_fe3d"}
 QUANTITIES = ("mean", "pp", "order1", "order2", "order3")  # the summary's <q>_te_m / <q>_m columns
 CURVE = "curve"  # the TE position by position against the per-position band (te.csv)
+MIN_POSITIONS = 8  # per pitch: mesh order 3 below the Nyquist order (n/2)
 # The quantities a reference of each kind scores (a setting's score: the largest |band error|).
 SCORED = {"2d": QUANTITIES, "3d": ("pp", "order1", "order2")}
 _COLUMNS = {"mean": "mean_te_m", "pp": "pp_te_m", "order1": "order1_m", "order2": "order2_m",
@@ -112,8 +113,9 @@ def read_summary(path: pathlib.Path) -> Reference:
     if len(scenes) != 1:
         raise ReferenceError(f"{path}: rows of {len(scenes)} scenes ({', '.join(sorted(scenes))}); "
                              "allowed: one")
-    if len(counts) != 1 or min(counts) < 4:
-        raise ReferenceError(f"{path}: n_positions = {sorted(counts)}; allowed: one value >= 4")
+    if len(counts) != 1 or min(counts) < MIN_POSITIONS:
+        raise ReferenceError(f"{path}: n_positions = {sorted(counts)}; allowed: one value >= "
+                             f"{MIN_POSITIONS}")
     for model, torque in list(values):
         for other in models:
             if (other, torque) not in values:

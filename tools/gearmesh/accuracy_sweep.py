@@ -1,7 +1,11 @@
 """One setting's loaded TE and cost: the FMU's quasi-static mode over one pitch at the reference's
 positions (position k: gear 1 turned by k (2 pi / z1) / n, reference_fe/README.md, "Positions and
 TE"), frictionless as the reference, per torque the mean, p-p and mesh orders 1-3; then the same
-poses in plain mode (prescribed spins at the solved TE) for the plain evaluation's cost."""
+poses in plain mode (prescribed spins at the solved TE) for the plain evaluation's cost.
+
+A torque here is the reference's: the torque on gear 1 (reference_fe turns gear 1's bore against
+gear 2's clamped one). The FMU's mesh.load_torque is gear 2's load, so it is set to
+torque * r_b2 / r_b1 (frictionless balance); the two differ unless z1 = z2."""
 from __future__ import annotations
 
 import math
@@ -9,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gearmesh.accuracy_reference import MIN_POSITIONS
 from gearmesh.accuracy_timing import StepTimer
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import mesh_order_amplitudes, pair_kinematics
@@ -24,6 +29,7 @@ class SweepResult:
     plain_step: float                      # median s per fmi2DoStep, plain (prescribed spins)
     qs_calls: int
     plain_calls: int
+    gear1_torque: dict[float, float]       # torque -> mean of gear1.mz over the positions (N m)
 
 
 def summarize(te: np.ndarray) -> dict[str, float]:
@@ -36,28 +42,34 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
           repeats: int = 2) -> SweepResult:
     """`parameters`: FMU start values on top of the FMU's own (the setting's level, slices...).
     The TE is that of the first pass; each further pass repeats the poses for the timing only."""
-    if n_positions < 4:
-        raise ValueError(f"n_positions = {n_positions}; allowed: >= 4")
+    if n_positions < MIN_POSITIONS:
+        raise ValueError(f"n_positions = {n_positions}; allowed: >= {MIN_POSITIONS} (mesh order 3 "
+                         "below the Nyquist order)")
     if repeats < 1:
         raise ValueError(f"repeats = {repeats}; allowed: >= 1")
     common = {**parameters, "model.friction_coefficient": 0.0}
     te: dict[float, np.ndarray] = {}
+    gear1_torque: dict[float, float] = {}
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": True},
                      instance_name="accuracy_qs") as fmu:
         kin = pair_kinematics(fmu)
         z1 = fmu.get(["gear1.teeth"])["gear1.teeth"]
         angles = np.arange(n_positions) * (2 * math.pi / z1) / n_positions
         omega2 = -kin.sign * OMEGA1 * kin.r_b1 / kin.r_b2
+        ratio = kin.r_b2 / kin.r_b1  # gear 2's load torque per unit torque on gear 1
         timer = StepTimer(fmu)
         for rep in range(repeats):
             for torque in torques:
-                values = []
+                values, moments = [], []
                 for phi1 in angles:
-                    fmu.step({"gear1.phi": phi1, "mesh.load_torque": torque,
+                    fmu.step({"gear1.phi": phi1, "mesh.load_torque": torque * ratio,
                               "gear1.omega": OMEGA1, "gear2.omega": omega2})
-                    values.append(fmu.get(["mesh.te"])["mesh.te"])
+                    out = fmu.get(["mesh.te", "gear1.mz"])
+                    values.append(out["mesh.te"])
+                    moments.append(out["gear1.mz"])
                 if rep == 0:
                     te[torque] = np.asarray(values)
+                    gear1_torque[torque] = float(np.mean(moments))
         qs_step, qs_calls = timer.median(), len(timer.seconds)
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": False},
                      instance_name="accuracy_plain") as fmu:
@@ -68,4 +80,4 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
                     fmu.step({"gear1.phi": phi1, "gear2.phi": kin.phi2(value, phi1)})
         plain_step, plain_calls = timer.median(), len(timer.seconds)
     return SweepResult(te, {t: summarize(v) for t, v in te.items()}, qs_step, plain_step,
-                       qs_calls, plain_calls)
+                       qs_calls, plain_calls, gear1_torque)
