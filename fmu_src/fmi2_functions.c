@@ -362,13 +362,15 @@ static fmi2Status get_values(instance* c, const char* function, gm_fmu_type type
     outputs |= v->causality == GM_FMU_output;
     calculated |= v->causality == GM_FMU_calculatedParameter;
   }
-  /* Initialization Mode allows set/get iteration: evaluate at the current values on demand. */
-  if (c->mode == InitializationMode) {
-    if (outputs && !model_outputs_current(c->model) &&
-        model_evaluate(c->model, 1, c->time, 0.0, c->msg, sizeof c->msg))
-      return error(c, "%s: %s", function, c->msg);
-    if (calculated && model_build(c->model, c->msg, sizeof c->msg)) return error(c, "%s: %s", function, c->msg);
-  }
+  /* Set/get iteration: outputs read after inputs were set are evaluated at the current values,
+   * from scratch in Initialization Mode, else at the communication point (direct feedthrough,
+   * docs/fmi.md "Feedthrough"). */
+  if (outputs && !model_outputs_current(c->model) &&
+      (c->mode == InitializationMode ? model_evaluate(c->model, 1, c->time, 0.0, c->msg, sizeof c->msg)
+                                     : model_feedthrough(c->model, c->time, c->msg, sizeof c->msg)))
+    return error(c, "%s: %s", function, c->msg);
+  if (calculated && c->mode == InitializationMode && model_build(c->model, c->msg, sizeof c->msg))
+    return error(c, "%s: %s", function, c->msg);
   for (size_t i = 0; i < nvr; i++) {
     const gm_fmu_variable* v = model_variable(vr[i]);
     if (type == GM_FMU_Real) ((fmi2Real*)values)[i] = model_get_real(c->model, v);
@@ -640,10 +642,8 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component component, const fmi2Byte seria
 /* d(outputs)/d(inputs) . dvKnown (gm_directional_derivative: exact on the current contact set).
  * Knowns: Real inputs only (FMI 2.0 also allows parameters as knowns for initial unknowns in
  * Initialization Mode; this FMU does not: a parameter known is an error naming it). Unknowns:
- * Real outputs. In stepComplete and terminated the derivative is taken at the inputs held over
- * the last fmi2DoStep, so it belongs to the published outputs even after new inputs were set;
- * in Initialization Mode (and before any evaluation) at the current inputs. solver.residual's
- * derivative is reported as 0. The FMU's state is not changed. */
+ * Real outputs. Taken at the current inputs, to which the outputs read belong (docs/fmi.md,
+ * "Feedthrough"). solver.residual's derivative is reported as 0. The FMU's state is not changed. */
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component component, const fmi2ValueReference vUnknown_ref[],
                                         size_t nUnknown, const fmi2ValueReference vKnown_ref[], size_t nKnown,
                                         const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
@@ -682,8 +682,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component component, const fmi2Value
   }
   gm_fmu_values out;
   memset(&out, 0, sizeof out);
-  const int at_last = c->mode != InitializationMode;
-  if (model_directional_derivative(c->model, at_last, &seed, &out, c->msg, sizeof c->msg))
+  if (model_directional_derivative(c->model, &seed, &out, c->msg, sizeof c->msg))
     return error(c, "%s: %s", __func__, c->msg);
   for (size_t i = 0; i < nUnknown; ++i)
     memcpy(&dvUnknown[i], (const char*)&out + model_variable(vUnknown_ref[i])->offset, sizeof(double));

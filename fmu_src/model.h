@@ -29,8 +29,9 @@ int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t m
 int model_reset(fmu_model* m);
 
 /* Values of v (Integer and Boolean are int; a String is never NULL and stays valid until it is
- * set again or the model is reset or freed). Setting a parameter or input marks the outputs
- * stale; setting a parameter also the core model. model_set_string takes over a malloc'd copy. */
+ * set again or the model is reset or freed). Setting a parameter or input to another value marks
+ * the outputs stale; setting a parameter also the core model (the value it holds: nothing
+ * changes). model_set_string takes over a malloc'd copy. */
 double model_get_real(const fmu_model* m, const gm_fmu_variable* v);
 int model_get_int(const fmu_model* m, const gm_fmu_variable* v);
 const char* model_get_string(const fmu_model* m, const gm_fmu_variable* v);
@@ -48,16 +49,22 @@ int model_build(fmu_model* m, char* msg, size_t msg_size);
  * prescribed spins, the TE would jump by half a base pitch or more from the last evaluation's
  * (a skipped tooth). */
 int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t msg_size);
+/* The outputs at the current inputs at a communication point, time not advanced: a read after
+ * inputs were set since the last evaluation (the direct feedthrough that modelDescription.xml
+ * declares, docs/fmi.md "Feedthrough"). The contact is evaluated on scratch memory loaded with
+ * the last evaluation's, so what the next model_evaluate computes does not change; with
+ * model.dynamics = 1 at the spin state, which stays as the last step left it. Nonzero on error,
+ * with msg. */
+int model_feedthrough(fmu_model* m, double time, char* msg, size_t msg_size);
 /* Directional derivative of the outputs (out->y, and the spin outputs out->ds) along the input
- * direction seed (gm_directional_derivative on seed->k), at the inputs of the last evaluation if
- * at_last_evaluation and there was one (stepComplete: the inputs held over the last fmi2DoStep,
- * to which the published outputs belong), else at the current inputs. Nonzero on error, with msg
- * (also with model.dynamics = 1, which has no derivatives in this version). */
-int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_fmu_values* seed,
-                                 gm_fmu_values* out, char* msg, size_t msg_size);
+ * direction seed (gm_directional_derivative on seed->k) at the current inputs, to which the
+ * outputs read belong. Nonzero on error, with msg (also with model.dynamics = 1, which has no
+ * derivatives in this version). */
+int model_directional_derivative(fmu_model* m, const gm_fmu_values* seed, gm_fmu_values* out, char* msg,
+                                 size_t msg_size);
 /* Design warnings of the built core model ("" if none or not built). */
 const char* model_warnings(const fmu_model* m);
-/* 1 if the published outputs belong to the current parameters and inputs. */
+/* 1 if the outputs belong to the current parameters and inputs. */
 int model_outputs_current(const fmu_model* m);
 
 /* Model part of the FMU state: every parameter, input and output (values.h), plus the core's

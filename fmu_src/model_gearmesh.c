@@ -18,10 +18,11 @@ struct fmu_model {
   char* resources;     /* local resources directory ending in '/', or NULL */
   gm_model* core;      /* built from v.p; NULL until needed */
   gm_data* data;       /* evaluation memory of core */
+  gm_data* scratch;    /* model_feedthrough's: NULL until the first one */
   int params_changed;  /* v.p differs from the parameters core was built from */
-  int outputs_current; /* v.y was evaluated at the current v.p and v.k */
-  int evaluated;       /* k_eval holds the inputs of the last evaluation */
-  gm_kinematics k_eval; /* the inputs v.y was evaluated at (held over the last step) */
+  int outputs_current; /* v.y and v.ds belong to the current v.p and v.k */
+  int evaluated;       /* k_eval holds the inputs of the last model_evaluate */
+  gm_kinematics k_eval; /* those inputs (held over the last step): the TE jump check's reference */
   fmu_log_fn log;
   void* log_context;
 };
@@ -40,8 +41,10 @@ static int set_start_values(fmu_model* m) {
 }
 
 static void drop_core(fmu_model* m) {
+  gm_data_free(m->scratch);
   gm_data_free(m->data);
   gm_model_free(m->core);
+  m->scratch = NULL;
   m->data = NULL;
   m->core = NULL;
 }
@@ -113,13 +116,16 @@ static void mark_changed(fmu_model* m, const gm_fmu_variable* v) {
   m->outputs_current = 0;
 }
 
+/* Setting a variable to the value it holds changes nothing: the outputs stay current. */
 void model_set_real(fmu_model* m, const gm_fmu_variable* v, double x) {
+  if (memcmp(field(m, v), &x, sizeof x) == 0) return;
   memcpy(field(m, v), &x, sizeof x);
   mark_changed(m, v);
 }
 
 void model_set_int(fmu_model* m, const gm_fmu_variable* v, int x) {
   if (v->type == GM_FMU_Boolean) x = x != 0;
+  if (memcmp(field(m, v), &x, sizeof x) == 0) return;
   memcpy(field(m, v), &x, sizeof x);
   mark_changed(m, v);
 }
@@ -129,6 +135,10 @@ const char* model_get_string(const fmu_model* m, const gm_fmu_variable* v) {
 }
 
 void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned) {
+  if (strcmp(values_get_string(&m->v, v), owned) == 0) {
+    free(owned);
+    return;
+  }
   values_set_string(&m->v, v, owned);
   mark_changed(m, v);
 }
@@ -285,6 +295,19 @@ static void prescribed_state(fmu_model* m) {
   m->v.ds = s;
 }
 
+/* r becomes the published outputs (logged); with prescribed spins the spin outputs are the
+ * inputs. */
+static void publish(fmu_model* m, int restart, double time, const gm_result* r) {
+  if (restart || r->pairs_in_contact != m->v.y.pairs_in_contact || r->flank != m->v.y.flank)
+    m->log(m->log_context, GM_LOG_CONTACT, "t = %g s: %d tooth pairs in contact, %s", time, r->pairs_in_contact,
+           flank_name(r->flank));
+  m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d iterations, residual %g m", time, r->solver_iterations,
+         r->solver_residual);
+  if (!m->v.dynamics) prescribed_state(m);
+  m->v.y = *r;
+  m->outputs_current = 1;
+}
+
 /* The core's step: one evaluation at the held inputs, or in large-step mode the dynamics started
  * (restart) or advanced by step. */
 static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r) {
@@ -318,25 +341,49 @@ int model_evaluate(fmu_model* m, int restart, double time, double step, char* ms
     snprintf(msg, n, "%s", gm_data_message(m->data));
     return m->v.dynamics && status == GM_ERR_SOLVER ? 2 : 1;
   }
-  if (restart || r.pairs_in_contact != m->v.y.pairs_in_contact || r.flank != m->v.y.flank)
-    m->log(m->log_context, GM_LOG_CONTACT, "t = %g s: %d tooth pairs in contact, %s", time, r.pairs_in_contact,
-           flank_name(r.flank));
-  m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d iterations, residual %g m", time, r.solver_iterations,
-         r.solver_residual);
+  publish(m, restart, time, &r);
   if (m->v.dynamics)
     m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d internal steps, %d rejected", time, m->v.ds.steps,
            m->v.ds.rejected);
-  else
-    prescribed_state(m);
-  m->v.y = r;
-  m->outputs_current = 1;
   m->k_eval = m->v.k;
   m->evaluated = 1;
   return 0;
 }
 
-int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_fmu_values* seed,
-                                 gm_fmu_values* out, char* msg, size_t n) {
+/* The memory of the last evaluation in m->scratch (created on first use): the quasi-static warm
+ * start; level 5's coupled solve starts cold there (gearmesh.h, gm_data_state_load). */
+static int load_scratch(fmu_model* m, char* msg, size_t n) {
+  if (!m->scratch && gm_data_create(m->core, &m->scratch) != GM_OK) {
+    snprintf(msg, n, "out of memory for the contact data");
+    return 1;
+  }
+  const size_t size = gm_data_state_size(m->core, m->data);
+  unsigned char* blob = malloc(size);
+  int failed = !blob || gm_data_state_save(m->core, m->data, blob, size) != GM_OK ||
+               gm_data_state_load(m->core, m->scratch, blob, size) != GM_OK;
+  free(blob);
+  if (failed) snprintf(msg, n, "out of memory for the contact data");
+  return failed;
+}
+
+int model_feedthrough(fmu_model* m, double time, char* msg, size_t n) {
+  if (model_build(m, msg, n) || load_scratch(m, msg, n)) return 1;
+  gm_kinematics k = m->v.k;
+  for (int i = 0; m->v.dynamics && i < 2; i++) { /* the spin state, not the initial one */
+    k.phi[i] = m->v.ds.phi[i];
+    k.omega[i] = m->v.ds.omega[i];
+  }
+  gm_result r;
+  if (gm_evaluate(m->core, m->scratch, &k, &r) != GM_OK) {
+    snprintf(msg, n, "%s", gm_data_message(m->scratch));
+    return 1;
+  }
+  publish(m, 0, time, &r);
+  return 0;
+}
+
+int model_directional_derivative(fmu_model* m, const gm_fmu_values* seed, gm_fmu_values* out, char* msg,
+                                 size_t n) {
   if (model_build(m, msg, n)) return 1;
   if (m->v.dynamics) {
     snprintf(msg, n,
@@ -345,8 +392,7 @@ int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_
              "model.dynamics = 0 the exact derivatives are available");
     return 1;
   }
-  const gm_kinematics* at = at_last_evaluation && m->evaluated ? &m->k_eval : &m->v.k;
-  if (gm_directional_derivative(m->core, m->data, at, &seed->k, &out->y) != GM_OK) {
+  if (gm_directional_derivative(m->core, m->data, &m->v.k, &seed->k, &out->y) != GM_OK) {
     snprintf(msg, n, "%s", gm_data_message(m->data));
     return 1;
   }

@@ -117,32 +117,25 @@ static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* st
   fputc('"', f);
 }
 
-static int is_known(const gm_fmu_variable* v, int initialization) {
-  return v->causality == GM_FMU_input || (initialization && v->causality == GM_FMU_parameter);
+/* 1 if unknown u depends on known k at a communication point (<Outputs>: the knowns are the
+ * inputs) or at initialization (<InitialUnknowns>: inputs and parameters; the unknown's
+ * D_AT_INIT classes count too). */
+static int depends(const gm_fmu_variable* u, const gm_fmu_variable* k, int initialization) {
+  unsigned classes = u->deps & D_KNOWN_CLASSES;
+  if (initialization) classes |= u->deps >> D_INIT_SHIFT;
+  const int known = k->causality == GM_FMU_input || (initialization && k->causality == GM_FMU_parameter);
+  return known && (k->deps & classes) != 0;
 }
 
-/* <Unknown> of variable `index`: its knowns are the inputs (communication points) or the inputs
- * and parameters (Initialization Mode) whose dependency class it names. */
+/* <Unknown> of variable `index` with its knowns; every dependency is of kind "dependent". */
 static void put_unknown(FILE* f, size_t index, int initialization) {
   const gm_fmu_variable* u = &gm_fmu_variables[index];
   fprintf(f, "      <Unknown index=\"%zu\" dependencies=\"", index + 1);
-  const char* sep = "";
-  for (size_t j = 0; j < N_VARIABLES; j++) {
-    const gm_fmu_variable* k = &gm_fmu_variables[j];
-    if (is_known(k, initialization) && (k->deps & u->deps)) {
-      fprintf(f, "%s%zu", sep, j + 1);
-      sep = " ";
-    }
-  }
+  size_t count = 0;
+  for (size_t j = 0; j < N_VARIABLES; j++)
+    if (depends(u, &gm_fmu_variables[j], initialization)) fprintf(f, "%s%zu", count++ ? " " : "", j + 1);
   fputs("\" dependenciesKind=\"", f);
-  sep = "";
-  for (size_t j = 0; j < N_VARIABLES; j++) {
-    const gm_fmu_variable* k = &gm_fmu_variables[j];
-    if (is_known(k, initialization) && (k->deps & u->deps)) {
-      fprintf(f, "%sdependent", sep);
-      sep = " ";
-    }
-  }
+  for (size_t i = 0; i < count; i++) fputs(i ? " dependent" : "dependent", f);
   fputs("\"/>\n", f);
 }
 

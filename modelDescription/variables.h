@@ -39,21 +39,43 @@ typedef enum {
   GM_FMU_output
 } gm_fmu_causality;
 
-/* Dependency classes for <ModelStructure>. A known (parameter, input) names its class, an
- * unknown (output, calculated parameter) the classes it depends on. */
+/* Dependency classes for <ModelStructure> (docs/fmi.md, "Feedthrough"). A known (parameter,
+ * input) names its class. An unknown (output, calculated parameter) names the classes it depends
+ * on at a communication point (<Outputs>: the knowns are the inputs) and, through D_AT_INIT,
+ * those it depends on only in Initialization Mode (<InitialUnknowns>: inputs and parameters).
+ * Each set is the union over the three modes (plain, quasi-static, large-step): the inputs a
+ * mode ignores are declared for the others. tests/python/test_fmu_feedthrough.py measures
+ * every output/input pair against them. */
 enum {
-  D_GEO = 1,   /* parameter that enters the pair geometry */
-  D_SET = 2,   /* other parameter: micro-geometry, material, stiffness model, friction, solver */
-  D_SPIN = 4,  /* input: spin angle */
-  D_POSE = 8,  /* input: other position (centre translation, tilt) */
-  D_RATE = 16, /* input: velocity (friction and damping use them) */
-  D_DRIVE = 32, /* input: torque or shaft far end of the large-step dynamics */
-  D_LOAD = 64, /* input: load torque of the quasi-static mode */
-  /* TE: from the spin angles alone in the default mode; with model.quasi_static it is solved
-   * from everything, so the declared dependencies cover both modes */
-  D_TE = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD | D_DRIVE,
-  D_CONTACT = D_GEO | D_SET | D_SPIN | D_POSE | D_RATE | D_LOAD | D_DRIVE
+  D_GEO = 1 << 0,          /* parameter that enters the pair geometry */
+  D_SET = 1 << 1,          /* other parameter: micro-geometry, material, stiffness model, friction, solver,
+                              model.dynamics */
+  D_DYN = 1 << 2,          /* parameter of the large-step dynamics (inertia, shaft, integrator) */
+  D_PHI1 = 1 << 3,         /* gear<i>.phi: D_PHI(i - 1) */
+  D_POSE = 1 << 5,         /* centre displacement, tilt */
+  D_RATE = 1 << 6,         /* centre velocity x, y and tilt rates: friction, damping */
+  D_AXIAL_RATE = 1 << 7,   /* gear<i>.vz: damping only (friction slides along the transverse profile
+                              tangent, so neither the force solve nor the quasi-static TE sees it) */
+  D_OMEGA1 = 1 << 8,       /* gear<i>.omega: D_OMEGA(i - 1) */
+  D_SHAFT_PHI1 = 1 << 10,  /* gear<i>.shaft_phi: D_SHAFT_PHI(i - 1) */
+  D_SHAFT_OMEGA1 = 1 << 12, /* gear<i>.shaft_omega: D_SHAFT_OMEGA(i - 1) */
+  D_LOAD = 1 << 14,        /* mesh.load_torque */
+  D_TORQUE = 0,            /* gear<i>.torque: acts over a step; no output depends on it at a point */
+  D_INIT_SHIFT = 16,       /* classes << D_INIT_SHIFT: at initialization only */
+  D_KNOWN_CLASSES = (1 << D_INIT_SHIFT) - 1,
+  /* the contact at prescribed spins (plain), at the solved TE (quasi-static) or at the spin state
+   * and the current pose (large-step; gear<i>.phi/.omega set the state at initialization) */
+  D_TE = D_GEO | D_SET | D_PHI1 | D_PHI1 << 1 | D_POSE | D_RATE | D_OMEGA1 | D_OMEGA1 << 1 | D_LOAD,
+  D_CONTACT = D_TE | D_AXIAL_RATE, /* damping acts on the forces after the solve */
+  /* large-step energies at initialization (elsewhere the account of the steps, or 0) */
+  D_KINETIC = D_SET | D_DYN | D_OMEGA1 | D_OMEGA1 << 1,
+  D_ELASTIC = D_GEO | D_SET | D_DYN | D_PHI1 | D_PHI1 << 1 | D_POSE | D_SHAFT_PHI1 | D_SHAFT_PHI1 << 1
 };
+#define D_PHI(n) (D_PHI1 << (n))
+#define D_OMEGA(n) (D_OMEGA1 << (n))
+#define D_SHAFT_PHI(n) (D_SHAFT_PHI1 << (n))
+#define D_SHAFT_OMEGA(n) (D_SHAFT_OMEGA1 << (n))
+#define D_AT_INIT(classes) ((unsigned)(classes) << D_INIT_SHIFT)
 
 /* Unit definitions: name and SI base exponents (kg, m, s, rad). */
 #define GM_FMU_UNITS(U)   \
@@ -180,36 +202,40 @@ typedef enum {
   X("gear" #i ".uz", Real, input, continuous, exact, "m", "um", "", "", k.u[n][2], D_POSE, "centre displacement z") \
   X("gear" #i ".rx", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][0], D_POSE, "tilt about H's x")  \
   X("gear" #i ".ry", Real, input, continuous, exact, "rad", "mrad", "", "", k.r[n][1], D_POSE, "tilt about H's y")  \
-  X("gear" #i ".phi", Real, input, continuous, exact, "rad", "deg", "", "", k.phi[n], D_SPIN,                       \
+  X("gear" #i ".phi", Real, input, continuous, exact, "rad", "deg", "", "", k.phi[n], D_PHI(n),                     \
     "spin angle about the gear's own axis, |phi| <= 1e7 rad")                                                       \
   X("gear" #i ".vx", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][0], D_RATE, "centre velocity x") \
   X("gear" #i ".vy", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][1], D_RATE, "centre velocity y") \
-  X("gear" #i ".vz", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][2], D_RATE, "centre velocity z") \
+  X("gear" #i ".vz", Real, input, continuous, exact, "m/s", "mm/s", "", "", k.v[n][2], D_AXIAL_RATE,                     \
+    "centre velocity z")                                                                                           \
   X("gear" #i ".wx", Real, input, continuous, exact, "rad/s", "", "", "", k.w[n][0], D_RATE, "tilt rate about x")   \
   X("gear" #i ".wy", Real, input, continuous, exact, "rad/s", "", "", "", k.w[n][1], D_RATE, "tilt rate about y")   \
-  X("gear" #i ".omega", Real, input, continuous, exact, "rad/s", "rpm", "", "", k.omega[n], D_RATE, "spin rate")
+  X("gear" #i ".omega", Real, input, continuous, exact, "rad/s", "rpm", "", "", k.omega[n], D_OMEGA(n),                   \
+    "spin rate")
 
 /* Large-step dynamics of gear i (core/src/dynamics.hpp): parameters, inputs, outputs. */
 #define GM_FMU_GEAR_DYNAMICS_PARAMETERS(X, i, n)                                                                   \
-  X("gear" #i ".inertia", Real, parameter, fixed, exact, "kg.m2", "", "1e-9", "1e6", dp.inertia[n], D_SET,         \
+  X("gear" #i ".inertia", Real, parameter, fixed, exact, "kg.m2", "", "1e-9", "1e6", dp.inertia[n], D_DYN,         \
     "large-step mode: moment of inertia about the spin axis")                                               \
   X("gear" #i ".shaft_stiffness", Real, parameter, fixed, exact, "N.m/rad", "", "0", "1e12", dp.shaft_stiffness[n], \
-    D_SET, "large-step mode: torsional stiffness of the shaft from the gear to its far end (0 = no shaft)")        \
+    D_DYN, "large-step mode: torsional stiffness of the shaft from the gear to its far end (0 = no shaft)")        \
   X("gear" #i ".shaft_damping", Real, parameter, fixed, exact, "N.m.s/rad", "", "0", "1e9", dp.shaft_damping[n],   \
-    D_SET, "large-step mode: torsional damping of that shaft")
+    D_DYN, "large-step mode: torsional damping of that shaft")
 #define GM_FMU_GEAR_DYNAMICS_INPUTS(X, i, n)                                                                       \
-  X("gear" #i ".torque", Real, input, continuous, exact, "N.m", "", "", "", di.torque[n], D_DRIVE,                 \
+  X("gear" #i ".torque", Real, input, continuous, exact, "N.m", "", "", "", di.torque[n], D_TORQUE,                \
     "large-step mode: external torque on the gear about its spin axis (+z), held over the step")                 \
-  X("gear" #i ".shaft_phi", Real, input, continuous, exact, "rad", "deg", "", "", di.shaft_phi[n], D_DRIVE,        \
+  X("gear" #i ".shaft_phi", Real, input, continuous, exact, "rad", "deg", "", "", di.shaft_phi[n], D_SHAFT_PHI(n), \
     "large-step mode: angle of the shaft's far end at the start of the step")                                    \
-  X("gear" #i ".shaft_omega", Real, input, continuous, exact, "rad/s", "rpm", "", "", di.shaft_omega[n], D_DRIVE,  \
+  X("gear" #i ".shaft_omega", Real, input, continuous, exact, "rad/s", "rpm", "", "", di.shaft_omega[n],         \
+    D_SHAFT_OMEGA(n),                                                                                            \
     "large-step mode: speed of the shaft's far end, which moves as shaft_phi + shaft_omega (t - t_c)")
 #define GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, i, n)                                                                      \
-  X("gear" #i ".angle", Real, output, continuous, calculated, "rad", "deg", "", "", ds.phi[n], D_TE,              \
+  X("gear" #i ".angle", Real, output, continuous, calculated, "rad", "deg", "", "", ds.phi[n], D_PHI(n),          \
     "spin angle at the end of the step (large-step mode: integrated; else the input gear" #i ".phi)")            \
-  X("gear" #i ".speed", Real, output, continuous, calculated, "rad/s", "rpm", "", "", ds.omega[n], D_TE,          \
+  X("gear" #i ".speed", Real, output, continuous, calculated, "rad/s", "rpm", "", "", ds.omega[n], D_OMEGA(n),      \
     "spin speed at the end of the step (large-step mode: integrated; else the input gear" #i ".omega)")          \
-  X("gear" #i ".shaft_torque", Real, output, continuous, calculated, "N.m", "", "", "", ds.shaft_torque[n], D_TE,  \
+  X("gear" #i ".shaft_torque", Real, output, continuous, calculated, "N.m", "", "", "", ds.shaft_torque[n],         \
+    D_AT_INIT(D_SET | D_DYN | D_PHI(n) | D_OMEGA(n) | D_SHAFT_PHI(n) | D_SHAFT_OMEGA(n)),                       \
     "large-step mode: torque of the shaft on the gear at the end of the step (its far end feels minus this)")
 
 /* Outputs of gear i. */
@@ -282,11 +308,11 @@ typedef enum {
     "gear<i>.torque and the shafts (gear<i>.phi/.omega are the initial state)")                                  \
   GM_FMU_GEAR_DYNAMICS_PARAMETERS(X, 1, 0)                                                                         \
   GM_FMU_GEAR_DYNAMICS_PARAMETERS(X, 2, 1)                                                                         \
-  X("dynamics.tolerance", Real, parameter, fixed, exact, "m", "um", "1e-14", "1e-4", dp.tolerance, D_SET,         \
+  X("dynamics.tolerance", Real, parameter, fixed, exact, "m", "um", "1e-14", "1e-4", dp.tolerance, D_DYN,         \
     "large-step mode: local error of r_b phi per internal step")                                                 \
-  X("dynamics.max_step", Real, parameter, fixed, exact, "s", "", "1e-9", "1", dp.max_step, D_SET,                 \
+  X("dynamics.max_step", Real, parameter, fixed, exact, "s", "", "1e-9", "1", dp.max_step, D_DYN,                 \
     "large-step mode: longest internal step")                                                                     \
-  X("dynamics.min_step", Real, parameter, fixed, exact, "s", "", "1e-15", "1", dp.min_step, D_SET,                \
+  X("dynamics.min_step", Real, parameter, fixed, exact, "s", "", "1e-15", "1", dp.min_step, D_DYN,                \
     "large-step mode: shortest internal step before fmi2DoStep returns fmi2Discard (<= dynamics.max_step)")      \
   X("geometry.backlash", Real, calculatedParameter, fixed, calculated, "m", "um", "", "", g.j_bt, D_GEO,           \
     "transverse backlash along the line of action j_bt")                                                           \
@@ -318,7 +344,7 @@ typedef enum {
     "transmission error as an angle of gear 2")                                                                    \
   X("mesh.normal_force", Real, output, continuous, calculated, "N", "kN", "", "", y.normal_force, D_CONTACT,        \
     "sum of the normal slice forces")                                                                              \
-  X("mesh.stiffness", Real, output, continuous, calculated, "N/m", "N/um", "", "", y.stiffness, D_CONTACT,         \
+  X("mesh.stiffness", Real, output, continuous, calculated, "N/m", "N/um", "", "", y.stiffness, D_TE,              \
     "tangent mesh stiffness along the line of action")                                                             \
   X("mesh.pairs_in_contact", Integer, output, discrete, calculated, "", "", "", "", y.pairs_in_contact, D_CONTACT, \
     "loaded tooth pairs")                                                                                          \
@@ -328,41 +354,42 @@ typedef enum {
     "power dissipated by friction")                                                                                \
   X("mesh.max_line_load", Real, output, continuous, calculated, "N/m", "N/mm", "", "", y.max_line_load, D_CONTACT, \
     "largest slice line load")                                                                                     \
-  X("solver.iterations", Integer, output, discrete, calculated, "", "", "", "", y.solver_iterations, D_CONTACT,    \
+  X("solver.iterations", Integer, output, discrete, calculated, "", "", "", "", y.solver_iterations, D_TE,         \
     "iterations of the last force solve (0 = closed form)")                                                        \
-  X("solver.residual", Real, output, continuous, calculated, "m", "um", "", "", y.solver_residual, D_CONTACT,      \
+  X("solver.residual", Real, output, continuous, calculated, "m", "um", "", "", y.solver_residual, D_TE,           \
     "residual of the last force solve")                                                                            \
-  X("mesh.elastic_energy", Real, output, continuous, calculated, "J", "", "", "", y.elastic_energy, D_CONTACT,     \
+  X("mesh.elastic_energy", Real, output, continuous, calculated, "J", "", "", "", y.elastic_energy, D_TE,          \
     "elastic energy stored in the loaded slices")                                                                  \
   X("mesh.damping_power", Real, output, continuous, calculated, "W", "", "", "", y.damping_power, D_CONTACT,       \
     "power dissipated by the contact damping")                                                                     \
   GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, 1, 0)                                                                            \
   GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, 2, 1)                                                                            \
-  X("energy.kinetic", Real, output, continuous, calculated, "J", "", "", "", ds.kinetic, D_TE,                     \
+  X("energy.kinetic", Real, output, continuous, calculated, "J", "", "", "", ds.kinetic, D_AT_INIT(D_KINETIC),      \
     "large-step mode: kinetic energy of the two gears' spins")                                                     \
-  X("energy.elastic", Real, output, continuous, calculated, "J", "", "", "", ds.elastic, D_TE,                     \
+  X("energy.elastic", Real, output, continuous, calculated, "J", "", "", "", ds.elastic, D_AT_INIT(D_ELASTIC),      \
     "large-step mode: elastic energy in the mesh and the shafts")                                                  \
-  X("energy.initial", Real, output, continuous, calculated, "J", "", "", "", ds.initial_energy, D_TE,              \
+  X("energy.initial", Real, output, continuous, calculated, "J", "", "", "", ds.initial_energy,                     \
+    D_AT_INIT(D_KINETIC | D_ELASTIC),                                                                              \
     "large-step mode: kinetic + elastic energy when initialization ended")                                         \
-  X("energy.work_in", Real, output, continuous, calculated, "J", "", "", "", ds.work_in, D_TE,                     \
+  X("energy.work_in", Real, output, continuous, calculated, "J", "", "", "", ds.work_in, 0,                        \
     "large-step mode: work put in by the torques and the shafts' far ends since initialization")                  \
-  X("energy.work_out", Real, output, continuous, calculated, "J", "", "", "", ds.work_out, D_TE,                   \
+  X("energy.work_out", Real, output, continuous, calculated, "J", "", "", "", ds.work_out, 0,                      \
     "large-step mode: work taken out by them (a brake, a load) since initialization")                             \
-  X("energy.friction", Real, output, continuous, calculated, "J", "", "", "", ds.friction, D_TE,                   \
+  X("energy.friction", Real, output, continuous, calculated, "J", "", "", "", ds.friction, 0,                      \
     "large-step mode: energy dissipated by friction since initialization")                                         \
-  X("energy.damping", Real, output, continuous, calculated, "J", "", "", "", ds.damping, D_TE,                     \
+  X("energy.damping", Real, output, continuous, calculated, "J", "", "", "", ds.damping, 0,                        \
     "large-step mode: energy dissipated by the contact and shaft dampers since initialization")                   \
-  X("energy.parametric", Real, output, continuous, calculated, "J", "", "", "", ds.parametric, D_TE,               \
+  X("energy.parametric", Real, output, continuous, calculated, "J", "", "", "", ds.parametric, 0,                  \
     "large-step mode: work of the contact forces beyond the mesh's energy change, friction and damping (the "     \
     "element's non-conservative part: compliance varying along the path)")                                       \
-  X("energy.residual", Real, output, continuous, calculated, "J", "", "", "", ds.residual, D_TE,                   \
+  X("energy.residual", Real, output, continuous, calculated, "J", "", "", "", ds.residual, 0,                      \
     "large-step mode: integration error, work_in - work_out - (kinetic + elastic - initial) - friction - damping " \
     "- parametric")                                                                                                \
-  X("dynamics.step_size", Real, output, continuous, calculated, "s", "", "", "", ds.step, D_TE,                    \
+  X("dynamics.step_size", Real, output, continuous, calculated, "s", "", "", "", ds.step, D_AT_INIT(D_SET | D_DYN),   \
     "large-step mode: the internal step the next fmi2DoStep tries first")                                         \
-  X("dynamics.steps", Integer, output, discrete, calculated, "", "", "", "", ds.steps, D_TE,                       \
+  X("dynamics.steps", Integer, output, discrete, calculated, "", "", "", "", ds.steps, 0,                          \
     "large-step mode: internal steps accepted in the last fmi2DoStep")                                            \
-  X("dynamics.rejected", Integer, output, discrete, calculated, "", "", "", "", ds.rejected, D_TE,                 \
+  X("dynamics.rejected", Integer, output, discrete, calculated, "", "", "", "", ds.rejected, 0,                    \
     "large-step mode: internal steps rejected in the last fmi2DoStep (error, Newton, contact changes)")
 
 /* One row of the table as data, for the value-reference table and the generator. */
