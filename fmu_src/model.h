@@ -89,8 +89,8 @@ int model_feedthrough(fmu_model* m, double time, char* msg, size_t msg_size);
 int model_outputs_current(const fmu_model* m);
 /* Directional derivative at the current inputs, to which the outputs read belong:
  * dv_unknown[j] = sum_i d(unknown[j])/d(known[i]) dv_known[i], the knowns Real inputs and the
- * unknowns Real outputs (the caller has checked both; a known listed twice adds up). Nonzero on
- * error, with msg. */
+ * unknowns Real outputs (the caller has checked both; a known listed twice adds up). What the
+ * next model_evaluate computes does not change. Nonzero on error, with msg. */
 int model_directional_derivative(fmu_model* m, const unsigned known[], const double dv_known[], size_t n_known,
                                  const unsigned unknown[], double dv_unknown[], size_t n_unknown, char* msg,
                                  size_t msg_size);

@@ -432,8 +432,9 @@ int model_feedthrough(fmu_model* m, double time, char* msg, size_t n) {
 }
 
 /* The outputs' derivative along the input increments in seed, into out: the contact's from
- * gm_directional_derivative (solver.residual's is 0), and the spin outputs, which are the spin
- * inputs. Refused with model.dynamics = 1. */
+ * gm_directional_derivative (solver.residual's is 0) on m->scratch, as model_feedthrough (level 5
+ * keeps its coupled solve's tangent in the data), and the spin outputs, which are the spin inputs.
+ * Refused with model.dynamics = 1. */
 static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_values* out, char* msg, size_t n) {
   if (model_build(m, msg, n)) return 1;
   if (m->v.dynamics) {
@@ -443,8 +444,9 @@ static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_valu
              "model.dynamics = 0 the exact derivatives are available");
     return 1;
   }
-  if (gm_directional_derivative(m->core, m->data, &m->v.k, &seed->k, &out->y) != GM_OK) {
-    snprintf(msg, n, "%s", gm_data_message(m->data));
+  if (load_scratch(m, msg, n)) return 1;
+  if (gm_directional_derivative(m->core, m->scratch, &m->v.k, &seed->k, &out->y) != GM_OK) {
+    snprintf(msg, n, "%s", gm_data_message(m->scratch));
     return 1;
   }
   for (int i = 0; i < 2; i++) {
