@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
+#include <utility>
 
 namespace gm {
 namespace {
@@ -27,6 +29,10 @@ class Checker {
     std::string text;
     if (ok_ && !check_range(name.c_str(), v, text)) fail(text);
   }
+  // Each field inside the static range of prefix + its name.
+  void ranges(const std::string& prefix, std::initializer_list<std::pair<const char*, double>> fields) {
+    for (const auto& [name, v] : fields) range(prefix + name, v);
+  }
   // A bound that depends on other parameters: holds says whether v meets it.
   void bound(const std::string& name, double v, const char* unit, bool holds, const std::string& allowed) {
     if (ok_ && !holds) fail(name + " = " + number(v) + unit + ": allowed " + allowed);
@@ -46,16 +52,13 @@ class Checker {
 };
 
 void check_pair(Checker& c, const gm_pair_params& pr) {
-  c.range("pair.center_distance", pr.center_distance);
-  c.range("pair.normal_module", pr.normal_module);
-  c.range("pair.pressure_angle", pr.pressure_angle);
-  c.range("pair.helix_angle", pr.helix_angle);
+  c.ranges("pair.", {{"center_distance", pr.center_distance}, {"normal_module", pr.normal_module},
+                     {"pressure_angle", pr.pressure_angle}, {"helix_angle", pr.helix_angle},
+                     {"rack_addendum", pr.rack_addendum}, {"rack_dedendum", pr.rack_dedendum},
+                     {"rack_tip_radius", pr.rack_tip_radius}});
   c.flag("pair.internal", pr.internal);
-  c.range("pair.rack_addendum", pr.rack_addendum);
-  c.range("pair.rack_dedendum", pr.rack_dedendum);
   c.bound("pair.rack_dedendum", pr.rack_dedendum, "", pr.rack_dedendum > pr.rack_addendum,
           "> pair.rack_addendum = " + number(pr.rack_addendum));
-  c.range("pair.rack_tip_radius", pr.rack_tip_radius);
   const double full_round = (pr.rack_dedendum - pr.rack_addendum) / (1 - std::sin(pr.pressure_angle));
   c.bound("pair.rack_tip_radius", pr.rack_tip_radius, "", pr.rack_tip_radius <= full_round * 1.01,
           "<= " + number(full_round * 1.01) + " (the full round (h_fP* - h_aP*)/(1 - sin alpha_n) + 1 %)");
@@ -63,16 +66,12 @@ void check_pair(Checker& c, const gm_pair_params& pr) {
 
 void check_gear(Checker& c, const gm_gear_params& g, double normal_module, int i) {
   const std::string n = "gear" + std::to_string(i + 1) + ".";
-  c.range(n + "teeth", g.teeth);
-  c.range(n + "profile_shift", g.profile_shift);
-  c.range(n + "face_width", g.face_width);
-  c.range(n + "tip_diameter", g.tip_diameter);
-  c.range(n + "thickness_allowance", g.thickness_allowance);
+  c.ranges(n, {{"teeth", g.teeth}, {"profile_shift", g.profile_shift}, {"face_width", g.face_width},
+              {"tip_diameter", g.tip_diameter}, {"thickness_allowance", g.thickness_allowance},
+              {"axial_offset", g.axial_offset}, {"youngs_modulus", g.youngs_modulus},
+              {"poisson_ratio", g.poisson_ratio}});
   c.bound(n + "thickness_allowance", g.thickness_allowance, " m", g.thickness_allowance >= -0.5 * normal_module,
           ">= " + number(-0.5 * normal_module) + " m (-0.5 pair.normal_module)");
-  c.range(n + "axial_offset", g.axial_offset);
-  c.range(n + "youngs_modulus", g.youngs_modulus);
-  c.range(n + "poisson_ratio", g.poisson_ratio);
 }
 
 }  // namespace
@@ -81,16 +80,11 @@ gm_status validate_params(const gm_model_params& p, std::string& msg) {
   Checker c(msg);
   check_pair(c, p.pair);
   for (int i = 0; i < 2; ++i) check_gear(c, p.gear[i], p.pair.normal_module, i);
-  c.range("model.stiffness", p.stiffness_level);
-  c.range("model.user_stiffness", p.user_stiffness);
-  c.range("model.slices", p.slices);
-  c.range("model.coupled_teeth", p.coupled_teeth);
-  c.range("model.friction_coefficient", p.friction_coefficient);
-  c.range("model.friction_velocity", p.friction_velocity);
-  c.range("model.damping", p.damping);
-  c.range("solver.tolerance", p.solver_tolerance);
-  c.range("solver.max_iterations", p.solver_max_iterations);
-  c.range("model.rated_line_load", p.rated_line_load);
+  c.ranges("model.", {{"stiffness", p.stiffness_level}, {"user_stiffness", p.user_stiffness}, {"slices", p.slices},
+                      {"coupled_teeth", p.coupled_teeth}, {"friction_coefficient", p.friction_coefficient},
+                      {"friction_velocity", p.friction_velocity}, {"damping", p.damping},
+                      {"rated_line_load", p.rated_line_load}});
+  c.ranges("solver.", {{"tolerance", p.solver_tolerance}, {"max_iterations", p.solver_max_iterations}});
   c.flag("model.quasi_static", p.quasi_static);
   return c.ok() ? GM_OK : GM_ERR_PARAMETER;
 }
