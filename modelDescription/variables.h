@@ -332,6 +332,8 @@ typedef enum {
     "power dissipated by friction")                                                                                \
   X("mesh.max_line_load", Real, output, continuous, calculated, "N/m", "N/mm", y.max_line_load, D_CONTACT,         \
     "largest slice line load")                                                                                     \
+  X("mesh.max_load_share", Real, output, continuous, calculated, "", "", y.max_load_share, D_CONTACT,              \
+    "share of mesh.normal_force carried by the most loaded tooth pair (0 without contact)")                       \
   X("solver.iterations", Integer, output, discrete, calculated, "", "", y.solver_iterations, D_CONTACT,            \
     "iterations of the last force solve (0 = closed form)")                                                        \
   X("solver.residual", Real, output, continuous, calculated, "m", "um", y.solver_residual, D_CONTACT,              \

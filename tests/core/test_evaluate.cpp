@@ -43,11 +43,30 @@ TEST(Evaluate, ForceIsStiffnessTimesWidthTimesApproach) {
     EXPECT_NEAR(single.normal_force, kb * delta, 1e-9 * kb * delta);
     EXPECT_NEAR(single.stiffness, kb, 1e-9 * kb);
     EXPECT_NEAR(single.max_line_load, p.user_stiffness * delta, 1e-6);
+    EXPECT_EQ(single.max_load_share, 1.0);
     const gm_result dbl = in.at(delta, double_contact_phi1(in, delta));
     EXPECT_EQ(dbl.pairs_in_contact, 2);
     EXPECT_NEAR(dbl.normal_force, 2 * kb * delta, 1e-9 * kb * delta);
     EXPECT_NEAR(dbl.stiffness, 2 * kb, 1e-9 * kb);
+    EXPECT_NEAR(dbl.max_load_share, 0.5, 1e-12);  // the same k b Delta on both pairs
+    EXPECT_EQ(in.at(-1e-7, single_contact_phi1(in, delta)).max_load_share, 0.0);  // no contact
   }
+}
+
+// With a profile slope on gear 1 the two pairs of a double contact have different approaches
+// Delta - g_j (level 0: F_j = k b (Delta - g_j)): the larger one's share from the pairs'
+// forces, which the normal force and the single-pair line loads give independently.
+TEST(Evaluate, LoadShareOfUnequalPairs) {
+  gm_model_params p = paper();
+  p.gear[0].flank[0].profile_slope = 3e-6;
+  Instance in(p);
+  const double delta = 8e-6, phi1 = double_contact_phi1(in, delta);
+  const gm_result r = in.at(delta, phi1);
+  ASSERT_EQ(r.pairs_in_contact, 2);
+  const double larger = r.max_line_load * p.gear[0].face_width;  // one slice = one pair
+  EXPECT_NEAR(r.max_load_share, larger / r.normal_force, 1e-12);
+  EXPECT_GT(r.max_load_share, 0.5 + 1e-3);
+  EXPECT_LT(r.max_load_share, 1.0);
 }
 
 TEST(Evaluate, NoForceInsideTheBacklashAndFlankBBeyondIt) {

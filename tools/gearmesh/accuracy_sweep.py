@@ -19,6 +19,7 @@ from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import mesh_order_amplitudes, pair_kinematics
 
 OMEGA1 = 10 * 2 * math.pi / 60  # rad/s: only the friction direction, and there is no friction
+_READ = ["mesh.te", "gear1.mz", "mesh.max_load_share", "mesh.max_line_load"]
 
 
 @dataclass
@@ -30,6 +31,8 @@ class SweepResult:
     qs_calls: int
     plain_calls: int
     gear1_torque: dict[float, float]       # torque -> mean of gear1.mz over the positions (N m)
+    load_share: dict[float, np.ndarray]    # torque -> mesh.max_load_share at the positions
+    line_load: dict[float, np.ndarray]     # torque -> mesh.max_line_load at the positions (N/m)
 
 
 def summarize(te: np.ndarray) -> dict[str, float]:
@@ -50,6 +53,8 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
     common = {**parameters, "model.friction_coefficient": 0.0}
     te: dict[float, np.ndarray] = {}
     gear1_torque: dict[float, float] = {}
+    load_share: dict[float, np.ndarray] = {}
+    line_load: dict[float, np.ndarray] = {}
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": True},
                      instance_name="accuracy_qs") as fmu:
         kin = pair_kinematics(fmu)
@@ -60,16 +65,16 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
         timer = StepTimer(fmu)
         for rep in range(repeats):
             for torque in torques:
-                values, moments = [], []
+                rows = []
                 for phi1 in angles:
                     fmu.step({"gear1.phi": phi1, "mesh.load_torque": torque * ratio,
                               "gear1.omega": OMEGA1, "gear2.omega": omega2})
-                    out = fmu.get(["mesh.te", "gear1.mz"])
-                    values.append(out["mesh.te"])
-                    moments.append(out["gear1.mz"])
+                    rows.append(fmu.get(_READ))
                 if rep == 0:
-                    te[torque] = np.asarray(values)
-                    gear1_torque[torque] = float(np.mean(moments))
+                    te[torque] = np.array([r["mesh.te"] for r in rows])
+                    gear1_torque[torque] = float(np.mean([r["gear1.mz"] for r in rows]))
+                    load_share[torque] = np.array([r["mesh.max_load_share"] for r in rows])
+                    line_load[torque] = np.array([r["mesh.max_line_load"] for r in rows])
         qs_step, qs_calls = timer.median(), len(timer.seconds)
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": False},
                      instance_name="accuracy_plain") as fmu:
@@ -80,4 +85,4 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
                     fmu.step({"gear1.phi": phi1, "gear2.phi": kin.phi2(value, phi1)})
         plain_step, plain_calls = timer.median(), len(timer.seconds)
     return SweepResult(te, {t: summarize(v) for t, v in te.items()}, qs_step, plain_step,
-                       qs_calls, plain_calls, gear1_torque)
+                       qs_calls, plain_calls, gear1_torque, load_share, line_load)

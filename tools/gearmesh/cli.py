@@ -56,6 +56,8 @@ def main(argv: list[str] | None = None) -> int:
                         "(default 1e-6 1e-5 1e-4 1e-3 1e-2; --quick: 1e-5 1e-3 1e-2)")
     p_stab.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "stability")
     p_stab.add_argument("--quick", action="store_true", help="the CI subset")
+    sub.add_parser("fmu-docs", help="regenerate the FMU's documentation/index.html from README.md "
+                   "and docs/fmi.md")
     p_acc = sub.add_parser("accuracy", help="error of every stiffness setting against the FE "
                            "reference, with its time per evaluation (docs/validation.md)")
     p_acc.add_argument("scenes", nargs="+", type=pathlib.Path, help="scene files (TOML)")
@@ -72,6 +74,10 @@ def main(argv: list[str] | None = None) -> int:
                        "(3-D) files (default: reference/ next to each scene)")
     args = parser.parse_args(argv)
 
+    if args.command == "fmu-docs":
+        from gearmesh import fmu_docs
+
+        return fmu_docs.main()
     if args.command == "stability":
         from gearmesh import stability
 
