@@ -10,6 +10,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "gearmesh/param_ranges.h"
 #include "model.h"
 #include "values.h"
 
@@ -294,13 +295,26 @@ static void install_core(fmu_model* m, gm_model* core, gm_data* data) {
   m->params_changed = 0;
 }
 
+/* Every parameter with a static range (core/src/param_ranges.cpp, modelDescription.xml's min and
+ * max) inside it, whether or not the current mode uses it. */
+static int check_ranges(const fmu_model* m, char* msg, size_t n) {
+  for (unsigned vr = 0; vr < GM_FMU_VARIABLE_COUNT; vr++) {
+    const gm_fmu_variable* v = &gm_fmu_variables[vr];
+    const gm_param_range* r = v->causality == GM_FMU_parameter ? gm_param_range_find(v->name) : NULL;
+    if (!r) continue;
+    const double x = v->type == GM_FMU_Real ? model_get_real(m, vr) : model_get_int(m, vr);
+    if (gm_param_range_check(r, x, msg, n) != GM_OK) return 1;
+  }
+  return 0;
+}
+
 /* GearMesh: (re)builds the core model if the parameters changed since the last build; the
  * calculated parameters are its geometry. */
 int model_build(fmu_model* m, char* msg, size_t n) {
   if (m->core && !m->params_changed) return 0;
   gm_model* core;
   gm_data* data;
-  if (create_core(m, &m->v.p, &core, &data, msg, n)) return 1;
+  if (check_ranges(m, msg, n) || create_core(m, &m->v.p, &core, &data, msg, n)) return 1;
   if (m->v.dynamics && gm_dynamics_check(core, &m->v.dp, msg, n) != GM_OK) {
     gm_data_free(data);
     gm_model_free(core);

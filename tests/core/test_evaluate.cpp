@@ -368,6 +368,16 @@ TEST(Evaluate, ParameterErrorsNameTheParameter) {
       {"gear1.compliance", [](gm_model_params& p) { p.stiffness_level = 5; }},
       {"gear2.compliance", [](gm_model_params& p) { p.compliance[1] = "/nonexistent/g2.gcdb"; }},
       {"model.quasi_static", [](gm_model_params& p) { p.quasi_static = 2; }},
+      // static ranges (param_ranges.cpp) and the bounds that depend on other parameters
+      {"gear2.teeth = 2001: allowed range [5, 2000]", [](gm_model_params& p) { p.gear[1].teeth = 2001; }},
+      {"gear1.thickness_allowance = 1e-06 m: allowed range [-0.05, 0] m",
+       [](gm_model_params& p) { p.gear[0].thickness_allowance = 1e-6; }},
+      {"gear1.thickness_allowance = -0.002 m: allowed >= -0.0013 m",
+       [](gm_model_params& p) { p.gear[0].thickness_allowance = -2e-3; }},
+      {"pair.rack_dedendum = 1: allowed > pair.rack_addendum = 1", [](gm_model_params& p) { p.pair.rack_dedendum = 1; }},
+      {"pair.rack_tip_radius = 0.39: allowed <= 0.38", [](gm_model_params& p) { p.pair.rack_tip_radius = 0.39; }},
+      {"pair.helix_angle = 0.785398163 rad: allowed range (-0.785398163, 0.785398163) rad",
+       [](gm_model_params& p) { p.pair.helix_angle = 45 * (3.14159265358979323846 / 180.0); }},
   };
   for (const Case& c : cases) {
     gm_model_params p = paper();

@@ -51,7 +51,7 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
     coupled_dbs = {}
     if preset == "full":
         for c in accuracy_settings.COUPLED:
-            dbs = accuracy_settings.cached_databases(scene, c)
+            dbs = accuracy_settings.cached_databases(scene, c, generic_fmu)
             if dbs:
                 coupled_dbs[c] = dbs
                 for i, path in dbs.items():
