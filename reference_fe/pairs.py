@@ -9,11 +9,14 @@ the checks below, cost). Checks, written into the JSON and refused when they fai
 * the teeth's moments add up to the torque (equilibrium of gear 1: within 1e-4);
 * where DIR holds the scene's committed TE (<scene>.reference_fe.te.csv of `run`), the TE of
   these runs equals it within TE_TOLERANCE. Not to 1e-15: splitting the slave surface per tooth
-  moves ccx's surface-to-surface solution by 0.20 % of the TE at 50 N m and 0.09 % at 350 N m
-  (set A, position 10; the same with ccx's residual tolerance tightened from 5e-3 to 1e-5, so
-  not its convergence), the size of the mesh study's level 0 -> 1 change (0.16 % at 50 N m).
-The product compares its mesh.max_load_share and mesh.max_line_load with the largest tooth
-force's share and that force over the face width (tools/gearmesh/accuracy_reference.py).
+  moves ccx's surface-to-surface solution. Measured on set A, both models, 20 positions, 50-350
+  N m: the split runs' TE is 0.07-0.69 % larger (mean 0.17 %; the largest at position 17, 50 N m,
+  where the second pair takes over), the same at position 10 with ccx's residual tolerance
+  tightened from 5e-3 to 1e-5 (so not its convergence); the mesh study's level 0 -> 1 change is
+  0.16 % at 50 N m, the band between the two models 6-7 %.
+The product compares its mesh.max_load_share with the largest tooth force's share, and that
+share of its normal force over the face width with the largest tooth force over the face width
+(tools/gearmesh/accuracy_reference.py).
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ from . import analysis, scene
 from .report import _cost, _g, provenance
 
 MOMENT_TOLERANCE = 1e-4  # relative: the teeth's moments against the torque
-TE_TOLERANCE = 5e-3      # relative: against the committed TE of the same case and position
+TE_TOLERANCE = 1e-2      # relative: against the committed TE of the same case and position
 
 
 def _committed_te(path: pathlib.Path) -> dict:

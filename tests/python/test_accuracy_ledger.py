@@ -131,7 +131,7 @@ def test_pairs_reader_and_errors(tmp_path):
     product_share = [1.0] * 4 + [0.65, 0.65, 0.8, 0.65]     # position 6 above the band [0.6, 0.7]
     share, peak = pair_errors(shares, loads, 50.0, product_share, [550.0] + [400.0] * 7)
     assert share["quantity"] == "load_share" and share["band_error"] == pytest.approx(0.8 / 0.7 - 1)
-    assert peak["quantity"] == "peak_line_load" and peak["band_error"] == pytest.approx(0.1)
+    assert peak["quantity"] == "pair_line_load" and peak["band_error"] == pytest.approx(0.1)
     assert pair_errors(shares, loads, 150.0, product_share, [1.0] * 8) == []   # no such torque
     assert read_pairs(tmp_path / "missing.csv", 8) == ({}, {})
     path.write_text(head + "\n".join(r for r in rows if ",3,8," not in r) + "\n")

@@ -114,7 +114,7 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
         for torque in torques:
             curve = curve_error(curves, torque, result.te[torque], reference.models)
             pairs = pair_errors(shares, loads, torque, result.load_share[torque],
-                                result.line_load[torque], reference.models)
+                                result.pair_line_load[torque], reference.models)
             for e in (errors(reference, torque, result.summary[torque])
                       + ([curve] if curve else []) + pairs):
                 rows.append({"scene": scene.name, "reference": reference.kind,

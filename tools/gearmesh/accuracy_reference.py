@@ -14,8 +14,12 @@ also compared position by position (`<scene>.reference_fe.te.csv`): the quantity
 worst signed distance of the product's TE to the band of the two models at the same position.
 Where the reference has the per-tooth contact forces (`<scene>.reference_fe.pairs.csv`), the
 most loaded tooth pair's share of the force is compared position by position ("load_share", with
-the FMU's mesh.max_load_share) and the largest line load over the positions with the band of the
-models' ("peak_line_load", with mesh.max_line_load).
+the FMU's mesh.max_load_share), and that pair's force over the face width, largest over the
+positions, with the band of the models' ("pair_line_load"). A plane model spreads a pair's force
+evenly over the face, so this is the face-average line load of the most loaded pair: the product's
+is mesh.max_load_share x mesh.normal_force / face width, not mesh.max_line_load (the largest
+slice's, which at level 5 with several slices resolves the load across the face that the 2-D
+reference cannot: docs/validation.md, "Load share and line load").
 
 3-D: `<scene>.reference_fe3d.summary.csv` holds one model (3-D sectors of both gears, a name
 starting with "3d_"); its "band" is that one value, so the band error is the relative error. Its
@@ -37,10 +41,10 @@ _FILE_STEM = {"2d": "reference_fe", "3d": "reference_fe3d"}
 QUANTITIES = ("mean", "pp", "order1", "order2", "order3")  # the summary's <q>_te_m / <q>_m columns
 CURVE = "curve"  # the TE position by position against the per-position band (te.csv)
 LOAD_SHARE = "load_share"  # the most loaded pair's share, position by position (pairs.csv)
-PEAK_LINE_LOAD = "peak_line_load"  # the largest line load over the positions (pairs.csv)
+PAIR_LINE_LOAD = "pair_line_load"  # the most loaded pair's force / face width, largest (pairs.csv)
 MIN_POSITIONS = 8  # per pitch: mesh order 3 below the Nyquist order (n/2)
 # The quantities a reference of each kind scores (a setting's score: the largest |band error|).
-SCORED = {"2d": (*QUANTITIES, LOAD_SHARE, PEAK_LINE_LOAD), "3d": ("pp", "order1", "order2")}
+SCORED = {"2d": (*QUANTITIES, LOAD_SHARE, PAIR_LINE_LOAD), "3d": ("pp", "order1", "order2")}
 _COLUMNS = {"mean": "mean_te_m", "pp": "pp_te_m", "order1": "order1_m", "order2": "order2_m",
             "order3": "order3_m"}
 _REQUIRED = ("scene", "model", "torque_Nm", "n_positions", *_COLUMNS.values())
@@ -237,14 +241,15 @@ def read_pairs(path: pathlib.Path, n_positions: int) -> tuple[dict, dict]:
 def pair_errors(shares: dict, loads: dict, torque: float, product_shares, product_loads,
                 models: tuple[str, ...] = MODELS) -> list[dict]:
     """The "load_share" row (the most loaded pair's share, position by position) and the
-    "peak_line_load" row (the largest line load over the positions against the band of the
-    models' largest); [] without the reference's per-tooth forces at this torque."""
+    "pair_line_load" row (that pair's force over the face width, the largest over the
+    positions, against the band of the models' largest); [] without the reference's per-tooth
+    forces at this torque."""
     share = position_error(shares, torque, product_shares, models, LOAD_SHARE, "1")
     if share is None or any((m, torque) not in loads for m in models):
         return []
     peak = {m: max(loads[(m, torque)]) for m in models}
     product = float(max(product_loads))
-    row = {"quantity": PEAK_LINE_LOAD, "unit": "N/m", "product": product,
+    row = {"quantity": PAIR_LINE_LOAD, "unit": "N/m", "product": product,
            "band_error": band_error(product, min(peak.values()), max(peak.values()))}
     for m in models:
         row[column(m)] = peak[m]

@@ -9,7 +9,7 @@ import math
 import pathlib
 from collections import defaultdict
 
-from gearmesh.accuracy_reference import CURVE, LOAD_SHARE, PEAK_LINE_LOAD, QUANTITIES, SCORED
+from gearmesh.accuracy_reference import CURVE, LOAD_SHARE, PAIR_LINE_LOAD, QUANTITIES, SCORED
 
 # reference: "2d" (plane_* columns filled) or "3d" (fe3d columns filled); the others are empty.
 # product, plane_stress, plane_strain, fe3d: the quantity's values in its unit (SI; "1" for a share)
@@ -21,8 +21,8 @@ ERROR_COLUMNS = ("band_error", "error_plane_stress", "error_plane_strain", "erro
 TIME_COLUMNS = ("plain_us", "plain_raw_us", "quasi_static_us", "quasi_static_raw_us",
                 "round_trip_us")
 # A setting's score: the largest |band error| over the torques and its reference's SCORED.
-# CURVE, LOAD_SHARE, PEAK_LINE_LOAD: n/a where the reference has no per-position or per-tooth file
-SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PEAK_LINE_LOAD)
+# CURVE, LOAD_SHARE, PAIR_LINE_LOAD: n/a where the reference has no per-position or per-tooth file
+SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PAIR_LINE_LOAD)
 _REFERENCE_TITLE = {"2d": "2-D band [plane stress, plane strain], whole gears",
                     "3d": "3-D sectors (ripple scored; the mean is biased low by the sectors)"}
 
@@ -117,8 +117,9 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
              "TE to the band of the two models position by position (a p-p or an order outside "
              "the band of p-p values can come from a curve inside the band everywhere). Load "
              "share: the most loaded tooth pair's share of the force (mesh.max_load_share) "
-             "against the band of the models' position by position; peak line load: the largest "
-             "mesh.max_line_load over the positions against the band of the models' largest "
+             "against the band of the models' position by position; pair line load: that pair's "
+             "force over the face width, the largest over the positions, against the band of "
+             "the models' largest "
              "(2-D references with per-tooth forces). The error against each model is in "
              "accuracy.csv.", ""]
     lines += [f"* {n}" for n in notes]
@@ -126,7 +127,7 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
         front = {id(e) for e in pareto_front(group)}
         lines += ["", f"## {scene}: {_REFERENCE_TITLE[kind]}", "",
                   "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | TE curve | "
-                  "load share | peak line load | score | plain µs (raw) | quasi-static µs (raw) | "
+                  "load share | pair line load | score | plain µs (raw) | quasi-static µs (raw) | "
                   "front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for e in group:
             lines.append(
