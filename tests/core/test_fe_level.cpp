@@ -369,4 +369,30 @@ TEST(FeLevel, DatabaseOfAnotherGearIsRefusedNamingItsParameter) {
   EXPECT_EQ(std::string(msg).rfind("gear2.compliance", 0), 0u) << msg;
 }
 
+// A database value beyond 1e-3 m/N (a gear body's compliance is about 1e-10 .. 1e-7 m/N) is
+// refused at model creation naming the gear, block, entry and range: databases scaled by 1e200
+// gave forces near 1e-300 N whose local Hertz law made the outputs and derivatives NaN
+// (tests/fuzz/fuzz_fe_model). Negative and zero values stay allowed (coupling terms, a rigid gear).
+TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
+  gm_model_params p = fe_paper(2);
+  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+  const FeFiles f = fe_files(p, "values");
+  gm::ComplianceDb soft = synthetic_db(p, 1, {});
+  soft.blocks[1][5] = 1e212;
+  const std::string path = write_db("values_soft.gcdb", soft);
+  gm_model_params q = at_level5(p, f);
+  q.compliance[1] = path.c_str();
+  gm_model* m = nullptr;
+  char msg[512] = "";
+  EXPECT_EQ(gm_model_create(&q, &m, msg, sizeof msg), GM_ERR_PARAMETER);
+  EXPECT_EQ(m, nullptr);
+  EXPECT_NE(std::string(msg).find("gear2.compliance: block 1 entry 5 = 1e+212 m/N; allowed |value| <= 0.001 m/N"),
+            std::string::npos) << msg;
+  soft.blocks[1][5] = -1e-3;  // the range's end, and negative
+  const std::string edge = write_db("values_edge.gcdb", soft);
+  q.compliance[1] = edge.c_str();
+  ASSERT_EQ(gm_model_create(&q, &m, msg, sizeof msg), GM_OK) << msg;
+  gm_model_free(m);
+}
+
 }  // namespace
