@@ -499,6 +499,11 @@ gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int
 }
 
 gm_status check_db_values(const ComplianceDb& db, int gear, std::string& msg) {
+  if (!(db.depth <= 0.5 * db.tip_diameter)) {
+    msg = "gear" + std::to_string(gear + 1) + ".compliance: depth = " + num(db.depth) +
+          " m; allowed (0, " + num(0.5 * db.tip_diameter) + "] m (inside the gear: at most its tip radius)";
+    return GM_ERR_PARAMETER;
+  }
   for (std::size_t b = 0; b < db.blocks.size(); ++b)
     for (std::size_t i = 0; i < db.blocks[b].size(); ++i)
       if (!(std::abs(db.blocks[b][i]) <= kComplianceDbMaxValue)) {

@@ -369,10 +369,11 @@ TEST(FeLevel, DatabaseOfAnotherGearIsRefusedNamingItsParameter) {
   EXPECT_EQ(std::string(msg).rfind("gear2.compliance", 0), 0u) << msg;
 }
 
-// A database value beyond 1e-3 m/N (a gear body's compliance is about 1e-10 .. 1e-7 m/N) is
-// refused at model creation naming the gear, block, entry and range: databases scaled by 1e200
-// gave forces near 1e-300 N whose local Hertz law made the outputs and derivatives NaN
-// (tests/fuzz/fuzz_fe_model). Negative and zero values stay allowed (coupling terms, a rigid gear).
+// A database value beyond 1e-3 m/N (a gear body's compliance is about 1e-10 .. 1e-7 m/N), or a
+// depth outside the gear, is refused at model creation naming the gear, field and range: databases
+// scaled by 1e200 gave forces near 1e-300 N whose local Hertz law made the outputs and derivatives
+// NaN, and so did a depth of 7.5e168 m at 144 N (tests/fuzz/fuzz_fe_model). Negative and zero
+// values stay allowed (coupling terms, a rigid gear).
 TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
   gm_model_params p = fe_paper(2);
   p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
@@ -393,6 +394,13 @@ TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
   q.compliance[1] = edge.c_str();
   ASSERT_EQ(gm_model_create(&q, &m, msg, sizeof msg), GM_OK) << msg;
   gm_model_free(m);
+  // a depth beyond the gear's tip radius (7.5e168 m made the derivatives NaN at 144 N)
+  soft.depth = 7.5e168;
+  const std::string deep = write_db("values_deep.gcdb", soft);
+  q.compliance[1] = deep.c_str();
+  EXPECT_EQ(gm_model_create(&q, &m, msg, sizeof msg), GM_ERR_PARAMETER);
+  EXPECT_NE(std::string(msg).find("gear2.compliance: depth = 7.5e+168 m; allowed (0, 0.07761"), std::string::npos)
+      << msg;
 }
 
 }  // namespace

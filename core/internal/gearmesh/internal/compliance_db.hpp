@@ -142,9 +142,11 @@ gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int
 // (tests/fuzz/fuzz_fe_model).
 constexpr double kComplianceDbMaxValue = 1e-3;
 
-// Check that every block entry of db is within +-kComplianceDbMaxValue. On failure
-// GM_ERR_PARAMETER and msg names the gear's parameter (gear1.compliance), the block, the entry,
-// its value and the allowed range.
+// Check that every block entry of db is within +-kComplianceDbMaxValue and that the depth h lies
+// inside the gear, h <= its tip radius tip_diameter/2 (a depth of 7.5e168 m made the derivatives
+// of the local Hertz law NaN at 144 N: tests/fuzz/fuzz_fe_model). On failure GM_ERR_PARAMETER and
+// msg names the gear's parameter (gear1.compliance), the field (block and entry, or depth), its
+// value and the allowed range.
 gm_status check_db_values(const ComplianceDb& db, int gear, std::string& msg);
 
 // Record in db the gear it is made for (what check_db_matches compares): gear `gear` (0 or 1)
