@@ -279,53 +279,54 @@ static const char* const string_values[] = {
 };
 enum { STRING_COUNT = sizeof string_values / sizeof string_values[0] };
 
-static void set_values(run* r, gm_fmu_type type) {
-  const unsigned n = 1 + fuzz_u8(&r->in) % 4;
+/* The arguments of one fmi2Set or fmi2Get call: 1 to 4 value references and their values. */
+typedef struct value_list {
+  unsigned n;
   fmi2ValueReference vr[4];
   fmi2Real reals[4];
   fmi2Integer ints[4];
   fmi2String strings[4];
+} value_list;
+
+static void set_values(run* r, gm_fmu_type type) {
+  value_list v = {.n = 1 + fuzz_u8(&r->in) % 4};
   char* owned[4] = {NULL, NULL, NULL, NULL};
-  for (unsigned i = 0; i < n; i++) {
-    vr[i] = fuzz_vr(&r->in, type);
+  for (unsigned i = 0; i < v.n; i++) {
+    v.vr[i] = fuzz_vr(&r->in, type);
     if (type == GM_FMU_Real) {
-      reals[i] = fuzz_real(&r->in);
+      v.reals[i] = fuzz_real(&r->in);
     } else if (type == GM_FMU_String) {
       const unsigned k = fuzz_u8(&r->in);
       if (k < STRING_COUNT) {
-        strings[i] = string_values[k];
+        v.strings[i] = string_values[k];
       } else {
         const uint8_t* bytes;
         const size_t len = fuzz_chunk(&r->in, 255, &bytes);
         owned[i] = malloc(len + 1);
         memcpy(owned[i], bytes, len);
         owned[i][len] = '\0';
-        strings[i] = owned[i];
+        v.strings[i] = owned[i];
       }
     } else {
-      ints[i] = fuzz_int(&r->in);
+      v.ints[i] = fuzz_int(&r->in);
     }
   }
-  if (type == GM_FMU_Real) fmi2SetReal(r->c, vr, n, reals);
-  else if (type == GM_FMU_Integer) fmi2SetInteger(r->c, vr, n, ints);
-  else if (type == GM_FMU_Boolean) fmi2SetBoolean(r->c, vr, n, ints);
-  else fmi2SetString(r->c, vr, n, strings);
-  for (unsigned i = 0; i < n; i++) free(owned[i]);
+  if (type == GM_FMU_Real) fmi2SetReal(r->c, v.vr, v.n, v.reals);
+  else if (type == GM_FMU_Integer) fmi2SetInteger(r->c, v.vr, v.n, v.ints);
+  else if (type == GM_FMU_Boolean) fmi2SetBoolean(r->c, v.vr, v.n, v.ints);
+  else fmi2SetString(r->c, v.vr, v.n, v.strings);
+  for (unsigned i = 0; i < v.n; i++) free(owned[i]);
 }
 
 static void get_values(run* r, gm_fmu_type type) {
-  const unsigned n = 1 + fuzz_u8(&r->in) % 4;
-  fmi2ValueReference vr[4];
-  fmi2Real reals[4];
-  fmi2Integer ints[4];
-  fmi2String strings[4];
-  for (unsigned i = 0; i < n; i++) vr[i] = fuzz_vr(&r->in, type);
-  if (type == GM_FMU_Real) fmi2GetReal(r->c, vr, n, reals);
-  else if (type == GM_FMU_Integer) fmi2GetInteger(r->c, vr, n, ints);
-  else if (type == GM_FMU_Boolean) fmi2GetBoolean(r->c, vr, n, ints);
-  else if (fmi2GetString(r->c, vr, n, strings) == fmi2OK)
-    for (unsigned i = 0; i < n; i++)
-      if (!strings[i] || strlen(strings[i]) > (1u << 20)) fail("fmi2GetString", "NULL or unterminated value");
+  value_list v = {.n = 1 + fuzz_u8(&r->in) % 4};
+  for (unsigned i = 0; i < v.n; i++) v.vr[i] = fuzz_vr(&r->in, type);
+  if (type == GM_FMU_Real) fmi2GetReal(r->c, v.vr, v.n, v.reals);
+  else if (type == GM_FMU_Integer) fmi2GetInteger(r->c, v.vr, v.n, v.ints);
+  else if (type == GM_FMU_Boolean) fmi2GetBoolean(r->c, v.vr, v.n, v.ints);
+  else if (fmi2GetString(r->c, v.vr, v.n, v.strings) == fmi2OK)
+    for (unsigned i = 0; i < v.n; i++)
+      if (!v.strings[i] || strlen(v.strings[i]) > (1u << 20)) fail("fmi2GetString", "NULL or unterminated value");
 }
 
 static void do_step(run* r) {

@@ -77,6 +77,13 @@ static void outputs(void) {
   u8(OP_GET_REAL), u8(3), vr("mesh.te"), vr("mesh.normal_force"), vr("gear1.fy"), vr("gear2.mz");
   u8(OP_GET_INTEGER), u8(1), vr("mesh.pairs_in_contact"), vr("mesh.flank");
 }
+/* initialization, then one step with the given input set, and the outputs */
+static void loaded_step(const char* input, int m, int e) {
+  start();
+  set_real(input, m, e);
+  step();
+  outputs();
+}
 /* get a state, serialize it with one flipped bit (checksum recomputed if restamp), restore */
 static void state_roundtrip(unsigned restamp) {
   u8(OP_GET_STATE), u8(0);
@@ -104,10 +111,7 @@ int main(int argc, char** argv) {
   const char* dir = argv[1];
 
   prologue(RES_FILE3, NULL, 0, 0, NULL, 1);
-  start();
-  set_real("gear2.phi", 72, -6); /* 5 um along the line of action */
-  step();
-  outputs();
+  loaded_step("gear2.phi", 72, -6); /* 5 um along the line of action */
   state_roundtrip(1);
   step();
   u8(OP_DERIVATIVE), u8(2), u8(1), vr("mesh.te"), vr("gear1.fy"), vr("gear2.phi"), special(ONE);
@@ -115,45 +119,31 @@ int main(int argc, char** argv) {
   save(dir, "plain_level0");
 
   prologue(RES_FILE3, NULL, 2, 0, NULL, 1); /* level 5 on set_a.gcdb */
-  start();
-  set_real("gear2.phi", 72, -6);
-  step();
-  outputs();
+  loaded_step("gear2.phi", 72, -6);
   state_roundtrip(1);
   u8(OP_DERIVATIVE), u8(1), u8(2), vr("mesh.normal_force"), vr("gear2.phi"), special(ONE), vr("gear1.ux"), special(MS);
   save(dir, "level5_start_values");
 
   prologue(RES_LOCALHOST, NULL, 2, 1, NULL, 0); /* level 1, deviations, stiffness and TE tables */
-  start();
-  set_real("gear2.phi", 72, -6);
   set_real("gear1.omega", 10, 0);
-  step();
-  outputs();
+  loaded_step("gear2.phi", 72, -6);
   save(dir, "level1_tables_start_values");
 
   prologue(RES_PERCENT, NULL, 0, 0, NULL, 1); /* the tables set as Strings */
   set_int(OP_SET_INTEGER, "model.stiffness", 1);
   u8(OP_SET_STRING), u8(2), vr("model.stiffness_table"), u8(2), vr("model.te_table"), u8(3), vr("gear1.deviations"), u8(1);
-  start();
-  set_real("gear2.phi", 72, -6);
-  step();
-  outputs();
+  loaded_step("gear2.phi", 72, -6);
   save(dir, "level1_tables_strings");
 
   prologue(RES_FILE1, NULL, 0, 0, NULL, 1);
   set_int(OP_SET_BOOLEAN, "model.quasi_static", 1);
-  start();
-  set_real("mesh.load_torque", 100, 0);
-  step();
-  outputs();
+  loaded_step("mesh.load_torque", 100, 0);
   state_roundtrip(0);
   save(dir, "quasi_static");
 
   prologue(RES_NONE, NULL, 0, 0, NULL, 1);
   set_int(OP_SET_INTEGER, "model.dynamics", 1);
-  start();
-  set_real("gear1.torque", 50, 0);
-  step();
+  loaded_step("gear1.torque", 50, 0);
   step();
   u8(OP_GET_REAL), u8(2), vr("energy.residual"), vr("gear1.speed"), vr("dynamics.step_size");
   save(dir, "large_step");
