@@ -10,14 +10,16 @@ GM_BUILD="$GM_REPO/build"
 # Compilers, CMake, Eigen, SuiteSparse, GoogleTest, Python, the shared libraries the gmsh
 # wheel loads (GL/X11 client libraries; no display is needed), and OpenBLAS, which Debian's
 # alternatives then put behind libblas.so.3 (CHOLMOD's supernodal factorization of a gear body
-# runs about 4x faster than on the reference BLAS), and CalculiX (ccx) for the independent FE
-# reference of reference_fe/.
+# runs about 4x faster than on the reference BLAS), CalculiX (ccx) for the independent FE
+# reference of reference_fe/, and clang with its compiler-rt (libFuzzer, the sanitizers) for
+# tools/run-sanitizers.
 GM_APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config binutils
   libeigen3-dev libsuitesparse-dev libgtest-dev libopenblas0-pthread
   python3 python3-venv python3-pip
   libglu1-mesa libgl1 libxrender1 libxcursor1 libxft2 libxinerama1 libgomp1
   calculix-ccx
+  clang libclang-rt-14-dev
 )
 
 gm_install_debian_packages() {

@@ -209,6 +209,7 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
         st = gm::read_compliance_db(p->compliance[i], compliance[i], text);
         if (st != GM_OK) text = name + ": " + text;
         if (st == GM_OK) st = gm::check_db_matches(compliance[i], *p, i, text);
+        if (st == GM_OK) st = gm::check_db_values(compliance[i], i, text);
       }
     }
     if (st != GM_OK) {

@@ -338,7 +338,7 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
   // Checksum over the whole file before any field is trusted.
   {
     is.seekg(0, std::ios::beg);
-    std::vector<unsigned char> chunk(1 << 20);
+    std::vector<unsigned char> chunk(std::size_t(std::min<std::uint64_t>(size, 1 << 20)));  // the whole file, at most 1 MiB
     std::uint32_t crc = 0;
     std::uint64_t left = size - 4;
     while (left > 0) {
@@ -495,6 +495,23 @@ gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int
           " (allowed: coupled_teeth <= " + std::to_string(db.n_coupled) + ", or regenerate the database)";
     return GM_ERR_PARAMETER;
   }
+  return GM_OK;
+}
+
+gm_status check_db_values(const ComplianceDb& db, int gear, std::string& msg) {
+  if (!(db.depth <= 0.5 * db.tip_diameter)) {
+    msg = "gear" + std::to_string(gear + 1) + ".compliance: depth = " + num(db.depth) +
+          " m; allowed (0, " + num(0.5 * db.tip_diameter) + "] m (inside the gear: at most its tip radius)";
+    return GM_ERR_PARAMETER;
+  }
+  for (std::size_t b = 0; b < db.blocks.size(); ++b)
+    for (std::size_t i = 0; i < db.blocks[b].size(); ++i)
+      if (!(std::abs(db.blocks[b][i]) <= kComplianceDbMaxValue)) {
+        msg = "gear" + std::to_string(gear + 1) + ".compliance: block " + std::to_string(b) + " entry " +
+              std::to_string(i) + " = " + num(db.blocks[b][i]) + " m/N; allowed |value| <= " +
+              num(kComplianceDbMaxValue) + " m/N (a gear body's compliance is about 1e-10 .. 1e-7 m/N)";
+        return GM_ERR_PARAMETER;
+      }
   return GM_OK;
 }
 

@@ -284,6 +284,15 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     d.message = "large-step dynamics: step of " + number(duration) + " s; allowed: finite and > 0";
     return GM_ERR_ARGUMENT;
   }
+  // A bound on the work of one call: a master's step of 1e308 s would otherwise never end.
+  const double longest = GM_DYNAMICS_MAX_INTERNAL_STEPS * p.max_step;
+  if (!(duration <= longest)) {
+    d.message = "large-step dynamics: step of " + number(duration) + " s needs more than " +
+                std::to_string(GM_DYNAMICS_MAX_INTERNAL_STEPS) + " internal steps of dynamics.max_step = " +
+                number(p.max_step) + " s; allowed: at most " + number(longest) +
+                " s per step; retry with a shorter communication step";
+    return GM_ERR_SOLVER;
+  }
   for (int i = 0; i < 2; ++i) {
     if (!std::isfinite(in.torque[i]) || !std::isfinite(in.shaft_phi[i]) || !std::isfinite(in.shaft_omega[i])) {
       d.message = "gear" + std::to_string(i + 1) + ".torque, .shaft_phi, .shaft_omega must be finite";
@@ -306,6 +315,14 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   // changes by orders of magnitude there), 0.14 um off the quasi-static p-p TE at mu 0.4.
   bool jacobian_current = false;  // at x1
   while (t < duration) {
+    if (s.steps + s.rejected >= GM_DYNAMICS_MAX_INTERNAL_STEPS) {
+      d.message = "large-step dynamics: " + std::to_string(GM_DYNAMICS_MAX_INTERNAL_STEPS) +
+                  " internal steps (" + std::to_string(s.rejected) + " rejected) reached " + number(t) +
+                  " s of a step of " + number(duration) + " s; allowed: at most " +
+                  std::to_string(GM_DYNAMICS_MAX_INTERNAL_STEPS) +
+                  " internal steps per step; retry with a shorter communication step";
+      return GM_ERR_SOLVER;
+    }
     const double remaining = duration - t;
     double h_try = h;
     if (h_try >= remaining) h_try = remaining;

@@ -194,6 +194,22 @@ TEST(Dynamics, StateCopyContinuesIdenticallyAndFailureChangesNothing) {
   EXPECT_EQ(std::memcmp(&before, &c.s, sizeof before), 0);
 }
 
+// A step that would need more than GM_DYNAMICS_MAX_INTERNAL_STEPS internal steps is refused
+// as a solver failure (retry shorter), naming dynamics.max_step and the longest step allowed,
+// and changes nothing: a step of 1e308 s ran forever (found by tests/fuzz/fuzz_fmu_calls).
+TEST(Dynamics, StepBeyondTheInternalStepBoundIsRefused) {
+  Instance inst(analytical());
+  Drive dr = start_drive(inst, 100.0, 200.0, 2e4, 100.0);
+  const gm_dynamics_state before = dr.s;
+  for (double duration : {1e308, 1.0001 * GM_DYNAMICS_MAX_INTERNAL_STEPS * dr.dp.max_step}) {
+    gm_result res{};
+    EXPECT_EQ(gm_dynamics_advance(inst.m, inst.d, &dr.dp, &dr.pose, &dr.in, duration, &dr.s, &res), GM_ERR_SOLVER);
+    const std::string msg = gm_data_message(inst.d);
+    EXPECT_NE(msg.find("dynamics.max_step = 0.001 s; allowed: at most 100 s per step"), std::string::npos) << msg;
+    EXPECT_EQ(std::memcmp(&before, &dr.s, sizeof before), 0);
+  }
+}
+
 // Rattle through the backlash (gear 2 free, an oscillating torque on gear 1: both flanks hit)
 // at communication steps of 1e-3 and 1e-2 s: no failure (a trial state beyond detection's range
 // inside a step is a rejected internal step), both flanks seen, and the energy account closes:

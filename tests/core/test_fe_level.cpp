@@ -347,26 +347,65 @@ TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
   }
 }
 
+// Level 5 on p's own synthetic databases, gear `gear`'s replaced by db (written as `name`).
+gm_model_params with_database(const gm_model_params& p, const FeFiles& f, int gear, const gm::ComplianceDb& db,
+                              const std::string& name, std::string& path) {
+  path = write_db(name, db);
+  gm_model_params q = at_level5(p, f);
+  q.compliance[gear] = path.c_str();
+  return q;
+}
+
+// gm_model_create's refusal of q: GM_ERR_PARAMETER, no model, and its message.
+std::string refusal(const gm_model_params& q) {
+  gm_model* m = nullptr;
+  char msg[512] = "";
+  EXPECT_EQ(gm_model_create(&q, &m, msg, sizeof msg), GM_ERR_PARAMETER);
+  EXPECT_EQ(m, nullptr);
+  gm_model_free(m);
+  return msg;
+}
+
 TEST(FeLevel, DatabaseOfAnotherGearIsRefusedNamingItsParameter) {
   gm_model_params p = fe_paper(1);
   p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
   const FeFiles f = fe_files(p, "mismatch");
   gm::ComplianceDb other = synthetic_db(p, 0, {});
   other.teeth = 40;  // made for another gear
-  const std::string wrong = write_db("other_z.gcdb", other);
-  gm_model_params q = at_level5(p, f);
-  q.compliance[0] = wrong.c_str();
-  gm_model* m = nullptr;
-  char msg[512] = "";
-  EXPECT_EQ(gm_model_create(&q, &m, msg, sizeof msg), GM_ERR_PARAMETER);
-  EXPECT_EQ(m, nullptr);
-  EXPECT_EQ(std::string(msg).rfind("gear1.compliance", 0), 0u) << msg;
-  EXPECT_NE(std::string(msg).find("z = 40"), std::string::npos) << msg;
+  std::string path;
+  const std::string msg = refusal(with_database(p, f, 0, other, "other_z.gcdb", path));
+  EXPECT_EQ(msg.rfind("gear1.compliance", 0), 0u) << msg;
+  EXPECT_NE(msg.find("z = 40"), std::string::npos) << msg;
   // a database at another level is refused too
   gm_model_params r = p;
   r.compliance[1] = f.path[1].c_str();
-  EXPECT_EQ(gm_model_create(&r, &m, msg, sizeof msg), GM_ERR_PARAMETER);
-  EXPECT_EQ(std::string(msg).rfind("gear2.compliance", 0), 0u) << msg;
+  EXPECT_EQ(refusal(r).rfind("gear2.compliance", 0), 0u);
+}
+
+// A database value beyond 1e-3 m/N (a gear body's compliance is about 1e-10 .. 1e-7 m/N), or a
+// depth outside the gear, is refused at model creation naming the gear, field and range: databases
+// scaled by 1e200 gave forces near 1e-300 N whose local Hertz law made the outputs and derivatives
+// NaN, and so did a depth of 7.5e168 m at 144 N (tests/fuzz/fuzz_fe_model). Negative and zero
+// values stay allowed (coupling terms, a rigid gear).
+TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
+  gm_model_params p = fe_paper(2);
+  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+  const FeFiles f = fe_files(p, "values");
+  gm::ComplianceDb soft = synthetic_db(p, 1, {});
+  std::string path;
+  soft.blocks[1][5] = 1e212;
+  std::string msg = refusal(with_database(p, f, 1, soft, "values_soft.gcdb", path));
+  EXPECT_NE(msg.find("gear2.compliance: block 1 entry 5 = 1e+212 m/N; allowed |value| <= 0.001 m/N"),
+            std::string::npos) << msg;
+  soft.blocks[1][5] = -1e-3;  // the range's end, and negative
+  gm_model* m = nullptr;
+  char text[512] = "";
+  const gm_model_params edge = with_database(p, f, 1, soft, "values_edge.gcdb", path);
+  ASSERT_EQ(gm_model_create(&edge, &m, text, sizeof text), GM_OK) << text;
+  gm_model_free(m);
+  soft.depth = 7.5e168;  // beyond the gear's tip radius
+  msg = refusal(with_database(p, f, 1, soft, "values_deep.gcdb", path));
+  EXPECT_NE(msg.find("gear2.compliance: depth = 7.5e+168 m; allowed (0, 0.07761"), std::string::npos) << msg;
 }
 
 }  // namespace

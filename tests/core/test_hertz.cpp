@@ -171,6 +171,22 @@ TEST(Hertz, ZeroTinyAndHugeForces) {
   EXPECT_EQ(gm::local_law_newton_slope(law, 1e3, 1.0), gm::evaluate_local_law(law, 1e3).slope);
 }
 
+// A subnormal force, so small that b_H underflows to 0: zero approach and energy, infinite slope,
+// in the closed forms of the Jacobian (local_law_value) as in the jet. local_law_value's energy
+// was NaN there (inf times 0), which made a level-5 elastic energy NaN (tests/fuzz/fuzz_fe_model).
+TEST(Hertz, SubnormalForceIsZeroInEveryForm) {
+  const gm::LocalLaw law = gear_slice();
+  for (double F : {4.9406564584124654e-324, 1e-322}) {
+    const gm::LocalLawValueT<double> v = gm::local_law_value(law, F);
+    const gm::LocalLawValue j = gm::evaluate_local_law(law, F);
+    EXPECT_EQ(v.approach, 0.0) << F;
+    EXPECT_EQ(v.energy, 0.0) << F;
+    EXPECT_EQ(v.slope, std::numeric_limits<double>::infinity()) << F;
+    EXPECT_EQ(j.approach, 0.0) << F;
+    EXPECT_EQ(j.energy, 0.0) << F;
+  }
+}
+
 TEST(Hertz, NoLocalLawIsZero) {
   const gm::LocalLaw none;
   EXPECT_FALSE(gm::has_local_law(none));

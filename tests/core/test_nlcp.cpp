@@ -21,8 +21,17 @@
 #include "nlcp.hpp"
 
 // Counting malloc (glibc): every heap allocation in this process goes through here (operator new
-// and Eigen's aligned_malloc both call malloc). Not under AddressSanitizer, which owns malloc.
-#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+// and Eigen's aligned_malloc both call malloc). Not under AddressSanitizer, which owns malloc:
+// gcc says so with __SANITIZE_ADDRESS__, clang 14 only through __has_feature (this malloc in
+// clang's build made every ASan start-up fail: tools/run-sanitizers).
+#if defined(__SANITIZE_ADDRESS__)
+#define GM_TEST_UNDER_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define GM_TEST_UNDER_ASAN 1
+#endif
+#endif
+#if defined(__GLIBC__) && !defined(GM_TEST_UNDER_ASAN)
 #define GM_TEST_COUNTS_MALLOC 1
 namespace {
 std::atomic<bool> g_count_mallocs{false};

@@ -159,6 +159,20 @@ def test_discarded_step_leaves_the_instance_usable(fmu_path):
         assert f.get(["mesh.te"]) == {"mesh.te": before["mesh.te"]}
 
 
+def test_step_beyond_the_internal_step_bound_is_discarded(fmu_path):
+    """A communication step that would need more than 1e5 internal steps of dynamics.max_step
+    (1e308 s ran forever: tests/fuzz/fuzz_fmu_calls) returns fmi2Discard naming the longest step
+    allowed; the time stays and a regular step goes on."""
+    with GearMeshFMU(fmu_path, start_values(fmu_path, 0.0)) as f:
+        f.fmu.setDebugLogging(True, ["logStatusWarning"])
+        for h in (1e308, 100.01):
+            with pytest.raises(FMICallException, match="discard"):
+                f.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=h)
+            assert any("allowed: at most 100 s per step" in m for m in f.messages), f.messages
+            assert f.fmu.getRealStatus(2) == 0.0  # fmi2LastSuccessfulTime
+        f.step({}, 1e-3)
+
+
 def test_derivatives_are_refused_in_large_step_mode(fmu_path):
     start = start_values(fmu_path, 0.0)
     with GearMeshFMU(fmu_path, start) as f:

@@ -289,10 +289,15 @@ gm_status gm_dynamics_check(const gm_model* m, const gm_dynamics_params* p, char
 gm_status gm_dynamics_start(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
                             const gm_kinematics* pose, const gm_dynamics_inputs* in,
                             gm_dynamics_state* s, gm_result* res);
+/* Most internal steps (accepted and rejected) one gm_dynamics_advance takes: a duration of more
+ * than this many max_step, or a step that needs more, is GM_ERR_SOLVER (retry shorter). */
+#define GM_DYNAMICS_MAX_INTERNAL_STEPS 100000
+
 /* Advance s by duration > 0 with the inputs held (pose: every field but phi and omega, which
  * come from s). res: the evaluation at the end. On error s and res are unchanged and
  * gm_data_message(d) says why: GM_ERR_INPUT for a bad input, GM_ERR_SOLVER when the internal
- * step fell below min_step (the caller may retry with a shorter duration). */
+ * step fell below min_step or the duration needs more than GM_DYNAMICS_MAX_INTERNAL_STEPS
+ * internal steps (the caller may retry with a shorter duration). */
 gm_status gm_dynamics_advance(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
                               const gm_kinematics* pose, const gm_dynamics_inputs* in, double duration,
                               gm_dynamics_state* s, gm_result* res);

@@ -135,6 +135,20 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
 // quantity with both values, e.g. "gear1.compliance: made for z = 40, this gear has z = 57".
 gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int gear, std::string& msg);
 
+// Largest compliance value gm_model_create accepts, m/N. A gear body's point compliance at the
+// flank is about 1e-10 .. 1e-7 m/N (compliance_tool's databases of the committed scenes:
+// 8.6e-11 .. 3.4e-8 m/N); the format reads any finite value, but values near the largest double
+// give forces near the smallest, whose local Hertz law and derivatives came out NaN
+// (tests/fuzz/fuzz_fe_model).
+constexpr double kComplianceDbMaxValue = 1e-3;
+
+// Check that every block entry of db is within +-kComplianceDbMaxValue and that the depth h lies
+// inside the gear, h <= its tip radius tip_diameter/2 (a depth of 7.5e168 m made the derivatives
+// of the local Hertz law NaN at 144 N: tests/fuzz/fuzz_fe_model). On failure GM_ERR_PARAMETER and
+// msg names the gear's parameter (gear1.compliance), the field (block and entry, or depth), its
+// value and the allowed range.
+gm_status check_db_values(const ComplianceDb& db, int gear, std::string& msg);
+
 // Record in db the gear it is made for (what check_db_matches compares): gear `gear` (0 or 1)
 // of p, with its tip diameter from the pair geometry g. gear 2 of an external pair records -beta.
 void record_gear(ComplianceDb& db, const gm_model_params& p, const gm_pair_geometry& g, int gear);

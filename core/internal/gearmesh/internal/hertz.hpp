@@ -169,6 +169,12 @@ LocalLawValueT<T> local_law_value(const LocalLawT<T>& law, const T& force) {
     inv_E_star += (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
   const T b = sqrt(4.0 * w * law.reduced_radius * inv_E_star / kPi);
   LocalLawValueT<T> v;
+  // a force so small (subnormal) that b_H underflows to 0: approach and energy are 0, the slope
+  // infinite, as in local_law_jet (1/q would be infinite and energy_ww w^2 = inf 0 = NaN)
+  if (!(b > 0)) {
+    v.slope = std::numeric_limits<double>::infinity();
+    return v;
+  }
   T slope_w = 0, energy_ww = 0;
   for (const auto& body : law.body) {
     const double a = 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
