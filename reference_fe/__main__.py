@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import pathlib
 import time
 
 import numpy as np
 
 from . import analysis, pairs, run3d, scene
-from .report import _changes, _cost, _g, provenance
+from .report import THREADS, _changes, _cost, _g, provenance, write_provenance
 
 
 def run_scene(path, out_dir, n, models, torques, study_every, study_models, friction, cache,
@@ -114,10 +113,9 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
         "studies": studies,
         "cost": {label: _cost(res) for label, (case, res) in cases.items()},
         "elapsed_s_this_invocation": time.time() - t_start,
-        "threads": "OMP_NUM_THREADS=1, CCX_NPROC_EQUATION_SOLVER=1, one ccx at a time",
+        "threads": THREADS,
     }
-    with open(out_dir / f"{stem}.json", "w") as f:
-        json.dump(prov, f, indent=1)
+    write_provenance(out_dir / f"{stem}.json", prov)
     log(f"wrote {out_dir / stem}.te.csv, .summary.csv, .json")
 
 

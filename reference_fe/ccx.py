@@ -221,46 +221,42 @@ def run(workdir, job="gears", timeout=3600) -> RunResult:
 
 
 _BLOCK = re.compile(r"displacements \(vx,vy,vz\) for set ROT and time\s+([0-9.Ee+-]+)")
+_TOTALS = re.compile(r"statistics for slave set FLANK1_T(\d+), master set FLANK2 and time\s+"
+                     r"([0-9.Ee+-]+)")
 
 
-def parse_rotations(dat_path) -> list[float]:
-    """(time, rotation) of the rotation node at the end of every increment, in order."""
+def _dat_blocks(dat_path, heading: re.Pattern, lookahead: int, columns: int):
+    """(heading match, the first row of `columns` numbers within `lookahead` lines after it) of
+    every block of a ccx .dat file whose heading matches, in order; [] without the file."""
     if not os.path.exists(dat_path):
         return []
     text = open(dat_path).read().splitlines()
     out = []
     for i, line in enumerate(text):
-        hit = _BLOCK.search(line)
-        if hit:
-            for row in text[i + 1:i + 4]:
-                parts = row.split()
-                if len(parts) == 4:
-                    out.append((float(hit.group(1)), float(parts[1])))
-                    break
+        hit = heading.search(line)
+        if not hit:
+            continue
+        for row in text[i + 1:i + 1 + lookahead]:
+            parts = row.split()
+            if len(parts) == columns:
+                out.append((hit, parts))
+                break
     return out
 
 
-_TOTALS = re.compile(r"statistics for slave set FLANK1_T(\d+), master set FLANK2 and time\s+"
-                     r"([0-9.Ee+-]+)")
+def parse_rotations(dat_path) -> list[float]:
+    """(time, rotation) of the rotation node at the end of every increment, in order."""
+    return [(float(hit.group(1)), float(parts[1]))
+            for hit, parts in _dat_blocks(dat_path, _BLOCK, 3, 4)]
 
 
 def parse_contact_totals(dat_path) -> list[tuple[float, int, float, float]]:
     """(time, gear-1 tooth, |total contact force| in N, moment about the z axis through the
     origin (gear 1's axis) in N m) of every *CONTACT PRINT CF block, in order (deck units N,
     mm: "total surface force (fx,fy,fz) and moment about the origin (mx,my,mz)")."""
-    if not os.path.exists(dat_path):
-        return []
-    text = open(dat_path).read().splitlines()
     out = []
-    for i, line in enumerate(text):
-        hit = _TOTALS.search(line)
-        if not hit:
-            continue
-        for row in text[i + 1:i + 5]:
-            parts = row.split()
-            if len(parts) == 6:
-                fx, fy, fz, _mx, _my, mz = (float(v) for v in parts)
-                out.append((float(hit.group(2)), int(hit.group(1)),
-                            float(np.sqrt(fx * fx + fy * fy + fz * fz)), mz / MM))
-                break
+    for hit, parts in _dat_blocks(dat_path, _TOTALS, 4, 6):
+        fx, fy, fz, _mx, _my, mz = (float(v) for v in parts)
+        out.append((float(hit.group(2)), int(hit.group(1)),
+                    float(np.sqrt(fx * fx + fy * fy + fz * fz)), mz / MM))
     return out

@@ -21,12 +21,11 @@ share of its normal force over the face width with the largest tooth force over 
 from __future__ import annotations
 
 import csv
-import json
 import pathlib
 import time
 
 from . import analysis, scene
-from .report import _cost, _g, provenance
+from .report import _cost, _g, provenance, write_provenance
 
 MOMENT_TOLERANCE = 1e-4  # relative: the teeth's moments against the torque
 TE_TOLERANCE = 1e-2      # relative: against the committed TE of the same case and position
@@ -99,8 +98,7 @@ def run_scene(path, out_dir, n, models, torques, cache, log):
             "checks": checks,
             "cost": {m: _cost(res) for m, res in results.items()},
             "elapsed_s_this_invocation": time.time() - t_start}
-    with open(out_dir / f"{stem}.pairs.json", "w") as f:
-        json.dump(prov, f, indent=1)
+    write_provenance(out_dir / f"{stem}.pairs.json", prov)
     log(f"wrote {out_dir / stem}.pairs.csv, .pairs.json ({checks})")
 
 

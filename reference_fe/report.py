@@ -3,6 +3,7 @@ portable command line), CSV number format, the relative changes of a study, the 
 from __future__ import annotations
 
 import datetime
+import json
 import os
 import pathlib
 import platform
@@ -87,3 +88,12 @@ def _cost(results):
     m = [r.max_rss_MiB for r in results]
     return {"runs": len(w), "wall_s_total": float(np.sum(w)), "wall_s_per_position": float(np.mean(w)),
             "peak_rss_MiB": float(np.max(m))}
+
+
+THREADS = "OMP_NUM_THREADS=1, CCX_NPROC_EQUATION_SOLVER=1, one ccx at a time"
+
+
+def write_provenance(path: pathlib.Path, record: dict) -> None:
+    """The JSON provenance record of a run's output files."""
+    with open(path, "w") as f:
+        json.dump(record, f, indent=1)

@@ -15,12 +15,11 @@ generation resumes. Frictionless. Regenerate only on purpose.
 from __future__ import annotations
 
 import csv
-import json
 import pathlib
 import time
 
 from . import analysis, model3d, scene
-from .report import _changes, _cost, _g, provenance
+from .report import THREADS, _changes, _cost, _g, provenance, write_provenance
 
 SECTOR_DEG = 120.0     # the base sector; the study's larger one: 240 deg
 STUDIES = (("mesh-1", {"level": -1}), ("penalty_x10", {"penalty_factor": 10.0}),
@@ -135,10 +134,9 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log):
         "studies": study_out,
         "cost": {label: _cost(res) for label, (m, case, res) in runs.items()},
         "elapsed_s_this_invocation": time.time() - t_start,
-        "threads": "OMP_NUM_THREADS=1, CCX_NPROC_EQUATION_SOLVER=1, one ccx at a time",
+        "threads": THREADS,
     }
-    with open(out_dir / f"{stem}.json", "w") as f:
-        json.dump(prov, f, indent=1)
+    write_provenance(out_dir / f"{stem}.json", prov)
     log(f"wrote {out_dir / stem}.te.csv, .summary.csv, .json")
 
 
