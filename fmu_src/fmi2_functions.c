@@ -1,4 +1,6 @@
-/* Generic FMI 2.0 co-simulation layer: every fmi2* function of the CS API, mapped onto model.h.
+/* Generic FMI 2.0 co-simulation layer: every fmi2* function of the CS API, mapped onto model.h
+ * and nothing else of the model (its identifier, GUID, variables and log categories come through
+ * model.h), so it serves another model unchanged.
  *
  * Each function first checks the instance's mode against its mask of allowed modes (an illegal
  * call logs "Illegal call sequence" and returns fmi2Error without changing anything). Errors are
@@ -18,10 +20,6 @@
 #include "fmi2Functions.h"
 #include "model.h"
 #include "uri.h"
-
-#ifndef GM_FMU_GUID
-#error "GM_FMU_GUID must be set by the build (a hash of the variable table)"
-#endif
 
 /* Modes of the FMI 2.0 co-simulation state machine that this FMU can be in. fmi2DoStep is
  * synchronous, so stepInProgress, stepFailed and stepCanceled never occur. */
@@ -44,7 +42,7 @@ typedef struct instance {
   fmi2ComponentEnvironment environment; /* passed back to the logger unchanged */
   char* name;                           /* own copy: the importer's string is valid only during the call */
   char* resources;                      /* local resources directory ending in '/', or NULL */
-  unsigned categories;                  /* enabled log categories, bit i = gm_log_category i */
+  unsigned categories;                  /* enabled log categories, bit i = category i (model.h) */
   fmu_mode mode;
   double time; /* start time, then the end of the last successful step */
   int stop_defined;
@@ -53,13 +51,10 @@ typedef struct instance {
   char msg[1024]; /* message from the model layer (may hold a path in resources/) */
 } instance;
 
-#define ALL_CATEGORIES ((1u << GM_LOG_COUNT) - 1u)
-
-static const char* const category_names[] = {
-#define L(id, name, description) name,
-    GM_FMU_LOG_CATEGORIES(L)
-#undef L
-};
+/* Every log category enabled (model.h: fewer than 32). */
+static unsigned all_categories(void) {
+  return (1u << model_log_category_count()) - 1u;
+}
 
 /* ---- logging ---------------------------------------------------------------------------- */
 
@@ -105,9 +100,8 @@ static void utf8_escape(const char* text, size_t n, char* out) {
   out[k] = '\0';
 }
 
-static void vlog(const instance* c, fmi2Status status, gm_log_category category, const char* format,
-                 va_list args) {
-  int always = category == GM_LOG_ERROR || category == GM_LOG_FATAL;
+static void vlog(const instance* c, fmi2Status status, unsigned category, const char* format, va_list args) {
+  int always = category == MODEL_LOG_ERROR || category == MODEL_LOG_FATAL;
   if (!c->logger || !(always || (c->categories >> category & 1u))) return;
   char text[1200];
   vsnprintf(text, sizeof text, format, args);
@@ -116,20 +110,20 @@ static void vlog(const instance* c, fmi2Status status, gm_log_category category,
   char safe[4 * sizeof text]; /* every byte escaped at most to 4 */
   utf8_escape(text, n, safe);
   /* through "%s": a '%' in the message or instance name is never read as a conversion */
-  c->logger(c->environment, c->name, status, category_names[category], "%s", safe);
+  c->logger(c->environment, c->name, status, model_log_category_name(category), "%s", safe);
 }
 
 static void log_event(const instance* c, const char* format, ...) {
   va_list args;
   va_start(args, format);
-  vlog(c, fmi2OK, GM_LOG_EVENTS, format, args);
+  vlog(c, fmi2OK, MODEL_LOG_EVENTS, format, args);
   va_end(args);
 }
 
 static fmi2Status error(const instance* c, const char* format, ...) {
   va_list args;
   va_start(args, format);
-  vlog(c, fmi2Error, GM_LOG_ERROR, format, args);
+  vlog(c, fmi2Error, MODEL_LOG_ERROR, format, args);
   va_end(args);
   return fmi2Error;
 }
@@ -137,19 +131,19 @@ static fmi2Status error(const instance* c, const char* format, ...) {
 static void warning(const instance* c, const char* format, ...) {
   va_list args;
   va_start(args, format);
-  vlog(c, fmi2Warning, GM_LOG_WARNING, format, args);
+  vlog(c, fmi2Warning, MODEL_LOG_WARNING, format, args);
   va_end(args);
 }
 
 static fmi2Status discard(const instance* c, const char* format, ...) {
   va_list args;
   va_start(args, format);
-  vlog(c, fmi2Discard, GM_LOG_WARNING, format, args);
+  vlog(c, fmi2Discard, MODEL_LOG_WARNING, format, args);
   va_end(args);
   return fmi2Discard;
 }
 
-static void model_log(void* context, gm_log_category category, const char* format, ...) {
+static void model_log(void* context, unsigned category, const char* format, ...) {
   va_list args;
   va_start(args, format);
   vlog(context, fmi2OK, category, format, args);
@@ -207,18 +201,18 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
   /* stands in for the instance while refusing, so that the refusal is logged */
   instance probe = {.logger = functions->logger,
                     .environment = functions->componentEnvironment,
-                    .name = (char*)(instanceName && instanceName[0] ? instanceName : "GearMesh")};
+                    .name = (char*)(instanceName && instanceName[0] ? instanceName : model_identifier)};
   if (!instanceName || !instanceName[0]) {
     error(&probe, "fmi2Instantiate: instanceName must be a non-empty string");
     return NULL;
   }
   if (fmuType != fmi2CoSimulation) {
-    error(&probe, "fmi2Instantiate: GearMesh is a co-simulation FMU (fmuType = %d)", (int)fmuType);
+    error(&probe, "fmi2Instantiate: %s is a co-simulation FMU (fmuType = %d)", model_identifier, (int)fmuType);
     return NULL;
   }
-  if (!fmuGUID || strcmp(fmuGUID, GM_FMU_GUID) != 0) {
+  if (!fmuGUID || strcmp(fmuGUID, model_guid) != 0) {
     error(&probe, "fmi2Instantiate: GUID %s does not match this binary's %s (modelDescription.xml is from another build)",
-          fmuGUID ? fmuGUID : "(NULL)", GM_FMU_GUID);
+          fmuGUID ? fmuGUID : "(NULL)", model_guid);
     return NULL;
   }
   instance* c = calloc(1, sizeof *c);
@@ -236,9 +230,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     free(c);
     return NULL;
   }
-  c->categories = loggingOn ? ALL_CATEGORIES : 0u;
+  c->categories = loggingOn ? all_categories() : 0u;
   c->mode = Instantiated;
-  /* The generic FMU has no resources; a scene FMU has its start values and data files there. */
+  /* a model may read data files and start values from resources/ (model_set_resources) */
   c->resources = fmu_uri_to_path(fmuResourceLocation);
   if (fmuResourceLocation && !c->resources)
     warning(c, "fmi2Instantiate: resource location is not a local file URI: %s", fmuResourceLocation);
@@ -264,17 +258,17 @@ fmi2Status fmi2SetDebugLogging(fmi2Component component, fmi2Boolean loggingOn, s
                                const fmi2String categories[]) {
   CHECK_MODE(ANY_MODE);
   if (nCategories == 0) {
-    c->categories = loggingOn ? ALL_CATEGORIES : 0u;
+    c->categories = loggingOn ? all_categories() : 0u;
     return fmi2OK;
   }
   CHECK_POINTER(categories);
   unsigned bits = 0;
   for (size_t i = 0; i < nCategories; i++) {
     unsigned bit = 0;
-    for (unsigned k = 0; k < GM_LOG_COUNT; k++)
-      if (categories[i] && strcmp(categories[i], category_names[k]) == 0) bit = 1u << k;
+    for (unsigned k = 0; k < model_log_category_count(); k++)
+      if (categories[i] && strcmp(categories[i], model_log_category_name(k)) == 0) bit = 1u << k;
     if (!bit) return error(c, "fmi2SetDebugLogging: unknown log category '%s'", categories[i] ? categories[i] : "(NULL)");
-    bits |= bit == 1u << GM_LOG_ALL ? ALL_CATEGORIES : bit;
+    bits |= bit == 1u << MODEL_LOG_ALL ? all_categories() : bit;
   }
   c->categories = loggingOn ? c->categories | bits : c->categories & ~bits;
   return fmi2OK;
@@ -282,7 +276,7 @@ fmi2Status fmi2SetDebugLogging(fmi2Component component, fmi2Boolean loggingOn, s
 
 fmi2Status fmi2SetupExperiment(fmi2Component component, fmi2Boolean toleranceDefined, fmi2Real tolerance,
                                fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-  (void)toleranceDefined; /* the contact solve has its own tolerance parameter */
+  (void)toleranceDefined; /* a model's solvers have their own tolerance parameters */
   (void)tolerance;
   CHECK_MODE(Instantiated);
   if (!isfinite(startTime)) return error(c, "fmi2SetupExperiment: startTime = %g is not finite", startTime);
@@ -309,7 +303,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component component) {
     return error(c, "fmi2ExitInitializationMode: %s", c->msg);
   c->mode = StepComplete;
   log_event(c, "fmi2ExitInitializationMode: stepComplete at t = %g s", c->time);
-  /* design warnings (undercut, interference, contact ratio) are never silent: status Warning */
+  /* the model's warnings about its parameters are never silent: status Warning */
   const char* warnings = model_warnings(c->model);
   if (warnings[0]) {
     warning(c, "fmi2ExitInitializationMode: %s", warnings);
@@ -341,67 +335,70 @@ fmi2Status fmi2Reset(fmi2Component component) {
 /* ---- values ----------------------------------------------------------------------------- */
 
 static const char* const type_names[] = {"Real", "Integer", "Boolean", "String"};
+static const char* const causality_names[] = {"parameter", "calculatedParameter", "input", "output"};
 
 /* The variable of value reference vr if it has the given type, else NULL (logged). */
-static const gm_fmu_variable* variable(const instance* c, const char* function, fmi2ValueReference vr,
-                                       gm_fmu_type type) {
-  const gm_fmu_variable* v = model_variable(vr);
+static const model_variable_info* variable(const instance* c, const char* function, fmi2ValueReference vr,
+                                           model_type type) {
+  const model_variable_info* v = model_variable(vr);
   if (v && v->type == type) return v;
   error(c, "%s: value reference %u is not a variable of type %s", function, (unsigned)vr, type_names[type]);
   return NULL;
 }
 
-static fmi2Status get_values(instance* c, const char* function, gm_fmu_type type, const fmi2ValueReference vr[],
+static fmi2Status get_values(instance* c, const char* function, model_type type, const fmi2ValueReference vr[],
                              size_t nvr, void* values) {
   if (nvr == 0) return fmi2OK;
   if (!vr || !values) return error(c, "%s: vr[] and value[] must not be NULL", function);
   int outputs = 0, calculated = 0;
   for (size_t i = 0; i < nvr; i++) {
-    const gm_fmu_variable* v = variable(c, function, vr[i], type);
+    const model_variable_info* v = variable(c, function, vr[i], type);
     if (!v) return fmi2Error;
-    outputs |= v->causality == GM_FMU_output;
-    calculated |= v->causality == GM_FMU_calculatedParameter;
+    outputs |= v->causality == MODEL_output;
+    calculated |= v->causality == MODEL_calculatedParameter;
   }
-  /* Initialization Mode allows set/get iteration: evaluate at the current values on demand. */
-  if (c->mode == InitializationMode) {
-    if (outputs && !model_outputs_current(c->model) &&
-        model_evaluate(c->model, 1, c->time, 0.0, c->msg, sizeof c->msg))
-      return error(c, "%s: %s", function, c->msg);
-    if (calculated && model_build(c->model, c->msg, sizeof c->msg)) return error(c, "%s: %s", function, c->msg);
-  }
+  /* Set/get iteration: outputs read after inputs were set are evaluated at the current values,
+   * from scratch in Initialization Mode, else at the communication point (direct feedthrough,
+   * docs/fmi.md "Feedthrough"). */
+  if (outputs && !model_outputs_current(c->model) &&
+      (c->mode == InitializationMode ? model_evaluate(c->model, 1, c->time, 0.0, c->msg, sizeof c->msg)
+                                     : model_feedthrough(c->model, c->time, c->msg, sizeof c->msg)))
+    return error(c, "%s: %s", function, c->msg);
+  if (calculated && c->mode == InitializationMode && model_build(c->model, c->msg, sizeof c->msg))
+    return error(c, "%s: %s", function, c->msg);
   for (size_t i = 0; i < nvr; i++) {
-    const gm_fmu_variable* v = model_variable(vr[i]);
-    if (type == GM_FMU_Real) ((fmi2Real*)values)[i] = model_get_real(c->model, v);
-    else if (type == GM_FMU_String) ((fmi2String*)values)[i] = model_get_string(c->model, v);
-    else ((fmi2Integer*)values)[i] = model_get_int(c->model, v); /* fmi2Boolean is an int too */
+    if (type == MODEL_Real) ((fmi2Real*)values)[i] = model_get_real(c->model, vr[i]);
+    else if (type == MODEL_String) ((fmi2String*)values)[i] = model_get_string(c->model, vr[i]);
+    else ((fmi2Integer*)values)[i] = model_get_int(c->model, vr[i]); /* fmi2Boolean is an int too */
   }
   return fmi2OK;
 }
 
 /* All values are checked (and strings copied) before any is set, so a refused call changes
  * nothing. The instance owns a copy of every string it is given. */
-static fmi2Status set_values(instance* c, const char* function, gm_fmu_type type, const fmi2ValueReference vr[],
+static fmi2Status set_values(instance* c, const char* function, model_type type, const fmi2ValueReference vr[],
                              size_t nvr, const void* values) {
   if (nvr == 0) return fmi2OK;
   if (!vr || !values) return error(c, "%s: vr[] and value[] must not be NULL", function);
   char** copies = NULL;
   for (size_t i = 0; i < nvr; i++) {
-    const gm_fmu_variable* v = variable(c, function, vr[i], type);
+    const model_variable_info* v = variable(c, function, vr[i], type);
     if (!v) return fmi2Error;
-    if (v->causality == GM_FMU_parameter && !(c->mode & (Instantiated | InitializationMode)))
+    if (v->causality == MODEL_parameter && v->variability == MODEL_fixed &&
+        !(c->mode & (Instantiated | InitializationMode)))
       return error(c, "%s: %s is a fixed parameter, settable only before fmi2ExitInitializationMode",
                    function, v->name);
-    if (v->causality != GM_FMU_parameter && v->causality != GM_FMU_input)
+    if (v->causality != MODEL_parameter && v->causality != MODEL_input)
       return error(c, "%s: %s is %s and cannot be set", function, v->name,
-                   v->causality == GM_FMU_output ? "an output" : "a calculated parameter");
-    if (type == GM_FMU_Real && !isfinite(((const fmi2Real*)values)[i]))
+                   v->causality == MODEL_output ? "an output" : "a calculated parameter");
+    if (type == MODEL_Real && !isfinite(((const fmi2Real*)values)[i]))
       return error(c, "%s: %s = %g is not finite; it keeps %g", function, v->name, ((const fmi2Real*)values)[i],
-                   model_get_real(c->model, v));
-    if (type == GM_FMU_String && !((const fmi2String*)values)[i])
+                   model_get_real(c->model, vr[i]));
+    if (type == MODEL_String && !((const fmi2String*)values)[i])
       return error(c, "%s: %s = NULL: a String value must not be NULL (\"\" for none); it keeps \"%s\"", function,
-                   v->name, model_get_string(c->model, v));
+                   v->name, model_get_string(c->model, vr[i]));
   }
-  if (type == GM_FMU_String) {
+  if (type == MODEL_String) {
     copies = calloc(nvr, sizeof *copies);
     for (size_t i = 0; copies && i < nvr; i++) {
       if ((copies[i] = copy_string(((const fmi2String*)values)[i]))) continue;
@@ -412,10 +409,9 @@ static fmi2Status set_values(instance* c, const char* function, gm_fmu_type type
     if (!copies) return error(c, "%s: out of memory for the strings", function);
   }
   for (size_t i = 0; i < nvr; i++) {
-    const gm_fmu_variable* v = model_variable(vr[i]);
-    if (type == GM_FMU_Real) model_set_real(c->model, v, ((const fmi2Real*)values)[i]);
-    else if (type == GM_FMU_String) model_set_string(c->model, v, copies[i]);
-    else model_set_int(c->model, v, ((const fmi2Integer*)values)[i]);
+    if (type == MODEL_Real) model_set_real(c->model, vr[i], ((const fmi2Real*)values)[i]);
+    else if (type == MODEL_String) model_set_string(c->model, vr[i], copies[i]);
+    else model_set_int(c->model, vr[i], ((const fmi2Integer*)values)[i]);
   }
   free(copies);
   return fmi2OK;
@@ -423,55 +419,56 @@ static fmi2Status set_values(instance* c, const char* function, gm_fmu_type type
 
 fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
   CHECK_MODE(MASK_GET_VALUES);
-  return get_values(c, __func__, GM_FMU_Real, vr, nvr, value);
+  return get_values(c, __func__, MODEL_Real, vr, nvr, value);
 }
 
 fmi2Status fmi2GetInteger(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Integer value[]) {
   CHECK_MODE(MASK_GET_VALUES);
-  return get_values(c, __func__, GM_FMU_Integer, vr, nvr, value);
+  return get_values(c, __func__, MODEL_Integer, vr, nvr, value);
 }
 
 fmi2Status fmi2GetBoolean(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                           fmi2Boolean value[]) {
   CHECK_MODE(MASK_GET_VALUES);
-  return get_values(c, __func__, GM_FMU_Boolean, vr, nvr, value);
+  return get_values(c, __func__, MODEL_Boolean, vr, nvr, value);
 }
 
 fmi2Status fmi2GetString(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                          fmi2String value[]) {
   CHECK_MODE(MASK_GET_VALUES);
-  return get_values(c, __func__, GM_FMU_String, vr, nvr, value);
+  return get_values(c, __func__, MODEL_String, vr, nvr, value);
 }
 
 fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                        const fmi2Real value[]) {
   CHECK_MODE(MASK_SET_VALUES);
-  return set_values(c, __func__, GM_FMU_Real, vr, nvr, value);
+  return set_values(c, __func__, MODEL_Real, vr, nvr, value);
 }
 
 fmi2Status fmi2SetInteger(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Integer value[]) {
   CHECK_MODE(MASK_SET_VALUES);
-  return set_values(c, __func__, GM_FMU_Integer, vr, nvr, value);
+  return set_values(c, __func__, MODEL_Integer, vr, nvr, value);
 }
 
 fmi2Status fmi2SetBoolean(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                           const fmi2Boolean value[]) {
   CHECK_MODE(MASK_SET_VALUES);
-  return set_values(c, __func__, GM_FMU_Boolean, vr, nvr, value);
+  return set_values(c, __func__, MODEL_Boolean, vr, nvr, value);
 }
 
 fmi2Status fmi2SetString(fmi2Component component, const fmi2ValueReference vr[], size_t nvr,
                          const fmi2String value[]) {
   CHECK_MODE(MASK_SET_VALUES);
-  return set_values(c, __func__, GM_FMU_String, vr, nvr, value);
+  return set_values(c, __func__, MODEL_String, vr, nvr, value);
 }
 
 /* ---- FMU state -------------------------------------------------------------------------- */
 
 /* Serialized FMU state, native byte order (the binary is per platform):
- *   "GearMesh" | u32 format version | GUID, NUL-padded to 40 bytes | u64 payload size |
+ *   modelIdentifier, cut or NUL-padded to 8 bytes | u32 format version |
+ *   GUID, NUL-padded to 40 bytes | u64 payload size |
  *   u64 checksum | payload
  *   payload = f64 time | u32 mode | model payload (model_state_save)
  * Format 3: the checksum, 64-bit FNV-1a over every byte of the blob except the checksum field
@@ -481,20 +478,26 @@ fmi2Status fmi2SetString(fmi2Component component, const fmi2ValueReference vr[],
  * fmi2DeSerializeFMUstate check magic, format, size, checksum and GUID before anything is
  * applied; a corrupted blob is refused with fmi2Error and the instance is unchanged
  * (docs/reliability.md). */
-#define STATE_MAGIC "GearMesh"
 #define STATE_FORMAT 3u
-#define STATE_GUID_SIZE 40
+#define STATE_GUID_SIZE MODEL_GUID_SIZE
 #define STATE_SIZE_OFFSET (8 + 4 + STATE_GUID_SIZE)
 #define STATE_CHECKSUM_OFFSET (STATE_SIZE_OFFSET + 8)
 #define STATE_HEADER_SIZE (STATE_CHECKSUM_OFFSET + 8)
 #define STATE_PAYLOAD_OFFSET (8 + 4) /* model payload after time and mode */
 
-_Static_assert(sizeof GM_FMU_GUID <= STATE_GUID_SIZE, "GUID does not fit the state header");
-
 typedef struct fmu_state {
   size_t size;
   unsigned char bytes[];
 } fmu_state;
+
+/* The first 12 + STATE_GUID_SIZE bytes of a state of this build: magic, format, GUID. */
+static void state_identity(unsigned char* b) {
+  const uint32_t format = STATE_FORMAT;
+  memset(b, 0, 12 + STATE_GUID_SIZE);
+  memcpy(b, model_identifier, strnlen(model_identifier, 8));
+  memcpy(b + 8, &format, 4);
+  memcpy(b + 12, model_guid, strnlen(model_guid, STATE_GUID_SIZE - 1));
+}
 
 /* 64-bit FNV-1a of bytes[0..size) without the checksum field. Each step (xor a byte, multiply
  * by an odd constant modulo 2^64) is a bijection of the running hash, so a change confined to
@@ -512,11 +515,13 @@ static uint64_t state_checksum(const unsigned char* bytes, size_t size) {
 
 /* Payload size if bytes[0..size) is an intact state of this FMU, else 0 (logged). */
 static size_t check_state(const instance* c, const char* function, const unsigned char* bytes, size_t size) {
-  char guid[STATE_GUID_SIZE] = GM_FMU_GUID;
+  unsigned char own[12 + STATE_GUID_SIZE];
+  state_identity(own);
   uint32_t format;
   uint64_t payload, stored;
-  if (size < 12 || memcmp(bytes, STATE_MAGIC, 8) != 0) {
-    error(c, "%s: not a GearMesh FMU state (%zu bytes; it must start with \"" STATE_MAGIC "\")", function, size);
+  if (size < 12 || memcmp(bytes, own, 8) != 0) {
+    error(c, "%s: not a %s FMU state (%zu bytes; it must start with \"%.8s\")", function, model_identifier, size,
+          model_identifier);
     return 0;
   }
   memcpy(&format, bytes + 8, sizeof format);
@@ -541,9 +546,9 @@ static size_t check_state(const instance* c, const char* function, const unsigne
           function, (unsigned long long)stored, size, (unsigned long long)computed);
     return 0;
   }
-  if (memcmp(bytes + 12, guid, STATE_GUID_SIZE) != 0) {
-    error(c, "%s: FMU state is from another GearMesh build (GUID %.40s, this build's %s)", function,
-          (const char*)bytes + 12, GM_FMU_GUID);
+  if (memcmp(bytes + 12, own + 12, STATE_GUID_SIZE) != 0) {
+    error(c, "%s: FMU state is from another %s build (GUID %.*s, this build's %s)", function, model_identifier,
+          STATE_GUID_SIZE, (const char*)bytes + 12, model_guid);
     return 0;
   }
   return (size_t)payload;
@@ -557,13 +562,10 @@ fmi2Status fmi2GetFMUstate(fmi2Component component, fmi2FMUstate* FMUstate) {
   fmu_state* s = realloc(*FMUstate, sizeof *s + size); /* a previous state of ours is reused */
   if (!s) return error(c, "fmi2GetFMUstate: out of memory");
   *FMUstate = s;
-  char guid[STATE_GUID_SIZE] = GM_FMU_GUID;
-  uint32_t format = STATE_FORMAT, mode = (uint32_t)c->mode;
+  uint32_t mode = (uint32_t)c->mode;
   unsigned char* b = s->bytes;
   s->size = size;
-  memcpy(b, STATE_MAGIC, 8);
-  memcpy(b + 8, &format, 4);
-  memcpy(b + 12, guid, STATE_GUID_SIZE);
+  state_identity(b);
   memcpy(b + STATE_SIZE_OFFSET, &payload, 8);
   memcpy(b + STATE_HEADER_SIZE, &c->time, 8);
   memcpy(b + STATE_HEADER_SIZE + 8, &mode, 4);
@@ -637,13 +639,30 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component component, const fmi2Byte seria
 
 /* ---- directional derivatives ------------------------------------------------------------ */
 
-/* d(outputs)/d(inputs) . dvKnown (gm_directional_derivative: exact on the current contact set).
- * Knowns: Real inputs only (FMI 2.0 also allows parameters as knowns for initial unknowns in
- * Initialization Mode; this FMU does not: a parameter known is an error naming it). Unknowns:
- * Real outputs. In stepComplete and terminated the derivative is taken at the inputs held over
- * the last fmi2DoStep, so it belongs to the published outputs even after new inputs were set;
- * in Initialization Mode (and before any evaluation) at the current inputs. solver.residual's
- * derivative is reported as 0. The FMU's state is not changed. */
+/* 1 if refs[i] is a Real variable of the given causality, else 0 (logged, naming the role the
+ * knowns or unknowns play). */
+static int derivative_variable(const instance* c, const char* role, const char* array, const fmi2ValueReference refs[],
+                               size_t i, model_causality causality) {
+  const model_variable_info* v = model_variable(refs[i]);
+  if (!v) {
+    error(c, "fmi2GetDirectionalDerivative: %s[%zu] = %u is not a value reference of this FMU", array, i,
+          (unsigned)refs[i]);
+    return 0;
+  }
+  if (v->type == MODEL_Real && v->causality == causality) return 1;
+  error(c, "fmi2GetDirectionalDerivative: %s %s (value reference %u) is a %s %s; the %ss must be Real %ss%s", role,
+        v->name, (unsigned)refs[i], causality_names[v->causality], type_names[v->type], role,
+        causality_names[causality],
+        causality == MODEL_input ? " (parameters as knowns, for initial unknowns in Initialization Mode, are not "
+                                   "supported)" : "");
+  return 0;
+}
+
+/* d(outputs)/d(inputs) . dvKnown (model_directional_derivative), at the current inputs, to which
+ * the outputs read belong (docs/fmi.md, "Feedthrough"). Knowns: Real inputs only (FMI 2.0 also
+ * allows parameters as knowns for initial unknowns in Initialization Mode; this layer does not: a
+ * parameter known is an error naming it), each with a finite dvKnown. Unknowns: Real outputs.
+ * The FMU's state is not changed. */
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component component, const fmi2ValueReference vUnknown_ref[],
                                         size_t nUnknown, const fmi2ValueReference vKnown_ref[], size_t nKnown,
                                         const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
@@ -655,38 +674,17 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component component, const fmi2Value
     CHECK_POINTER(vKnown_ref);
     CHECK_POINTER(dvKnown);
   }
-  gm_fmu_values seed;
-  memset(&seed, 0, sizeof seed);
   for (size_t i = 0; i < nKnown; ++i) {
-    const gm_fmu_variable* v = model_variable(vKnown_ref[i]);
-    if (!v) return error(c, "%s: vKnown_ref[%zu] = %u is not a value reference of this FMU", __func__, i,
-                         (unsigned)vKnown_ref[i]);
-    if (v->type != GM_FMU_Real || v->causality != GM_FMU_input)
-      return error(c, "%s: known %s (value reference %u) is a %s %s; the knowns must be Real inputs (parameters "
-                   "as knowns, for initial unknowns in Initialization Mode, are not supported)",
-                   __func__, v->name, (unsigned)vKnown_ref[i], v->causality_name, v->type_name);
+    if (!derivative_variable(c, "known", "vKnown_ref", vKnown_ref, i, MODEL_input)) return fmi2Error;
     if (!isfinite(dvKnown[i]))
-      return error(c, "%s: dvKnown[%zu] = %g for %s must be finite", __func__, i, dvKnown[i], v->name);
-    double x;
-    memcpy(&x, (char*)&seed + v->offset, sizeof x);
-    x += dvKnown[i]; /* a known listed twice adds up, as the linear map does */
-    memcpy((char*)&seed + v->offset, &x, sizeof x);
+      return error(c, "%s: dvKnown[%zu] = %g for %s must be finite", __func__, i, dvKnown[i],
+                   model_variable(vKnown_ref[i])->name);
   }
-  for (size_t i = 0; i < nUnknown; ++i) {
-    const gm_fmu_variable* v = model_variable(vUnknown_ref[i]);
-    if (!v) return error(c, "%s: vUnknown_ref[%zu] = %u is not a value reference of this FMU", __func__, i,
-                         (unsigned)vUnknown_ref[i]);
-    if (v->type != GM_FMU_Real || v->causality != GM_FMU_output)
-      return error(c, "%s: unknown %s (value reference %u) is a %s %s; the unknowns must be Real outputs",
-                   __func__, v->name, (unsigned)vUnknown_ref[i], v->causality_name, v->type_name);
-  }
-  gm_fmu_values out;
-  memset(&out, 0, sizeof out);
-  const int at_last = c->mode != InitializationMode;
-  if (model_directional_derivative(c->model, at_last, &seed, &out, c->msg, sizeof c->msg))
-    return error(c, "%s: %s", __func__, c->msg);
   for (size_t i = 0; i < nUnknown; ++i)
-    memcpy(&dvUnknown[i], (const char*)&out + model_variable(vUnknown_ref[i])->offset, sizeof(double));
+    if (!derivative_variable(c, "unknown", "vUnknown_ref", vUnknown_ref, i, MODEL_output)) return fmi2Error;
+  if (model_directional_derivative(c->model, vKnown_ref, dvKnown, nKnown, vUnknown_ref, dvUnknown, nUnknown, c->msg,
+                                   sizeof c->msg))
+    return error(c, "%s: %s", __func__, c->msg);
   return fmi2OK;
 }
 
@@ -743,8 +741,8 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
     return error(c, "fmi2DoStep: step to t = %.17g goes past stopTime = %.17g", end, c->stop_time);
   /* inputs are held over the step; the outputs published are those at tc + h */
   const int failed = model_evaluate(c->model, 0, end, h, c->msg, sizeof c->msg);
-  if (failed == 2) /* a skipped tooth, or the large-step integration failed: nothing changed, the
-                      instance stays usable, the master may roll back or retry shorter */
+  if (failed == 2) /* refused by the model: nothing changed, the instance stays usable, the
+                      master may roll back or retry shorter */
     return discard(c, "fmi2DoStep: step from t = %g s to %g s discarded: %s", tc, end, c->msg);
   if (failed) {
     c->mode = Error; /* only fmi2SetFMUstate or fmi2Reset recover */

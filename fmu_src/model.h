@@ -1,69 +1,108 @@
-/* The model behind the generic FMI 2.0 layer (Reference-FMUs layering): fmi2_functions.c knows
- * FMI (state machine, logging, time, FMU state framing); model_gearmesh.c holds the variable
- * values and reaches the physics only through the core's C API. Errors come back as a nonzero
- * return and a message in the caller's buffer. */
-#ifndef GEARMESH_FMU_MODEL_H
-#define GEARMESH_FMU_MODEL_H
+/* The model behind the generic FMI 2.0 co-simulation layer (Reference-FMUs layering).
+ * fmi2_functions.c knows FMI (state machine, logging, time, FMU state framing) and reaches the
+ * model only through this header, whose types are model-neutral: value references, C types of
+ * the fmi2 values (double; int for Integer and Boolean; char strings), an opaque model and a
+ * variable-info accessor. A model implements it; GearMesh's is model_gearmesh.c. Errors come
+ * back as a nonzero return and a message in the caller's buffer. */
+#ifndef FMU_MODEL_H
+#define FMU_MODEL_H
 
 #include <stddef.h>
 
-#include "variables.h"
-
 typedef struct fmu_model fmu_model;
 
-/* Log hook into the generic layer, which drops messages of disabled categories. */
-typedef void (*fmu_log_fn)(void* context, gm_log_category category, const char* format, ...);
+/* ---- identity and variables ------------------------------------------------------------- */
+
+/* modelIdentifier (an FMU state starts with its first 8 bytes, NUL-padded) and the GUID of this
+ * build, which fmi2Instantiate and every FMU state check; at most MODEL_GUID_SIZE - 1 chars. */
+extern const char model_identifier[];
+extern const char model_guid[];
+#define MODEL_GUID_SIZE 40
+
+/* The FMI attributes of a variable, spelled as in modelDescription.xml. */
+typedef enum { MODEL_Real, MODEL_Integer, MODEL_Boolean, MODEL_String } model_type;
+typedef enum { MODEL_parameter, MODEL_calculatedParameter, MODEL_input, MODEL_output } model_causality;
+typedef enum { MODEL_fixed, MODEL_tunable, MODEL_discrete, MODEL_continuous } model_variability;
+
+typedef struct model_variable_info {
+  const char* name;
+  model_type type;
+  model_causality causality;
+  model_variability variability;
+} model_variable_info;
 
 /* The variable with value reference vr, or NULL if there is none. */
-const gm_fmu_variable* model_variable(unsigned vr);
+const model_variable_info* model_variable(unsigned vr);
 
-/* A model at the generic start values (the core's defaults); NULL if out of memory. */
+/* ---- logging ---------------------------------------------------------------------------- */
+
+/* Log categories are numbered as in modelDescription.xml's <LogCategories>: first the generic
+ * layer's five, with FMI's standard names, then the model's own (at most 32 in all). */
+enum { MODEL_LOG_EVENTS, MODEL_LOG_WARNING, MODEL_LOG_ERROR, MODEL_LOG_FATAL, MODEL_LOG_ALL };
+unsigned model_log_category_count(void);
+const char* model_log_category_name(unsigned category);
+
+/* Log hook into the generic layer, which drops messages of disabled categories. */
+typedef void (*fmu_log_fn)(void* context, unsigned category, const char* format, ...);
+
+/* ---- lifetime --------------------------------------------------------------------------- */
+
+/* A model at its start values; NULL if out of memory. */
 fmu_model* model_new(fmu_log_fn log, void* log_context);
 void model_free(fmu_model* m);
 /* The FMU's local resources directory (ending in '/'; NULL if the importer gave none), once,
- * before anything else: file names in String parameters are resolved against it, and a scene
- * FMU's start values (values.h, FMU_START_VALUES_FILE) are read from it and become the start
- * values. Nonzero on error (a malformed start values file), with msg. */
+ * before anything else: the model may read its data and start values from there. Nonzero on
+ * error, with msg. */
 int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t msg_size);
-/* Back to the start values; the core model is dropped. Nonzero if out of memory. */
+/* Back to the start values. Nonzero if out of memory. */
 int model_reset(fmu_model* m);
 
-/* Values of v (Integer and Boolean are int; a String is never NULL and stays valid until it is
- * set again or the model is reset or freed). Setting a parameter or input marks the outputs
- * stale; setting a parameter also the core model. model_set_string takes over a malloc'd copy. */
-double model_get_real(const fmu_model* m, const gm_fmu_variable* v);
-int model_get_int(const fmu_model* m, const gm_fmu_variable* v);
-const char* model_get_string(const fmu_model* m, const gm_fmu_variable* v);
-void model_set_real(fmu_model* m, const gm_fmu_variable* v, double x);
-void model_set_int(fmu_model* m, const gm_fmu_variable* v, int x);
-void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned);
+/* ---- values ----------------------------------------------------------------------------- */
 
-/* (Re)build the core model if the parameters changed since the last build. */
+/* Values of the variable with value reference vr, which the caller has checked with
+ * model_variable (Integer and Boolean are int; a String is never NULL and stays valid until it
+ * is set again or the model is reset or freed). Setting a parameter or input to another value
+ * marks the outputs stale (the value it holds: nothing changes). model_set_string takes over a
+ * malloc'd copy. */
+double model_get_real(const fmu_model* m, unsigned vr);
+int model_get_int(const fmu_model* m, unsigned vr);
+const char* model_get_string(const fmu_model* m, unsigned vr);
+void model_set_real(fmu_model* m, unsigned vr, double x);
+void model_set_int(fmu_model* m, unsigned vr, int x);
+void model_set_string(fmu_model* m, unsigned vr, char* owned);
+
+/* ---- evaluation ------------------------------------------------------------------------- */
+
+/* Bring the calculated parameters up to date with the parameters. Nonzero on error, with msg. */
 int model_build(fmu_model* m, char* msg, size_t msg_size);
-/* Evaluate the contact at the held inputs and publish the outputs (time only labels log
- * messages). restart forgets warm start and friction memory first. With model.dynamics = 1,
- * restart starts the spin state from the inputs gear<i>.phi/.omega and otherwise the spins are
- * integrated over step (s). Returns 0, 1 on error, or 2 (nothing changed, msg set) if the
- * large-step integration failed (a shorter step may succeed) or if, without restart and with
- * prescribed spins, the TE would jump by half a base pitch or more from the last evaluation's
- * (a skipped tooth). */
+/* Compute the outputs at the held inputs (time only labels log messages): restart (Initialization
+ * Mode, its end) starts from the inputs and forgets any memory of earlier evaluations; otherwise
+ * a communication step of step (s) ending at time. Returns 0, 1 on error, or 2 (nothing changed,
+ * msg set) for a step the model refuses but a shorter one or another input may pass
+ * (fmi2Discard). */
 int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t msg_size);
-/* Directional derivative of the outputs (out->y, and the spin outputs out->ds) along the input
- * direction seed (gm_directional_derivative on seed->k), at the inputs of the last evaluation if
- * at_last_evaluation and there was one (stepComplete: the inputs held over the last fmi2DoStep,
- * to which the published outputs belong), else at the current inputs. Nonzero on error, with msg
- * (also with model.dynamics = 1, which has no derivatives in this version). */
-int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_fmu_values* seed,
-                                 gm_fmu_values* out, char* msg, size_t msg_size);
-/* Design warnings of the built core model ("" if none or not built). */
-const char* model_warnings(const fmu_model* m);
-/* 1 if the published outputs belong to the current parameters and inputs. */
+/* The outputs at the current inputs at a communication point, time not advanced: a read after
+ * inputs were set since the last evaluation (the direct feedthrough that modelDescription.xml
+ * declares). What the next model_evaluate computes does not change. Nonzero on error, with msg. */
+int model_feedthrough(fmu_model* m, double time, char* msg, size_t msg_size);
+/* 1 if the outputs belong to the current parameters and inputs. */
 int model_outputs_current(const fmu_model* m);
+/* Directional derivative at the current inputs, to which the outputs read belong:
+ * dv_unknown[j] = sum_i d(unknown[j])/d(known[i]) dv_known[i], the knowns Real inputs and the
+ * unknowns Real outputs (the caller has checked both; a known listed twice adds up). What the
+ * next model_evaluate computes does not change. Nonzero on error, with msg. */
+int model_directional_derivative(fmu_model* m, const unsigned known[], const double dv_known[], size_t n_known,
+                                 const unsigned unknown[], double dv_unknown[], size_t n_unknown, char* msg,
+                                 size_t msg_size);
+/* Warnings about the model built from the parameters ("" if none or not built). */
+const char* model_warnings(const fmu_model* m);
 
-/* Model part of the FMU state: every parameter, input and output (values.h), plus the core's
- * blob. */
+/* ---- FMU state -------------------------------------------------------------------------- */
+
+/* The model's part of an FMU state: self-contained bytes in native byte order. */
 size_t model_state_size(const fmu_model* m);
 void model_state_save(const fmu_model* m, unsigned char* buf); /* writes model_state_size bytes */
+/* Nonzero with msg if buf is not a state of this model; m is then unchanged. */
 int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* msg, size_t msg_size);
 
-#endif /* GEARMESH_FMU_MODEL_H */
+#endif /* FMU_MODEL_H */

@@ -1,5 +1,6 @@
-/* GearMesh behind model.h: the variable table bound to gm_fmu_values, the core model built
- * lazily from the parameters, one gm_evaluate per call. */
+/* GearMesh behind model.h: the variable table (modelDescription/variables.h) bound to
+ * gm_fmu_values, the core model built lazily from the parameters, one gm_evaluate per call. All
+ * that the generic FMI layer (fmi2_functions.c) may know of GearMesh comes through here. */
 #include <math.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -9,6 +10,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "gearmesh/param_ranges.h"
 #include "model.h"
 #include "values.h"
 
@@ -18,16 +20,46 @@ struct fmu_model {
   char* resources;     /* local resources directory ending in '/', or NULL */
   gm_model* core;      /* built from v.p; NULL until needed */
   gm_data* data;       /* evaluation memory of core */
+  gm_data* scratch;    /* model_feedthrough's: NULL until the first one */
   int params_changed;  /* v.p differs from the parameters core was built from */
-  int outputs_current; /* v.y was evaluated at the current v.p and v.k */
-  int evaluated;       /* k_eval holds the inputs of the last evaluation */
-  gm_kinematics k_eval; /* the inputs v.y was evaluated at (held over the last step) */
+  int outputs_current; /* v.y and v.ds belong to the current v.p and v.k */
+  int evaluated;       /* k_eval holds the inputs of the last model_evaluate */
+  gm_kinematics k_eval; /* those inputs (held over the last step): the TE jump check's reference */
   fmu_log_fn log;
   void* log_context;
 };
 
-const gm_fmu_variable* model_variable(unsigned vr) {
-  return vr < GM_FMU_VARIABLE_COUNT ? &gm_fmu_variables[vr] : NULL;
+const char model_identifier[] = "GearMesh";
+const char model_guid[] = GM_FMU_GUID;
+_Static_assert(sizeof GM_FMU_GUID <= MODEL_GUID_SIZE, "the GUID does not fit an FMU state's header");
+
+/* The table's FMI attributes, as model.h gives them to the generic layer. */
+static const model_variable_info variable_info[] = {
+#define INFO(name, type, causality, variability, ...) {name, MODEL_##type, MODEL_##causality, MODEL_##variability},
+    GM_FMU_VARIABLES(INFO)
+#undef INFO
+};
+
+const model_variable_info* model_variable(unsigned vr) {
+  return vr < GM_FMU_VARIABLE_COUNT ? &variable_info[vr] : NULL;
+}
+
+static const char* const log_category_names[] = {
+#define L(id, name, description) name,
+    GM_FMU_LOG_CATEGORIES(L)
+#undef L
+};
+_Static_assert((int)GM_LOG_EVENTS == MODEL_LOG_EVENTS && (int)GM_LOG_WARNING == MODEL_LOG_WARNING &&
+                   (int)GM_LOG_ERROR == MODEL_LOG_ERROR && (int)GM_LOG_FATAL == MODEL_LOG_FATAL &&
+                   (int)GM_LOG_ALL == MODEL_LOG_ALL && GM_LOG_COUNT < 32,
+               "the generic layer's log categories come first, in model.h's order");
+
+unsigned model_log_category_count(void) {
+  return GM_LOG_COUNT;
+}
+
+const char* model_log_category_name(unsigned category) {
+  return log_category_names[category];
 }
 
 static int set_start_values(fmu_model* m) {
@@ -40,12 +72,15 @@ static int set_start_values(fmu_model* m) {
 }
 
 static void drop_core(fmu_model* m) {
+  gm_data_free(m->scratch);
   gm_data_free(m->data);
   gm_model_free(m->core);
+  m->scratch = NULL;
   m->data = NULL;
   m->core = NULL;
 }
 
+/* GearMesh's start values: the core's defaults (parameters), the nominal pose at rest (inputs). */
 fmu_model* model_new(fmu_log_fn log, void* log_context) {
   fmu_model* m = calloc(1, sizeof *m);
   if (!m) return NULL;
@@ -72,6 +107,9 @@ void model_free(fmu_model* m) {
   free(m);
 }
 
+/* GearMesh: file names in String parameters are resolved against resources, and a scene FMU's
+ * start values (values.h, FMU_START_VALUES_FILE) are read from there and become the start
+ * values; a malformed file is the error. */
 int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t n) {
   if (resources) {
     size_t size = strlen(resources) + 1;
@@ -87,50 +125,59 @@ int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t n
   return 0;
 }
 
+/* The core model is dropped with its memory. */
 int model_reset(fmu_model* m) {
   drop_core(m);
   return set_start_values(m);
 }
 
-static void* field(const fmu_model* m, const gm_fmu_variable* v) {
-  return (char*)&m->v + v->offset;
+/* The field of vr in values (model.h: vr was checked with model_variable). */
+static void* field(const gm_fmu_values* values, unsigned vr) {
+  return (char*)values + gm_fmu_variables[vr].offset;
 }
 
-double model_get_real(const fmu_model* m, const gm_fmu_variable* v) {
+double model_get_real(const fmu_model* m, unsigned vr) {
   double x;
-  memcpy(&x, field(m, v), sizeof x);
+  memcpy(&x, field(&m->v, vr), sizeof x);
   return x;
 }
 
-int model_get_int(const fmu_model* m, const gm_fmu_variable* v) {
+int model_get_int(const fmu_model* m, unsigned vr) {
   int x;
-  memcpy(&x, field(m, v), sizeof x);
+  memcpy(&x, field(&m->v, vr), sizeof x);
   return x;
 }
 
-static void mark_changed(fmu_model* m, const gm_fmu_variable* v) {
-  if (v->causality == GM_FMU_parameter) m->params_changed = 1;
+static void mark_changed(fmu_model* m, unsigned vr) {
+  if (gm_fmu_variables[vr].causality == GM_FMU_parameter) m->params_changed = 1;
   m->outputs_current = 0;
 }
 
-void model_set_real(fmu_model* m, const gm_fmu_variable* v, double x) {
-  memcpy(field(m, v), &x, sizeof x);
-  mark_changed(m, v);
+/* Setting a variable to the value it holds changes nothing: the outputs stay current. */
+void model_set_real(fmu_model* m, unsigned vr, double x) {
+  if (memcmp(field(&m->v, vr), &x, sizeof x) == 0) return;
+  memcpy(field(&m->v, vr), &x, sizeof x);
+  mark_changed(m, vr);
 }
 
-void model_set_int(fmu_model* m, const gm_fmu_variable* v, int x) {
-  if (v->type == GM_FMU_Boolean) x = x != 0;
-  memcpy(field(m, v), &x, sizeof x);
-  mark_changed(m, v);
+void model_set_int(fmu_model* m, unsigned vr, int x) {
+  if (gm_fmu_variables[vr].type == GM_FMU_Boolean) x = x != 0;
+  if (memcmp(field(&m->v, vr), &x, sizeof x) == 0) return;
+  memcpy(field(&m->v, vr), &x, sizeof x);
+  mark_changed(m, vr);
 }
 
-const char* model_get_string(const fmu_model* m, const gm_fmu_variable* v) {
-  return values_get_string(&m->v, v);
+const char* model_get_string(const fmu_model* m, unsigned vr) {
+  return values_get_string(&m->v, &gm_fmu_variables[vr]);
 }
 
-void model_set_string(fmu_model* m, const gm_fmu_variable* v, char* owned) {
-  values_set_string(&m->v, v, owned);
-  mark_changed(m, v);
+void model_set_string(fmu_model* m, unsigned vr, char* owned) {
+  if (strcmp(model_get_string(m, vr), owned) == 0) {
+    free(owned);
+    return;
+  }
+  values_set_string(&m->v, &gm_fmu_variables[vr], owned);
+  mark_changed(m, vr);
 }
 
 /* What a file that is not a regular file is, for messages. */
@@ -248,11 +295,26 @@ static void install_core(fmu_model* m, gm_model* core, gm_data* data) {
   m->params_changed = 0;
 }
 
+/* Every parameter with a static range (core/src/param_ranges.cpp, modelDescription.xml's min and
+ * max) inside it, whether or not the current mode uses it. */
+static int check_ranges(const fmu_model* m, char* msg, size_t n) {
+  for (unsigned vr = 0; vr < GM_FMU_VARIABLE_COUNT; vr++) {
+    const gm_fmu_variable* v = &gm_fmu_variables[vr];
+    const gm_param_range* r = v->causality == GM_FMU_parameter ? gm_param_range_find(v->name) : NULL;
+    if (!r) continue;
+    const double x = v->type == GM_FMU_Real ? model_get_real(m, vr) : model_get_int(m, vr);
+    if (gm_param_range_check(r, x, msg, n) != GM_OK) return 1;
+  }
+  return 0;
+}
+
+/* GearMesh: (re)builds the core model if the parameters changed since the last build; the
+ * calculated parameters are its geometry. */
 int model_build(fmu_model* m, char* msg, size_t n) {
   if (m->core && !m->params_changed) return 0;
   gm_model* core;
   gm_data* data;
-  if (create_core(m, &m->v.p, &core, &data, msg, n)) return 1;
+  if (check_ranges(m, msg, n) || create_core(m, &m->v.p, &core, &data, msg, n)) return 1;
   if (m->v.dynamics && gm_dynamics_check(core, &m->v.dp, msg, n) != GM_OK) {
     gm_data_free(data);
     gm_model_free(core);
@@ -285,6 +347,19 @@ static void prescribed_state(fmu_model* m) {
   m->v.ds = s;
 }
 
+/* r becomes the published outputs (logged); with prescribed spins the spin outputs are the
+ * inputs. */
+static void publish(fmu_model* m, int restart, double time, const gm_result* r) {
+  if (restart || r->pairs_in_contact != m->v.y.pairs_in_contact || r->flank != m->v.y.flank)
+    m->log(m->log_context, GM_LOG_CONTACT, "t = %g s: %d tooth pairs in contact, %s", time, r->pairs_in_contact,
+           flank_name(r->flank));
+  m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d iterations, residual %g m", time, r->solver_iterations,
+         r->solver_residual);
+  if (!m->v.dynamics) prescribed_state(m);
+  m->v.y = *r;
+  m->outputs_current = 1;
+}
+
 /* The core's step: one evaluation at the held inputs, or in large-step mode the dynamics started
  * (restart) or advanced by step. */
 static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r) {
@@ -293,24 +368,32 @@ static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r)
   return gm_dynamics_advance(m->core, m->data, &m->v.dp, &m->v.k, &m->v.di, step, &m->v.ds, r);
 }
 
+/* 1 (msg set) if the step's TE jumps by half a base pitch or more from the last accepted
+ * evaluation's: a tooth skipped, whose forces would look normal (they repeat every base pitch).
+ * Quasi-static mode solves the TE near the last one instead (detection's quarter-pitch range
+ * bounds it); the large-step mode integrates the spins itself; spins out of range are
+ * gm_evaluate's error. */
+static int skipped_tooth(const fmu_model* m, char* msg, size_t n) {
+  if (!m->evaluated || m->v.p.quasi_static || m->v.dynamics || !(fabs(m->v.k.phi[0]) <= GM_MAX_SPIN_ANGLE) ||
+      !(fabs(m->v.k.phi[1]) <= GM_MAX_SPIN_ANGLE))
+    return 0;
+  const double from = te_of(m, &m->k_eval), to = te_of(m, &m->v.k), bound = 0.5 * m->v.g.p_bt;
+  if (fabs(to - from) < bound) return 0;
+  snprintf(msg, n,
+           "mesh.te would jump by %g m (%.4g base pitches) in one step, from %g m to %g m "
+           "(gear1.phi = %.17g rad, gear2.phi = %.17g rad): a tooth skipped; allowed |jump| < "
+           "%g m (half a base pitch); roll back or retry a smaller step",
+           to - from, (to - from) / m->v.g.p_bt, from, to, m->v.k.phi[0], m->v.k.phi[1], bound);
+  return 1;
+}
+
+/* GearMesh: restart forgets the warm start and friction memory, and with model.dynamics = 1
+ * starts the spin state from the inputs gear<i>.phi/.omega; otherwise the spins are integrated
+ * over step. Returns 2 if the large-step integration failed (a shorter step may succeed) or if,
+ * with prescribed spins, the step skipped a tooth (skipped_tooth): nothing changes. */
 int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t n) {
   if (model_build(m, msg, n)) return 1;
-  /* A TE jump of half a base pitch or more since the last accepted evaluation skipped a tooth
-   * (the forces repeat every base pitch, so they would look normal): refused before evaluating,
-   * nothing changes. Quasi-static mode solves the TE near the last one instead; detection's
-   * quarter-pitch range already bounds it. The large-step mode integrates the spins itself. Spins out of range are gm_evaluate's error. */
-  if (!restart && m->evaluated && !m->v.p.quasi_static && !m->v.dynamics && fabs(m->v.k.phi[0]) <= GM_MAX_SPIN_ANGLE &&
-      fabs(m->v.k.phi[1]) <= GM_MAX_SPIN_ANGLE) {
-    const double from = te_of(m, &m->k_eval), to = te_of(m, &m->v.k), bound = 0.5 * m->v.g.p_bt;
-    if (!(fabs(to - from) < bound)) {
-      snprintf(msg, n,
-               "mesh.te would jump by %g m (%.4g base pitches) in one step, from %g m to %g m "
-               "(gear1.phi = %.17g rad, gear2.phi = %.17g rad): a tooth skipped; allowed |jump| < "
-               "%g m (half a base pitch); roll back or retry a smaller step",
-               to - from, (to - from) / m->v.g.p_bt, from, to, m->v.k.phi[0], m->v.k.phi[1], bound);
-      return 2;
-    }
-  }
+  if (!restart && skipped_tooth(m, msg, n)) return 2;
   if (restart) gm_data_reset(m->core, m->data);
   gm_result r;
   const gm_status status = core_step(m, restart, step, &r);
@@ -318,25 +401,55 @@ int model_evaluate(fmu_model* m, int restart, double time, double step, char* ms
     snprintf(msg, n, "%s", gm_data_message(m->data));
     return m->v.dynamics && status == GM_ERR_SOLVER ? 2 : 1;
   }
-  if (restart || r.pairs_in_contact != m->v.y.pairs_in_contact || r.flank != m->v.y.flank)
-    m->log(m->log_context, GM_LOG_CONTACT, "t = %g s: %d tooth pairs in contact, %s", time, r.pairs_in_contact,
-           flank_name(r.flank));
-  m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d iterations, residual %g m", time, r.solver_iterations,
-         r.solver_residual);
+  publish(m, restart, time, &r);
   if (m->v.dynamics)
     m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d internal steps, %d rejected", time, m->v.ds.steps,
            m->v.ds.rejected);
-  else
-    prescribed_state(m);
-  m->v.y = r;
-  m->outputs_current = 1;
   m->k_eval = m->v.k;
   m->evaluated = 1;
   return 0;
 }
 
-int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_fmu_values* seed,
-                                 gm_fmu_values* out, char* msg, size_t n) {
+/* The memory of the last evaluation in m->scratch (created on first use): the quasi-static warm
+ * start; level 5's coupled solve starts cold there (gearmesh.h, gm_data_state_load). */
+static int load_scratch(fmu_model* m, char* msg, size_t n) {
+  if (!m->scratch && gm_data_create(m->core, &m->scratch) != GM_OK) {
+    snprintf(msg, n, "out of memory for the contact data");
+    return 1;
+  }
+  const size_t size = gm_data_state_size(m->core, m->data);
+  unsigned char* blob = malloc(size);
+  int failed = !blob || gm_data_state_save(m->core, m->data, blob, size) != GM_OK ||
+               gm_data_state_load(m->core, m->scratch, blob, size) != GM_OK;
+  free(blob);
+  if (failed) snprintf(msg, n, "out of memory for the contact data");
+  return failed;
+}
+
+/* GearMesh: one gm_evaluate on m->scratch, so that m->data (where the next model_evaluate starts)
+ * and k_eval (its TE jump reference) stay as the last step left them; with model.dynamics = 1 at
+ * the integrated spin state and the current pose, the spin state itself unchanged. */
+int model_feedthrough(fmu_model* m, double time, char* msg, size_t n) {
+  if (model_build(m, msg, n) || load_scratch(m, msg, n)) return 1;
+  gm_kinematics k = m->v.k;
+  for (int i = 0; m->v.dynamics && i < 2; i++) { /* the spin state, not the initial one */
+    k.phi[i] = m->v.ds.phi[i];
+    k.omega[i] = m->v.ds.omega[i];
+  }
+  gm_result r;
+  if (gm_evaluate(m->core, m->scratch, &k, &r) != GM_OK) {
+    snprintf(msg, n, "%s", gm_data_message(m->scratch));
+    return 1;
+  }
+  publish(m, 0, time, &r);
+  return 0;
+}
+
+/* The outputs' derivative along the input increments in seed, into out: the contact's from
+ * gm_directional_derivative (solver.residual's is 0) on m->scratch, as model_feedthrough (level 5
+ * keeps its coupled solve's tangent in the data), and the spin outputs, which are the spin inputs.
+ * Refused with model.dynamics = 1. */
+static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_values* out, char* msg, size_t n) {
   if (model_build(m, msg, n)) return 1;
   if (m->v.dynamics) {
     snprintf(msg, n,
@@ -345,15 +458,32 @@ int model_directional_derivative(fmu_model* m, int at_last_evaluation, const gm_
              "model.dynamics = 0 the exact derivatives are available");
     return 1;
   }
-  const gm_kinematics* at = at_last_evaluation && m->evaluated ? &m->k_eval : &m->v.k;
-  if (gm_directional_derivative(m->core, m->data, at, &seed->k, &out->y) != GM_OK) {
-    snprintf(msg, n, "%s", gm_data_message(m->data));
+  if (load_scratch(m, msg, n)) return 1;
+  if (gm_directional_derivative(m->core, m->scratch, &m->v.k, &seed->k, &out->y) != GM_OK) {
+    snprintf(msg, n, "%s", gm_data_message(m->scratch));
     return 1;
   }
-  for (int i = 0; i < 2; i++) { /* the spin outputs are the spin inputs */
+  for (int i = 0; i < 2; i++) {
     out->ds.phi[i] = seed->k.phi[i];
     out->ds.omega[i] = seed->k.omega[i];
   }
+  return 0;
+}
+
+int model_directional_derivative(fmu_model* m, const unsigned known[], const double dv_known[], size_t n_known,
+                                 const unsigned unknown[], double dv_unknown[], size_t n_unknown, char* msg,
+                                 size_t n) {
+  gm_fmu_values seed, out;
+  memset(&seed, 0, sizeof seed);
+  memset(&out, 0, sizeof out);
+  for (size_t i = 0; i < n_known; i++) {
+    double x;
+    memcpy(&x, field(&seed, known[i]), sizeof x);
+    x += dv_known[i];
+    memcpy(field(&seed, known[i]), &x, sizeof x);
+  }
+  if (derivative_along(m, &seed, &out, msg, n)) return 1;
+  for (size_t i = 0; i < n_unknown; i++) memcpy(&dv_unknown[i], field(&out, unknown[i]), sizeof(double));
   return 0;
 }
 

@@ -1,7 +1,7 @@
 /* Writes modelDescription.xml from the variable table (variables.h). Built and run by CMake.
  *
- * Start values of parameters come from gm_default_params(), so the defaults live in the core
- * only. The table is checked here (unique names, legal causality/variability/initial, units
+ * Start values of parameters come from gm_default_params() and min/max from the core's range
+ * table (gearmesh/param_ranges.h), so the defaults and the ranges live in the core only. The table is checked here (unique names, legal causality/variability/initial, units
  * defined) so that a bad row fails the build instead of producing an FMU that importers reject.
  *
  * Usage: generate_model_description <output.xml>
@@ -12,6 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "gearmesh/param_ranges.h"
 #include "variables.h"
 
 #define N_VARIABLES GM_FMU_VARIABLE_COUNT
@@ -65,13 +66,31 @@ static void check_row(const gm_fmu_variable* v, size_t index) {
   if (v->type != GM_FMU_Real && strcmp(v->variability, "continuous") == 0)
     fail("only Real variables can be continuous", v->name);
   if (v->type != GM_FMU_Real && (v->unit[0] || v->display_unit[0])) fail("only Real variables carry units", v->name);
-  if ((v->type == GM_FMU_Boolean || v->type == GM_FMU_String) && (v->min[0] || v->max[0]))
-    fail("only Real and Integer variables have min and max", v->name);
   if (v->unit[0] && !unit_defined(v->unit)) fail("unit not in GM_FMU_UNITS", v->name);
   if (v->display_unit[0] && !display_unit_defined(v->unit, v->display_unit))
     fail("display unit not in GM_FMU_DISPLAY_UNITS for its unit", v->name);
   for (size_t j = 0; j < index; j++)
     if (strcmp(gm_fmu_variables[j].name, v->name) == 0) fail("duplicate name", v->name);
+  const gm_param_range* r = gm_param_range_find(v->name);
+  if (!r) return;
+  if (v->type != GM_FMU_Real && v->type != GM_FMU_Integer) fail("only Real and Integer variables have a range", v->name);
+  if (strcmp(r->unit, v->unit) != 0) fail("unit differs from its row in core/src/param_ranges.cpp", v->name);
+  if (v->type == GM_FMU_Integer && (r->lo != floor(r->lo) || r->hi != floor(r->hi)))
+    fail("an Integer's range has whole-number bounds", v->name);
+}
+
+/* Every row of the range table names a variable, once, with lo < hi. */
+static void check_ranges(void) {
+  size_t count;
+  const gm_param_range* ranges = gm_param_ranges(&count);
+  for (size_t i = 0; i < count; i++) {
+    int found = 0;
+    for (size_t j = 0; j < N_VARIABLES; j++) found |= strcmp(gm_fmu_variables[j].name, ranges[i].name) == 0;
+    if (!found) fail("row of core/src/param_ranges.cpp names no variable", ranges[i].name);
+    for (size_t j = 0; j < i; j++)
+      if (strcmp(ranges[j].name, ranges[i].name) == 0) fail("two rows in core/src/param_ranges.cpp", ranges[i].name);
+    if (!(ranges[i].lo < ranges[i].hi)) fail("range with lo >= hi in core/src/param_ranges.cpp", ranges[i].name);
+  }
 }
 
 static void put_escaped(FILE* f, const char* s) {
@@ -96,6 +115,30 @@ static void put_real(FILE* f, double x) {
   fputs(buf, f);
 }
 
+/* min or max of a range (none when infinite); Integer bounds as whole numbers. */
+static void put_bound(FILE* f, const char* attribute, double x, gm_fmu_type type) {
+  if (isinf(x)) return;
+  fprintf(f, " %s=\"", attribute);
+  if (type == GM_FMU_Integer) fprintf(f, "%.0f", x);
+  else put_real(f, x);
+  fputc('"', f);
+}
+
+/* FMI 2.0 has closed bounds only: an open one is said in the description and, for tools, in the
+ * variable's annotation <Tool name="GearMesh"><Range minExclusive/maxExclusive="true"/>. */
+static const char* open_note(const gm_param_range* r) {
+  if (!r || !(r->lo_open || r->hi_open)) return "";
+  return r->lo_open && r->hi_open ? " (min and max exclusive)" : r->lo_open ? " (min exclusive)" : " (max exclusive)";
+}
+
+static void put_open_annotation(FILE* f, const gm_param_range* r) {
+  if (!r || !(r->lo_open || r->hi_open)) return;
+  fputs("      <Annotations><Tool name=\"GearMesh\"><Range", f);
+  if (r->lo_open) fputs(" minExclusive=\"true\"", f);
+  if (r->hi_open) fputs(" maxExclusive=\"true\"", f);
+  fputs("/></Tool></Annotations>\n", f);
+}
+
 static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* start) {
   const char* field = (const char*)start + v->offset;
   fputs(" start=\"", f);
@@ -117,32 +160,25 @@ static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* st
   fputc('"', f);
 }
 
-static int is_known(const gm_fmu_variable* v, int initialization) {
-  return v->causality == GM_FMU_input || (initialization && v->causality == GM_FMU_parameter);
+/* 1 if unknown u depends on known k at a communication point (<Outputs>: the knowns are the
+ * inputs) or at initialization (<InitialUnknowns>: inputs and parameters; the unknown's
+ * D_AT_INIT classes count too). */
+static int depends(const gm_fmu_variable* u, const gm_fmu_variable* k, int initialization) {
+  unsigned classes = u->deps & D_KNOWN_CLASSES;
+  if (initialization) classes |= u->deps >> D_INIT_SHIFT;
+  const int known = k->causality == GM_FMU_input || (initialization && k->causality == GM_FMU_parameter);
+  return known && (k->deps & classes) != 0;
 }
 
-/* <Unknown> of variable `index`: its knowns are the inputs (communication points) or the inputs
- * and parameters (Initialization Mode) whose dependency class it names. */
+/* <Unknown> of variable `index` with its knowns; every dependency is of kind "dependent". */
 static void put_unknown(FILE* f, size_t index, int initialization) {
   const gm_fmu_variable* u = &gm_fmu_variables[index];
   fprintf(f, "      <Unknown index=\"%zu\" dependencies=\"", index + 1);
-  const char* sep = "";
-  for (size_t j = 0; j < N_VARIABLES; j++) {
-    const gm_fmu_variable* k = &gm_fmu_variables[j];
-    if (is_known(k, initialization) && (k->deps & u->deps)) {
-      fprintf(f, "%s%zu", sep, j + 1);
-      sep = " ";
-    }
-  }
+  size_t count = 0;
+  for (size_t j = 0; j < N_VARIABLES; j++)
+    if (depends(u, &gm_fmu_variables[j], initialization)) fprintf(f, "%s%zu", count++ ? " " : "", j + 1);
   fputs("\" dependenciesKind=\"", f);
-  sep = "";
-  for (size_t j = 0; j < N_VARIABLES; j++) {
-    const gm_fmu_variable* k = &gm_fmu_variables[j];
-    if (is_known(k, initialization) && (k->deps & u->deps)) {
-      fprintf(f, "%sdependent", sep);
-      sep = " ";
-    }
-  }
+  for (size_t i = 0; i < count; i++) fputs(i ? " dependent" : "dependent", f);
   fputs("\"/>\n", f);
 }
 
@@ -156,6 +192,7 @@ int main(int argc, char** argv) {
   gm_default_params(&start.p);
   gm_dynamics_default_params(&start.dp);
   for (size_t i = 0; i < N_VARIABLES; i++) check_row(&gm_fmu_variables[i], i);
+  check_ranges();
   if (failures) return 1;
 
   FILE* f = fopen(argv[1], "w");
@@ -215,10 +252,12 @@ int main(int argc, char** argv) {
   fputs("  <ModelVariables>\n", f);
   for (size_t i = 0; i < N_VARIABLES; i++) {
     const gm_fmu_variable* v = &gm_fmu_variables[i];
+    const gm_param_range* r = gm_param_range_find(v->name);
     fprintf(f, "    <!-- index %zu -->\n    <ScalarVariable name=\"", i + 1);
     put_escaped(f, v->name);
     fprintf(f, "\" valueReference=\"%zu\" description=\"", i);
     put_escaped(f, v->description);
+    put_escaped(f, open_note(r));
     fprintf(f, "\"\n      causality=\"%s\" variability=\"%s\"", v->causality_name, v->variability);
     if (v->causality != GM_FMU_input) fprintf(f, " initial=\"%s\"", v->initial); /* inputs carry no initial */
     fprintf(f, ">\n      <%s", v->type_name);
@@ -232,10 +271,14 @@ int main(int argc, char** argv) {
       put_escaped(f, v->display_unit);
       fputc('"', f);
     }
-    if (v->min[0]) fprintf(f, " min=\"%s\"", v->min);
-    if (v->max[0]) fprintf(f, " max=\"%s\"", v->max);
+    if (r) {
+      put_bound(f, "min", r->lo, v->type);
+      put_bound(f, "max", r->hi, v->type);
+    }
     if (strcmp(v->initial, "exact") == 0) put_start(f, v, &start);
-    fputs("/>\n    </ScalarVariable>\n", f);
+    fputs("/>\n", f);
+    put_open_annotation(f, r);
+    fputs("    </ScalarVariable>\n", f);
   }
   fputs("  </ModelVariables>\n", f);
 

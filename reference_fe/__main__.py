@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from . import analysis, run3d, scene
+from . import analysis, pairs, run3d, scene
 from .report import _changes, _cost, _g, provenance
 
 
@@ -177,6 +177,7 @@ def main(argv=None):
     r.add_argument("--friction", type=float, default=0.0, help="Coulomb mu (0: frictionless)")
     r.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
     run3d.add_parser(sub)
+    pairs.add_parser(sub)
     c = sub.add_parser("compare", help="a product TE curve against the FE band")
     c.add_argument("summary_csv", help="<scene>.reference_fe.summary.csv")
     c.add_argument("product_csv", help="torque_Nm, gear1_phi_rad, te_m over whole pitches")
@@ -187,6 +188,9 @@ def main(argv=None):
         print(time.strftime("%H:%M:%S"), msg, flush=True)
     if a.cmd == "run3d":
         run3d.main(a, log)
+        return
+    if a.cmd == "pairs":
+        pairs.main(a, log)
         return
     if a.cmd == "compare":
         compare(a.summary_csv, a.product_csv, a.teeth1)

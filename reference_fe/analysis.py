@@ -17,7 +17,7 @@ import json
 import math
 import os
 import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -52,6 +52,10 @@ class PositionResult:
     wall_s: float
     max_rss_MiB: float
     iterations_note: str = ""
+    # per torque: gear 1's contact tooth (index mod z) -> |contact force| (N) and its moment
+    # about gear 1's axis (N m; the moments add up to the torque)
+    pair_force_N: list = field(default_factory=list)
+    pair_moment_Nm: list = field(default_factory=list)
 
 
 def fine_teeth(pair: Pair, spread: float = 0.0) -> tuple[list[int], list[int]]:
@@ -142,9 +146,23 @@ class Model:
             raise RuntimeError(f"ccx failed at position {k} (exit {res.returncode}, "
                                f"{len(ends)}/{len(torques) + pre} steps):\n{res.log_tail}")
         te = [float(pr.g1.rb * (theta0 + ends[s + 1 + pre])) for s in range(len(torques))]
+        forces, moments = pair_totals(res.contact, [s + 1 + pre for s in range(len(torques))])
         return PositionResult(position=k, n_positions=n, dphi1=float(dphi), te=te,
                               torques=list(torques), wall_s=res.wall_s,
-                              max_rss_MiB=res.max_rss_MiB)
+                              max_rss_MiB=res.max_rss_MiB, pair_force_N=forces,
+                              pair_moment_Nm=moments)
+
+
+def pair_totals(contact, step_ends: list[int]) -> tuple[list[dict], list[dict]]:
+    """Per step end: gear-1 tooth -> |contact force| and -> moment about gear 1's axis, from
+    the last print of each step (ccx.parse_contact_totals; JSON keys are the tooth as text)."""
+    forces, moments = [], []
+    for s in step_ends:
+        at = [c for c in contact if abs(c[0] - s) < 1e-6]
+        last = {tooth: (f, mz) for _, tooth, f, mz in at}
+        forces.append({str(t): f for t, (f, _) in sorted(last.items())})
+        moments.append({str(t): mz for t, (_, mz) in sorted(last.items())})
+    return forces, moments
 
 
 def orders(te: np.ndarray, count: int = 3) -> list[float]:
@@ -170,7 +188,7 @@ def cache_key(spec: PairSpec, model: Model, case: Case, k: int, n: int, torques)
     """A run is redone only if something that changes its deck changed (a model may add a
     `cache_tag`: its variant and code version)."""
     d = {"scene": open(spec.path, "rb").read().decode(), "case": case.key(),
-         "size": asdict(model.size), "k": k, "n": n, "torques": list(torques), "version": 1}
+         "size": asdict(model.size), "k": k, "n": n, "torques": list(torques), "version": 2}
     if getattr(model, "cache_tag", None):
         d["tag"] = model.cache_tag
     blob = json.dumps(d, sort_keys=True)

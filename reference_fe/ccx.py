@@ -62,6 +62,15 @@ def pre_steps(bodies) -> int:
     return 1 if bodies[0].nodes.shape[1] == 3 else 0
 
 
+def _contact_surfaces(body, gear_index):
+    """[(surface name, faces)]: gear 1's contact faces one surface per tooth (FLANK1_T<k>, the
+    slave surfaces whose total contact forces the deck prints), gear 2's one surface FLANK2."""
+    if gear_index == 1:
+        return [("FLANK2", body.contact_faces)]
+    return [(f"FLANK1_T{k}", body.contact_faces[body.contact_tooth == k])
+            for k in sorted(set(body.contact_tooth.tolist()))]
+
+
 def _blocks(body, element):
     """[(CalculiX element type, connectivity)] of a body: its own blocks (3-D), else one."""
     return getattr(body, "blocks", None) or [(element, body.elements)]
@@ -107,9 +116,9 @@ def write_deck(path, bodies, thickness, materials, torques, penalty,
     for gi, b in enumerate(bodies):
         lines.append(f"*NSET, NSET=BORE{gi + 1}")
         lines.append(_fmt_rows([(b.bore + 1 + offsets[gi]).tolist()], per_line=16))
-        lines.append(f"*SURFACE, NAME=FLANK{gi + 1}, TYPE=ELEMENT")
-        for e, j in b.contact_faces:
-            lines.append(f"{e + 1 + eoffsets[gi]}, S{j}")
+        for name, faces in _contact_surfaces(b, gi):
+            lines.append(f"*SURFACE, NAME={name}, TYPE=ELEMENT")
+            lines += [f"{e + 1 + eoffsets[gi]}, S{j}" for e, j in faces]
     lines += [f"*NSET, NSET=ROT\n{rot}"]
     for gi, mat in enumerate(materials):
         lines += [f"*MATERIAL, NAME=M{gi + 1}", "*ELASTIC", f"{mat.E / 1e6:.9e}, {mat.nu:.9f}",
@@ -130,7 +139,9 @@ def write_deck(path, bodies, thickness, materials, torques, penalty,
     if friction > 0:
         # stick slope: a tangential stiffness per area of the same order as the penalty
         lines += ["*FRICTION", f"{friction:.6f}, {penalty / 1e6 / MM / 10:.6e}"]
-    lines += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE", "FLANK1, FLANK2"]
+    slaves = [name for name, _ in _contact_surfaces(bodies[0], 0)]
+    lines += ["*CONTACT PAIR, INTERACTION=SI, TYPE=SURFACE TO SURFACE"]
+    lines += [f"{s}, FLANK2" for s in slaves]
     fixed = (["BORE2, 1, 3", "BORE1, 3, 3", "ROT, 2, 3"] if solid
              else ["BORE2, 1, 2", "ROT, 2, 3"])
     lines += ["*BOUNDARY"] + fixed
@@ -146,8 +157,10 @@ def write_deck(path, bodies, thickness, materials, torques, penalty,
         if solid and n == 0:
             lines += ["*BOUNDARY, OP=NEW"] + fixed
         lines += ["*CLOAD", f"ROT, 1, {T * 1e3:.9e}",
-                  "*NODE PRINT, NSET=ROT", "U",
-                  "*END STEP"]
+                  "*NODE PRINT, NSET=ROT", "U"]
+        for s in slaves:   # the total contact force on each of gear 1's contact teeth
+            lines += [f"*CONTACT PRINT, SLAVE={s}, MASTER=FLANK2", "CF"]
+        lines.append("*END STEP")
     with open(path, "w") as f:
         f.write("\n".join(lines) + "\n")
     return rot
@@ -156,6 +169,7 @@ def write_deck(path, bodies, thickness, materials, torques, penalty,
 @dataclass
 class RunResult:
     rotations: list[float]   # rotation of gear 1 (rad) at the end of each step
+    contact: list            # (time, gear-1 tooth, |total force| N, moment about z N m)
     wall_s: float
     max_rss_MiB: float
     returncode: int
@@ -201,7 +215,8 @@ def run(workdir, job="gears", timeout=3600) -> RunResult:
     with open(os.path.join(workdir, "ccx.log")) as f:
         tail = f.read()[-3000:]
     rot = parse_rotations(os.path.join(workdir, job + ".dat"))
-    return RunResult(rotations=rot, wall_s=wall, max_rss_MiB=rusage.ru_maxrss / 1024.0,
+    contact = parse_contact_totals(os.path.join(workdir, job + ".dat"))
+    return RunResult(rotations=rot, contact=contact, wall_s=wall, max_rss_MiB=rusage.ru_maxrss / 1024.0,
                      returncode=proc.returncode, log_tail=tail)
 
 
@@ -222,4 +237,30 @@ def parse_rotations(dat_path) -> list[float]:
                 if len(parts) == 4:
                     out.append((float(hit.group(1)), float(parts[1])))
                     break
+    return out
+
+
+_TOTALS = re.compile(r"statistics for slave set FLANK1_T(\d+), master set FLANK2 and time\s+"
+                     r"([0-9.Ee+-]+)")
+
+
+def parse_contact_totals(dat_path) -> list[tuple[float, int, float, float]]:
+    """(time, gear-1 tooth, |total contact force| in N, moment about the z axis through the
+    origin (gear 1's axis) in N m) of every *CONTACT PRINT CF block, in order (deck units N,
+    mm: "total surface force (fx,fy,fz) and moment about the origin (mx,my,mz)")."""
+    if not os.path.exists(dat_path):
+        return []
+    text = open(dat_path).read().splitlines()
+    out = []
+    for i, line in enumerate(text):
+        hit = _TOTALS.search(line)
+        if not hit:
+            continue
+        for row in text[i + 1:i + 5]:
+            parts = row.split()
+            if len(parts) == 6:
+                fx, fy, fz, _mx, _my, mz = (float(v) for v in parts)
+                out.append((float(hit.group(2)), int(hit.group(1)),
+                            float(np.sqrt(fx * fx + fy * fy + fz * fz)), mz / MM))
+                break
     return out

@@ -51,6 +51,7 @@ class GearMesh:
     bore: np.ndarray           # node indices on the bore
     contact_faces: np.ndarray  # (f, 2): element index, edge number 1..3 (1: nodes 1-2, ...)
     contact_teeth: list[int]
+    contact_tooth: np.ndarray  # (f,): the tooth (index mod z) of each contact face
 
     @property
     def elements(self) -> np.ndarray:
@@ -80,6 +81,7 @@ class Outline:
     tooth (flank B side) to the one after the last; curve tags by role."""
     curves: list[int]
     contact: list[int]     # flank A involute and tip of the fine teeth
+    contact_tooth: list[int]  # the tooth (index mod z) of each contact curve
     fine: list[int]        # every curve of the fine teeth
     far: list[int]         # every curve of the other teeth
     first_point: int
@@ -91,7 +93,7 @@ def add_teeth(occ, g: Gear, prof: HalfProfile, teeth, fine, closed: bool) -> Out
     """Add the outline of teeth `teeth` (consecutive indices, tooth k centred at k 2 pi / z) of
     gear g to the OCC model; `closed`: the last tooth's root joins the first's (whole gear)."""
     teeth = list(teeth)
-    contact_curves, fine_curves, far_curves = [], [], []
+    contact_curves, contact_tooth, fine_curves, far_curves = [], [], [], []
     centre = occ.addPoint(0.0, 0.0, 0.0)
     first_pt = None   # the first tooth's mid-space root point (flank B side)
     prev_pt = None    # the previous tooth's mid-space root point (flank A side)
@@ -135,11 +137,13 @@ def add_teeth(occ, g: Gear, prof: HalfProfile, teeth, fine, closed: bool) -> Out
         loop += curves
         if is_fine:
             contact_curves += [c_tip, cA_i]
+            contact_tooth += [k % g.z] * 2
             fine_curves += curves
         else:
             far_curves += curves
-    return Outline(curves=loop, contact=contact_curves, fine=fine_curves, far=far_curves,
-                   first_point=first_pt, last_point=prev_pt, centre=centre)
+    return Outline(curves=loop, contact=contact_curves, contact_tooth=contact_tooth,
+                   fine=fine_curves, far=far_curves, first_point=first_pt, last_point=prev_pt,
+                   centre=centre)
 
 
 def set_size_fields(size: MeshSize, outline: Outline):
@@ -199,6 +203,18 @@ def edge_faces(blocks, index: dict, curves) -> np.ndarray:
             u, v = index[int(u)], index[int(v)]
             faces.append(edge_of[(min(u, v), max(u, v))])
     return np.array(faces)
+
+
+def tooth_faces(blocks, index: dict, outline: Outline) -> tuple[np.ndarray, np.ndarray]:
+    """The contact faces (edge_faces of the outline's contact curves) and the tooth of each,
+    tooth by tooth (the reference's per-tooth contact forces, ccx.write_deck)."""
+    faces, tooth = [], []
+    for k in sorted(set(outline.contact_tooth)):
+        curves = [c for c, t in zip(outline.contact, outline.contact_tooth) if t == k]
+        f = edge_faces(blocks, index, curves)
+        faces.append(f)
+        tooth += [k] * len(f)
+    return np.concatenate(faces), np.array(tooth)
 
 
 # gmsh element type -> reversed node order: the same element clockwise
@@ -280,6 +296,6 @@ def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> Ge
         xy, (tri,), index = surface_elements(surf, (9,))
         bore_tags, _, _ = gmsh.model.mesh.getNodes(1, bore_c, includeBoundary=True)
         bore = np.array(sorted({index[int(t)] for t in bore_tags}))
-        faces = edge_faces([tri], index, ol.contact)
+        faces, tooth = tooth_faces([tri], index, ol)
         return GearMesh(nodes=xy, tri6=tri, bore=bore, contact_faces=faces,
-                        contact_teeth=fine)
+                        contact_teeth=fine, contact_tooth=tooth)

@@ -82,6 +82,7 @@ class SolidMesh:
     bore: np.ndarray           # node indices on the bore (every plane)
     contact_faces: np.ndarray  # (f, 2): element index, face number 3..6
     contact_teeth: list[int]
+    contact_tooth: np.ndarray  # (f,): the tooth (index mod z) of each contact face
     sector_teeth: list[int]
     section_nodes: int
     section_quads: int
@@ -135,8 +136,8 @@ def section(g: Gear, size: Size3D, teeth, fine, hold_cuts=True, verbose=False):
             tags, _, _ = gmsh.model.mesh.getNodes(1, c, includeBoundary=True)
             held |= {index[int(t)] for t in tags}
         bore = np.array(sorted(held))
-        faces = mesh.edge_faces(blocks, index, ol.contact)
-        return xy, blocks, bore, faces
+        faces, tooth = mesh.tooth_faces(blocks, index, ol)
+        return xy, blocks, bore, faces, tooth
 
 
 def extrude(xy: np.ndarray, blocks, b: float, layers: int):
@@ -212,8 +213,8 @@ def build(g: Gear, size: Size3D, fine: list[int], hand: int, beta_b: float,
     teeth = list(range(fine[0] - margin, fine[-1] + margin + 1))
     if len(teeth) >= g.z - 1:
         raise ValueError(f"gear{g.index}: a sector of {len(teeth)} teeth is the whole gear")
-    xy, blocks2, bore2, faces2 = section(g, size, teeth, {k % g.z for k in fine}, hold_cuts,
-                                         verbose)
+    xy, blocks2, bore2, faces2, tooth2 = section(g, size, teeth, {k % g.z for k in fine},
+                                                 hold_cuts, verbose)
     nodes, blocks, full, mid_of = extrude(xy, blocks2, g.b, size.layers)
     if g.mod.lead_crowning:
         nodes = crown_map(g, nodes, lambda z: lead_gap(g, z), beta_b)
@@ -224,14 +225,16 @@ def build(g: Gear, size: Size3D, fine: list[int], hand: int, beta_b: float,
     # section element e of block i -> 3-D element (block offset) + layer * count + e
     counts = [len(c) for c in blocks2]
     offs = np.concatenate([[0], np.cumsum([len(c) for c in blocks])])
-    faces = []
-    for e, j in faces2:
+    faces, tooth = [], []
+    for (e, j), t in zip(faces2, tooth2):
         i = 0 if e < counts[0] else 1
         local = e - (0 if i == 0 else counts[0])
         faces += [(offs[i] + k * counts[i] + local, j + 2) for k in range(size.layers)]
+        tooth += [t] * size.layers
     return SolidMesh(nodes=nodes, blocks=[(t, c) for t, c in zip(("C3D20R", "C3D15"), blocks)
                                           if len(c)],
                      bore=bore, contact_faces=np.array(faces), contact_teeth=fine,
+                     contact_tooth=np.array(tooth),
                      sector_teeth=teeth, section_nodes=len(xy), section_quads=counts[0],
                      section_triangles=counts[1])
 

@@ -331,6 +331,7 @@ gm_status quasi_static_dual(const gm_model& m, gm_data& d, const gm_kinematics& 
   combine(a.r.stiffness, b.r.stiffness);
   combine(a.r.friction_power, b.r.friction_power);
   combine(a.r.max_line_load, b.r.max_line_load);
+  combine(a.r.max_load_share, b.r.max_load_share);
   combine(a.r.elastic_energy, b.r.elastic_energy);
   combine(a.r.damping_power, b.r.damping_power);
   p = a;
@@ -354,6 +355,7 @@ gm_result derivative_outputs(const DualPass& p, const Dual& te, double rb2) {
   out.stiffness = p.r.stiffness.d;
   out.friction_power = p.r.friction_power.d;
   out.max_line_load = p.r.max_line_load.d;
+  out.max_load_share = p.r.max_load_share.d;
   out.elastic_energy = p.r.elastic_energy.d;
   out.damping_power = p.r.damping_power.d;
   return out;

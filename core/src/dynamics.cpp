@@ -7,6 +7,7 @@
 #include <string>
 
 #include "evaluate.hpp"
+#include "params.hpp"
 
 namespace gm {
 namespace {
@@ -239,22 +240,20 @@ std::string check_dynamics(const gm_model& m, const gm_dynamics_params& p) {
   if (m.params.quasi_static)
     return "model.quasi_static = true with the large-step dynamics: the dynamics integrate gear 2's spin "
            "themselves; allowed: one of the two";
+  std::string msg;
   for (int i = 0; i < 2; ++i) {
     const std::string g = "gear" + std::to_string(i + 1);
-    if (!(p.inertia[i] >= 1e-9 && p.inertia[i] <= 1e6))
-      return g + ".inertia = " + number(p.inertia[i]) + " kg m^2; allowed range [1e-9, 1e6] kg m^2";
-    if (!(p.shaft_stiffness[i] >= 0 && p.shaft_stiffness[i] <= 1e12))
-      return g + ".shaft_stiffness = " + number(p.shaft_stiffness[i]) + " N m/rad; allowed range [0, 1e12] N m/rad";
-    if (!(p.shaft_damping[i] >= 0 && p.shaft_damping[i] <= 1e9))
-      return g + ".shaft_damping = " + number(p.shaft_damping[i]) + " N m s/rad; allowed range [0, 1e9] N m s/rad";
+    if (!check_range((g + ".inertia").c_str(), p.inertia[i], msg) ||
+        !check_range((g + ".shaft_stiffness").c_str(), p.shaft_stiffness[i], msg) ||
+        !check_range((g + ".shaft_damping").c_str(), p.shaft_damping[i], msg))
+      return msg;
   }
-  if (!(p.tolerance >= 1e-14 && p.tolerance <= 1e-4))
-    return "dynamics.tolerance = " + number(p.tolerance) + " m; allowed range [1e-14, 1e-4] m";
-  if (!(p.max_step >= 1e-9 && p.max_step <= 1.0))
-    return "dynamics.max_step = " + number(p.max_step) + " s; allowed range [1e-9, 1] s";
-  if (!(p.min_step >= 1e-15 && p.min_step <= p.max_step))
-    return "dynamics.min_step = " + number(p.min_step) + " s; allowed range [1e-15 s, dynamics.max_step = " +
-           number(p.max_step) + " s]";
+  if (!check_range("dynamics.tolerance", p.tolerance, msg) || !check_range("dynamics.max_step", p.max_step, msg) ||
+      !check_range("dynamics.min_step", p.min_step, msg))
+    return msg;
+  if (!(p.min_step <= p.max_step))
+    return "dynamics.min_step = " + number(p.min_step) + " s: allowed <= dynamics.max_step = " + number(p.max_step) +
+           " s";
   return "";
 }
 

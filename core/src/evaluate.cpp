@@ -72,6 +72,7 @@ void store_resultants(const gm_model& m, gm_data& d, const gm_kinematics& kin, i
   r.friction_power = rt.friction_power;
   r.damping_power = rt.damping_power;
   r.max_line_load = rt.max_line_load;
+  r.max_load_share = rt.max_load_share;
   r.pairs_in_contact = rt.pairs_in_contact;
   r.flank = rt.flank;
 }

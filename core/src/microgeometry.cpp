@@ -3,6 +3,7 @@
 #include "microgeometry.hpp"
 
 #include "dual.hpp"
+#include "params.hpp"
 #include "text_file.hpp"
 
 #include <algorithm>
@@ -21,7 +22,6 @@ constexpr double kMm = 1e-3;                    // file roll and face positions,
 constexpr double kMaxDeviationUm = 1e4;         // |deviation| in the file, um
 constexpr double kMaxPositionMm = 1e5;          // |roll|, |face| in the file, mm
 constexpr double kFaceToleranceMm = 1e-3;       // face points may exceed b/2 by this, mm
-constexpr double kMaxAmount = 1e-3;             // design modification amounts, m
 
 // ---------------------------------------------------------------------------------------------
 // Deviation file parser.
@@ -314,18 +314,17 @@ class ModChecker {
   ModChecker(const char* prefix, std::string& msg) : prefix_(prefix ? prefix : "gear"), msg_(msg) {}
   bool ok() const { return ok_; }
 
-  void real(const char* name, double v, double lo, double hi, bool lo_open, const char* note = "") {
-    if (!ok_) return;
-    const bool inside = std::isfinite(v) && (lo_open ? v > lo : v >= lo) && v <= hi;
-    if (!inside) {
-      char buf[400];
-      std::snprintf(buf, sizeof buf, "%s.%s = %.9g m: allowed range %s%.9g, %.9g] m%s", prefix_,
-                    name, v, lo_open ? "(" : "[", lo, hi, note);
-      fail(buf);
-    }
+  // A relief length while its relief is on: in (0, hi], hi from the flank's size (note says which).
+  void length(const char* name, double v, double hi, const char* note) {
+    if (!ok_ || (v > 0 && v <= hi)) return;
+    char buf[400];
+    std::snprintf(buf, sizeof buf, "%s.%s = %.9g m: allowed range (0, %.9g] m%s", prefix_, name, v, hi, note);
+    fail(buf);
   }
-  void finite_nonnegative(const char* name, double v) {
-    real(name, v, 0, HUGE_VAL, false, " (unused while its relief is 0)");
+  // v inside the static range of <prefix>.<name> (param_ranges.cpp).
+  void range(const char* name, double v) {
+    std::string text;
+    if (ok_ && !check_range((std::string(prefix_) + "." + name).c_str(), v, text)) fail(text.c_str());
   }
   void flag(const char* name, int v) {
     if (!ok_ || v == 0 || v == 1) return;
@@ -576,33 +575,26 @@ gm_status validate_modification(const char* prefix, const gm_flank_modification&
   const double L = std::fabs(active.rho_tip - active.rho_start);
   const double half_b = 0.5 * active.face_width;
   const double slack = 1e-9;
-  c.real("profile_crowning", mod.profile_crowning, 0, kMaxAmount, false);
-  c.real("tip_relief", mod.tip_relief, 0, kMaxAmount, false);
-  if (mod.tip_relief != 0) {
-    c.real("tip_relief_length", mod.tip_relief_length, 0, L * (1 + slack), true, " (the active profile length)");
-  } else {
-    c.finite_nonnegative("tip_relief_length", mod.tip_relief_length);
-  }
+  const std::pair<const char*, double> fields[] = {
+      {"profile_crowning", mod.profile_crowning}, {"tip_relief", mod.tip_relief},
+      {"tip_relief_length", mod.tip_relief_length}, {"root_relief", mod.root_relief},
+      {"root_relief_length", mod.root_relief_length}, {"profile_slope", mod.profile_slope},
+      {"lead_crowning", mod.lead_crowning}, {"helix_slope", mod.helix_slope},
+      {"end_relief", mod.end_relief}, {"end_relief_length", mod.end_relief_length}};
+  for (const auto& [name, v] : fields) c.range(name, v);
   c.flag("tip_relief_parabolic", mod.tip_relief_parabolic);
-  c.real("root_relief", mod.root_relief, 0, kMaxAmount, false);
+  c.flag("root_relief_parabolic", mod.root_relief_parabolic);
+  // A relief length reaches its limit only while its relief is on.
+  if (mod.tip_relief != 0)
+    c.length("tip_relief_length", mod.tip_relief_length, L * (1 + slack), " (the active profile length)");
   if (mod.root_relief != 0) {
     const double tip = mod.tip_relief != 0 ? mod.tip_relief_length : 0;
-    c.real("root_relief_length", mod.root_relief_length, 0, L - tip + slack * L, true,
-           tip > 0 ? " (the active profile length less the tip relief length)"
-                   : " (the active profile length)");
-  } else {
-    c.finite_nonnegative("root_relief_length", mod.root_relief_length);
+    c.length("root_relief_length", mod.root_relief_length, L - tip + slack * L,
+             tip > 0 ? " (the active profile length less the tip relief length)"
+                     : " (the active profile length)");
   }
-  c.flag("root_relief_parabolic", mod.root_relief_parabolic);
-  c.real("profile_slope", mod.profile_slope, -kMaxAmount, kMaxAmount, false);
-  c.real("lead_crowning", mod.lead_crowning, 0, kMaxAmount, false);
-  c.real("helix_slope", mod.helix_slope, -kMaxAmount, kMaxAmount, false);
-  c.real("end_relief", mod.end_relief, 0, kMaxAmount, false);
-  if (mod.end_relief != 0) {
-    c.real("end_relief_length", mod.end_relief_length, 0, half_b * (1 + slack), true, " (half the face width)");
-  } else {
-    c.finite_nonnegative("end_relief_length", mod.end_relief_length);
-  }
+  if (mod.end_relief != 0)
+    c.length("end_relief_length", mod.end_relief_length, half_b * (1 + slack), " (half the face width)");
   return c.ok() ? GM_OK : GM_ERR_PARAMETER;
 }
 

@@ -144,9 +144,9 @@ double flank_gap_slope(const GearMicrogeometry& m, int flank, int tooth, double 
 
 // Check one flank's modification against its allowed ranges. prefix is the FMU name of the gear
 // ("gear1"). On failure returns GM_ERR_PARAMETER and msg = "<prefix>.<parameter> = <value> m:
-// allowed range ...". Amounts of crowning and relief: finite, in [0, 1 mm]; slopes: |f| <= 1 mm;
-// relief lengths: > 0 when their relief is nonzero, tip + root <= the active profile length,
-// end relief length <= b/2; shape flags 0 or 1.
+// allowed range ...". Every field within its static range (core/src/param_ranges.cpp); relief
+// lengths also > 0 when their relief is nonzero, tip + root <= the active profile length, end
+// relief length <= b/2; shape flags 0 or 1.
 gm_status validate_modification(const char* prefix, const gm_flank_modification& mod,
                                  const ActiveFlank& active, std::string& msg);
 

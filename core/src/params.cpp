@@ -1,13 +1,22 @@
-// Parameter defaults and range validation (the one place a bad parameter is named).
+// Parameter defaults and range validation (the one place a bad parameter is named); the static
+// ranges are the table of param_ranges.cpp, the bounds that depend on other parameters are here.
 #include "params.hpp"
 
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
+#include <utility>
 
 namespace gm {
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+std::string number(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", x);
+  return buf;
+}
 
 // Range checks that stop at the first failure and name the FMU variable.
 class Checker {
@@ -15,77 +24,68 @@ class Checker {
   explicit Checker(std::string& msg) : msg_(msg) {}
   bool ok() const { return ok_; }
 
-  // lo <= v <= hi (open ends when the flags say so).
-  void real(const char* name, double v, double lo, double hi, const char* unit,
-            bool lo_open = false, bool hi_open = false) {
-    if (!ok_) return;
-    const bool inside = std::isfinite(v) && (lo_open ? v > lo : v >= lo) &&
-                        (hi_open ? v < hi : v <= hi);
-    if (!inside) {
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "%s = %.9g %s: allowed range %s%.9g, %.9g%s %s", name, v, unit,
-                    lo_open ? "(" : "[", lo, hi, hi_open ? ")" : "]", unit);
-      fail(buf);
-    }
+  // v inside the static range of the FMU variable `name` (param_ranges.cpp).
+  void range(const std::string& name, double v) {
+    std::string text;
+    if (ok_ && !check_range(name.c_str(), v, text)) fail(text);
   }
-  void integer(const char* name, int v, int lo, int hi) {
-    if (!ok_) return;
-    if (v < lo || v > hi) {
-      char buf[200];
-      std::snprintf(buf, sizeof buf, "%s = %d: allowed range [%d, %d]", name, v, lo, hi);
-      fail(buf);
-    }
+  // Each field inside the static range of prefix + its name.
+  void ranges(const std::string& prefix, std::initializer_list<std::pair<const char*, double>> fields) {
+    for (const auto& [name, v] : fields) range(prefix + name, v);
   }
-  void fail(const std::string& text) {
-    if (ok_) msg_ = text;
-    ok_ = false;
+  // A bound that depends on other parameters: holds says whether v meets it.
+  void bound(const std::string& name, double v, const char* unit, bool holds, const std::string& allowed) {
+    if (ok_ && !holds) fail(name + " = " + number(v) + unit + ": allowed " + allowed);
+  }
+  // A Boolean: 0 or 1.
+  void flag(const char* name, int v) {
+    if (ok_ && v != 0 && v != 1) fail(std::string(name) + " = " + std::to_string(v) + ": allowed 0 (false) or 1 (true)");
   }
 
  private:
+  void fail(const std::string& text) {
+    msg_ = text;
+    ok_ = false;
+  }
   std::string& msg_;
   bool ok_ = true;
 };
+
+void check_pair(Checker& c, const gm_pair_params& pr) {
+  c.ranges("pair.", {{"center_distance", pr.center_distance}, {"normal_module", pr.normal_module},
+                     {"pressure_angle", pr.pressure_angle}, {"helix_angle", pr.helix_angle},
+                     {"rack_addendum", pr.rack_addendum}, {"rack_dedendum", pr.rack_dedendum},
+                     {"rack_tip_radius", pr.rack_tip_radius}});
+  c.flag("pair.internal", pr.internal);
+  c.bound("pair.rack_dedendum", pr.rack_dedendum, "", pr.rack_dedendum > pr.rack_addendum,
+          "> pair.rack_addendum = " + number(pr.rack_addendum));
+  const double full_round = (pr.rack_dedendum - pr.rack_addendum) / (1 - std::sin(pr.pressure_angle));
+  c.bound("pair.rack_tip_radius", pr.rack_tip_radius, "", pr.rack_tip_radius <= full_round * 1.01,
+          "<= " + number(full_round * 1.01) + " (the full round (h_fP* - h_aP*)/(1 - sin alpha_n) + 1 %)");
+}
+
+void check_gear(Checker& c, const gm_gear_params& g, double normal_module, int i) {
+  const std::string n = "gear" + std::to_string(i + 1) + ".";
+  c.ranges(n, {{"teeth", g.teeth}, {"profile_shift", g.profile_shift}, {"face_width", g.face_width},
+              {"tip_diameter", g.tip_diameter}, {"thickness_allowance", g.thickness_allowance},
+              {"axial_offset", g.axial_offset}, {"youngs_modulus", g.youngs_modulus},
+              {"poisson_ratio", g.poisson_ratio}});
+  c.bound(n + "thickness_allowance", g.thickness_allowance, " m", g.thickness_allowance >= -0.5 * normal_module,
+          ">= " + number(-0.5 * normal_module) + " m (-0.5 pair.normal_module)");
+}
 
 }  // namespace
 
 gm_status validate_params(const gm_model_params& p, std::string& msg) {
   Checker c(msg);
-  const gm_pair_params& pr = p.pair;
-  c.real("pair.center_distance", pr.center_distance, 0, 20, "m", true);
-  c.real("pair.normal_module", pr.normal_module, 1e-4, 0.1, "m");
-  c.real("pair.pressure_angle", pr.pressure_angle, 10 * kDeg, 35 * kDeg, "rad");
-  c.real("pair.helix_angle", pr.helix_angle, -45 * kDeg, 45 * kDeg, "rad", true, true);
-  c.integer("pair.internal", pr.internal, 0, 1);
-  c.real("pair.rack_addendum", pr.rack_addendum, 0.5, 2.0, "");
-  c.real("pair.rack_dedendum", pr.rack_dedendum, pr.rack_addendum, 3.0, "", true);
-  c.real("pair.rack_tip_radius", pr.rack_tip_radius, 0.0,
-         (pr.rack_dedendum - pr.rack_addendum) / (1 - std::sin(pr.pressure_angle)) * 1.01,
-         "(modules; up to the full round (h_fP* - h_aP*)/(1 - sin alpha_n) + 1 %)");
-  for (int i = 0; i < 2; ++i) {
-    const gm_gear_params& g = p.gear[i];
-    const std::string n = "gear" + std::to_string(i + 1) + ".";
-    c.integer((n + "teeth").c_str(), g.teeth, 5, 2000);
-    c.real((n + "profile_shift").c_str(), g.profile_shift, -1.5, 3.0, "");
-    c.real((n + "face_width").c_str(), g.face_width, 0, 2.0, "m", true);
-    if (g.tip_diameter != 0)
-      c.real((n + "tip_diameter").c_str(), g.tip_diameter, 0, 40.0, "m (0 = from the rack)", true);
-    c.real((n + "thickness_allowance").c_str(), g.thickness_allowance, -0.5 * pr.normal_module,
-           0.0, "m");
-    c.real((n + "axial_offset").c_str(), g.axial_offset, -2.0, 2.0, "m");
-    c.real((n + "youngs_modulus").c_str(), g.youngs_modulus, 1e8, 1e13, "Pa");
-    c.real((n + "poisson_ratio").c_str(), g.poisson_ratio, 0.0, 0.5, "", false, true);
-  }
-  c.integer("model.stiffness", p.stiffness_level, GM_STIFFNESS_USER_CONSTANT, GM_STIFFNESS_FE);
-  c.real("model.user_stiffness", p.user_stiffness, 0, 1e14, "N/m2", true);
-  c.integer("model.slices", p.slices, 1, 200);
-  c.integer("model.coupled_teeth", p.coupled_teeth, 0, 10);
-  c.real("model.friction_coefficient", p.friction_coefficient, 0, 2.0, "");
-  c.real("model.friction_velocity", p.friction_velocity, 0, 10.0, "m/s", true);
-  c.real("model.damping", p.damping, 0, 1e9, "N.s/m2");
-  c.real("solver.tolerance", p.solver_tolerance, 0, 1e-3, "m", true);
-  c.integer("solver.max_iterations", p.solver_max_iterations, 1, 10000);
-  c.real("model.rated_line_load", p.rated_line_load, 0, 1e8, "N/m");
-  c.integer("model.quasi_static", p.quasi_static, 0, 1);
+  check_pair(c, p.pair);
+  for (int i = 0; i < 2; ++i) check_gear(c, p.gear[i], p.pair.normal_module, i);
+  c.ranges("model.", {{"stiffness", p.stiffness_level}, {"user_stiffness", p.user_stiffness}, {"slices", p.slices},
+                      {"coupled_teeth", p.coupled_teeth}, {"friction_coefficient", p.friction_coefficient},
+                      {"friction_velocity", p.friction_velocity}, {"damping", p.damping},
+                      {"rated_line_load", p.rated_line_load}});
+  c.ranges("solver.", {{"tolerance", p.solver_tolerance}, {"max_iterations", p.solver_max_iterations}});
+  c.flag("model.quasi_static", p.quasi_static);
   return c.ok() ? GM_OK : GM_ERR_PARAMETER;
 }
 

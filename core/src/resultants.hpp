@@ -18,7 +18,7 @@ template <class T>
 struct ResultT {
   T force[2][3] = {};
   T moment[2][3] = {};
-  T normal_force = 0, stiffness = 0, friction_power = 0, max_line_load = 0;
+  T normal_force = 0, stiffness = 0, friction_power = 0, max_line_load = 0, max_load_share = 0;
   T elastic_energy = 0, damping_power = 0;
   int pairs_in_contact = 0, flank = 0;
 };
@@ -80,6 +80,7 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
   V3 mom[2] = {V3::Zero(), V3::Zero()};
   const double mu = m.params.friction_coefficient, v0 = m.params.friction_velocity;
   int last_loaded_pair = -1;
+  T pair_force = 0, max_pair_force = 0;  // the slices of a tooth pair are consecutive
   for (int i = 0; i < n; ++i) {
     const ContactSliceT<T>& s = slices[i];
     T F = forces[i];
@@ -110,8 +111,12 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
     if (s.pair != last_loaded_pair) {
       ++r.pairs_in_contact;
       last_loaded_pair = s.pair;
+      pair_force = 0;
     }
+    pair_force += F;
+    max_pair_force = fmax(max_pair_force, pair_force);
   }
+  if (r.normal_force > 0) r.max_load_share = max_pair_force / r.normal_force;
   for (int i = 0; i < 2; ++i) {
     for (int a = 0; a < 3; ++a) {
       r.force[i][a] = f[i][a];

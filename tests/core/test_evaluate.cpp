@@ -43,11 +43,30 @@ TEST(Evaluate, ForceIsStiffnessTimesWidthTimesApproach) {
     EXPECT_NEAR(single.normal_force, kb * delta, 1e-9 * kb * delta);
     EXPECT_NEAR(single.stiffness, kb, 1e-9 * kb);
     EXPECT_NEAR(single.max_line_load, p.user_stiffness * delta, 1e-6);
+    EXPECT_EQ(single.max_load_share, 1.0);
     const gm_result dbl = in.at(delta, double_contact_phi1(in, delta));
     EXPECT_EQ(dbl.pairs_in_contact, 2);
     EXPECT_NEAR(dbl.normal_force, 2 * kb * delta, 1e-9 * kb * delta);
     EXPECT_NEAR(dbl.stiffness, 2 * kb, 1e-9 * kb);
+    EXPECT_NEAR(dbl.max_load_share, 0.5, 1e-12);  // the same k b Delta on both pairs
+    EXPECT_EQ(in.at(-1e-7, single_contact_phi1(in, delta)).max_load_share, 0.0);  // no contact
   }
+}
+
+// With a profile slope on gear 1 the two pairs of a double contact have different approaches
+// Delta - g_j (level 0: F_j = k b (Delta - g_j)): the larger one's share from the pairs'
+// forces, which the normal force and the single-pair line loads give independently.
+TEST(Evaluate, LoadShareOfUnequalPairs) {
+  gm_model_params p = paper();
+  p.gear[0].flank[0].profile_slope = 3e-6;
+  Instance in(p);
+  const double delta = 8e-6, phi1 = double_contact_phi1(in, delta);
+  const gm_result r = in.at(delta, phi1);
+  ASSERT_EQ(r.pairs_in_contact, 2);
+  const double larger = r.max_line_load * p.gear[0].face_width;  // one slice = one pair
+  EXPECT_NEAR(r.max_load_share, larger / r.normal_force, 1e-12);
+  EXPECT_GT(r.max_load_share, 0.5 + 1e-3);
+  EXPECT_LT(r.max_load_share, 1.0);
 }
 
 TEST(Evaluate, NoForceInsideTheBacklashAndFlankBBeyondIt) {
@@ -349,6 +368,16 @@ TEST(Evaluate, ParameterErrorsNameTheParameter) {
       {"gear1.compliance", [](gm_model_params& p) { p.stiffness_level = 5; }},
       {"gear2.compliance", [](gm_model_params& p) { p.compliance[1] = "/nonexistent/g2.gcdb"; }},
       {"model.quasi_static", [](gm_model_params& p) { p.quasi_static = 2; }},
+      // static ranges (param_ranges.cpp) and the bounds that depend on other parameters
+      {"gear2.teeth = 2001: allowed range [5, 2000]", [](gm_model_params& p) { p.gear[1].teeth = 2001; }},
+      {"gear1.thickness_allowance = 1e-06 m: allowed range [-0.05, 0] m",
+       [](gm_model_params& p) { p.gear[0].thickness_allowance = 1e-6; }},
+      {"gear1.thickness_allowance = -0.002 m: allowed >= -0.0013 m",
+       [](gm_model_params& p) { p.gear[0].thickness_allowance = -2e-3; }},
+      {"pair.rack_dedendum = 1: allowed > pair.rack_addendum = 1", [](gm_model_params& p) { p.pair.rack_dedendum = 1; }},
+      {"pair.rack_tip_radius = 0.39: allowed <= 0.38", [](gm_model_params& p) { p.pair.rack_tip_radius = 0.39; }},
+      {"pair.helix_angle = 0.785398163 rad: allowed range (-0.785398163, 0.785398163) rad",
+       [](gm_model_params& p) { p.pair.helix_angle = 45 * (3.14159265358979323846 / 180.0); }},
   };
   for (const Case& c : cases) {
     gm_model_params p = paper();

@@ -30,12 +30,12 @@ double phi2(const Instance& I, double te, double phi1) {
 }
 
 // The double outputs of gm_result as a vector, with a group per entry (relative scales).
-constexpr int kOutputs = 18;
+constexpr int kOutputs = 19;
 const char* const kNames[kOutputs] = {
     "force1x", "force1y", "force1z", "force2x", "force2y", "force2z", "moment1x", "moment1y",
     "moment1z", "moment2x", "moment2y", "moment2z", "te", "te_angle", "normal_force",
-    "stiffness", "friction_power", "max_line_load"};
-const int kGroup[kOutputs] = {0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 2, 3, 0, 4, 5, 6};
+    "stiffness", "friction_power", "max_line_load", "max_load_share"};
+const int kGroup[kOutputs] = {0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 2, 3, 0, 4, 5, 6, 7};
 
 std::vector<double> outputs(const gm_result& r) {
   std::vector<double> y;
@@ -44,11 +44,21 @@ std::vector<double> outputs(const gm_result& r) {
   for (int i = 0; i < 2; ++i)
     for (int a = 0; a < 3; ++a) y.push_back(r.moment[i][a]);
   y.insert(y.end(), {r.te, r.te_angle, r.normal_force, r.stiffness, r.friction_power,
-                     r.max_line_load});
+                     r.max_line_load, r.max_load_share});
   return y;
 }
 
 double y0_of(const gm_result& r, int j) { return outputs(r)[j]; }
+
+constexpr int kNormalForce = 14, kForceGroup = 0, kShareGroup = 7;
+
+// The load share is a ratio of forces, d share = (dF_max - share dF) / F: its difference
+// inherits the forces' difference error divided by the normal force, so its scale includes
+// the force group's scale over F.
+void add_share_scale(std::vector<double>& scale, const std::vector<double>& y0) {
+  if (y0[kNormalForce] > 0)
+    scale[kShareGroup] = std::max(scale[kShareGroup], scale[kForceGroup] / y0[kNormalForce]);
+}
 
 // k + t s over every input.
 gm_kinematics along(const gm_kinematics& k, const gm_kinematics& s, double t) {
@@ -135,7 +145,7 @@ bool compare(Instance& I, const gm_kinematics& at, const gm_kinematics& seed, St
   }
   const std::vector<double> y0 = outputs(r0), yp = outputs(rp), ym = outputs(rm),
                             yp2 = outputs(rp2), ym2 = outputs(rm2), ad = outputs(dr);
-  std::vector<double> fd(kOutputs), fwd(kOutputs), bwd(kOutputs), scale(7, 0.0);
+  std::vector<double> fd(kOutputs), fwd(kOutputs), bwd(kOutputs), scale(8, 0.0);
   for (int j = 0; j < kOutputs; ++j) {
     // Richardson's extrapolation of the central differences at h and h/2: error O(h^4)
     fd[j] = (4 * (yp2[j] - ym2[j]) / kStep - (yp[j] - ym[j]) / (2 * kStep)) / 3;
@@ -144,6 +154,7 @@ bool compare(Instance& I, const gm_kinematics& at, const gm_kinematics& seed, St
     scale[kGroup[j]] = std::max({scale[kGroup[j]], std::fabs(fd[j]), std::fabs(ad[j]),
                                  1e-3 * std::fabs(y0[j])});
   }
+  add_share_scale(scale, y0);
   // a kink within the step: the one-sided differences of some output disagree by far more than
   // their O(step) curvature term (checked on halving: a smooth output halves the gap)
   for (int j = 0; j < kOutputs; ++j) {
@@ -484,12 +495,13 @@ TEST(Jacobian, AtEqualFaceEndsTheAxialDerivativeIsTheOneAlongTheSeed) {
           ASSERT_EQ(gm_directional_derivative(I.m, I.d, &at, &seed, &dr), GM_OK) << gm_data_message(I.d);
           const std::vector<double> ad = outputs(dr), y1 = eval(along(at, seed, 0.5 * h)),
                                     y2 = eval(along(at, seed, h));
-          std::vector<double> fd(kOutputs), scale(7, 0.0);
+          std::vector<double> fd(kOutputs), scale(8, 0.0);
           for (int j = 0; j < kOutputs; ++j) {
             // second-order one-sided (Richardson) difference along the seed
             fd[j] = 2 * (y1[j] - y0[j]) / (0.5 * h) - (y2[j] - y0[j]) / h;
             scale[kGroup[j]] = std::max(scale[kGroup[j]], std::fabs(fd[j]));
           }
+          add_share_scale(scale, y0);
           for (int j = 0; j < kOutputs; ++j) {
             const double allowed =
                 (quasi ? 1e-4 : 1e-5) * scale[kGroup[j]] + 1e-14 * std::fabs(y0[j]) / h + 1e-9;
@@ -572,11 +584,12 @@ TEST(Jacobian, Level4TiltedWithAxialDisplacementEveryColumn) {
       const auto y = [&](double t) { return outputs(I.eval(along(at, seed, t))); };
       const std::vector<double> ad = outputs(dr), yp = y(c.step), ym = y(-c.step),
                                 yp2 = y(0.5 * c.step), ym2 = y(-0.5 * c.step);
-      std::vector<double> fd(kOutputs), scale(7, 0.0);
+      std::vector<double> fd(kOutputs), scale(8, 0.0);
       for (int j = 0; j < kOutputs; ++j) {
         fd[j] = (4 * (yp2[j] - ym2[j]) / c.step - (yp[j] - ym[j]) / (2 * c.step)) / 3;
         scale[kGroup[j]] = std::max(scale[kGroup[j]], std::fabs(fd[j]));
       }
+      add_share_scale(scale, outputs(r0));
       for (int j = 0; j < kOutputs; ++j) {
         const double allowed = 1e-6 * scale[kGroup[j]] + 1e-12;
         worst = std::max(worst, std::fabs(ad[j] - fd[j]) / allowed);

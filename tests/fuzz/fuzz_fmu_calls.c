@@ -23,6 +23,7 @@
 #include "fuzz_files.h"
 #include "fuzz_gcdb.h"
 #include "model.h"
+#include "variables.h" /* GearMesh's variable table: the value references by type */
 
 /* ---- oracles ------------------------------------------------------------------------------ */
 
@@ -122,7 +123,7 @@ static struct {
 
 static void sort_variables(void) {
   for (unsigned vr = 0; vr < GM_FMU_VARIABLE_COUNT; vr++) {
-    const gm_fmu_variable* v = model_variable(vr);
+    const gm_fmu_variable* v = &gm_fmu_variables[vr];
     typed[v->type].vr[typed[v->type].n++] = vr;
   }
 }

@@ -13,7 +13,8 @@ import pytest
 
 from gearmesh import accuracy, accuracy_iso, accuracy_ledger, accuracy_report, cli
 from gearmesh.accuracy_reference import (QUANTITIES, ReferenceError, band_error, curve_error,
-                                         errors, read_positions, read_summary)
+                                         errors, pair_errors, read_pairs, read_positions,
+                                         read_summary)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.scene import load_scene
 from gearmesh.scene_fmu import build_scene_fmu
@@ -73,7 +74,7 @@ def test_curve_error_is_position_by_position():
     row = curve_error(curves, 50.0, inside)
     assert row["band_error"] == 0.0 and row["quantity"] == "curve"
     row = curve_error(curves, 50.0, [1.0, 3.3, 1.0, 3.0])
-    assert row["band_error"] == pytest.approx(0.1) and row["product_m"] == 3.3
+    assert row["band_error"] == pytest.approx(0.1) and row["product"] == 3.3
     assert row["error_plane_strain"] == pytest.approx(0.65)  # (3.3 - 2) / 2 at position 1
     assert curve_error(curves, 150.0, inside) is None         # no curves at that torque
 
@@ -110,6 +111,34 @@ def test_reference_reader(tmp_path):
             read_summary(path)
 
 
+def test_pairs_reader_and_errors(tmp_path):
+    """Per-tooth forces -> the most loaded tooth's share and line load per position; the product
+    compared position by position (share) and by its largest line load (peak)."""
+    head = ("# c\nscene,model,torque_Nm,position,n_positions,gear1_angle_rad,te_m,tooth,force_N,"
+            "moment_Nm,line_load_N_per_m\n")
+    rows = []
+    for model, split in (("plane_strain", 0.6), ("plane_stress", 0.7)):
+        for k in range(8):
+            a = 1.0 if k < 4 else split      # single contact, then two pairs
+            for tooth, f in ((0, 100 * a), (56, 100 * (1 - a))):
+                if f:
+                    rows.append(f"s,{model},50,{k},8,0,1e-6,{tooth},{f},{f / 10},{f * 5}")
+    path = tmp_path / "s.reference_fe.pairs.csv"
+    path.write_text(head + "\n".join(rows) + "\n")
+    shares, loads = read_pairs(path, 8)
+    assert shares[("plane_strain", 50.0)] == pytest.approx([1.0] * 4 + [0.6] * 4)
+    assert loads[("plane_stress", 50.0)] == pytest.approx([500.0] * 4 + [350.0] * 4)
+    product_share = [1.0] * 4 + [0.65, 0.65, 0.8, 0.65]     # position 6 above the band [0.6, 0.7]
+    share, peak = pair_errors(shares, loads, 50.0, product_share, [550.0] + [400.0] * 7)
+    assert share["quantity"] == "load_share" and share["band_error"] == pytest.approx(0.8 / 0.7 - 1)
+    assert peak["quantity"] == "pair_line_load" and peak["band_error"] == pytest.approx(0.1)
+    assert pair_errors(shares, loads, 150.0, product_share, [1.0] * 8) == []   # no such torque
+    assert read_pairs(tmp_path / "missing.csv", 8) == ({}, {})
+    path.write_text(head + "\n".join(r for r in rows if ",3,8," not in r) + "\n")
+    with pytest.raises(ReferenceError, match="required: 0..7"):
+        read_pairs(path, 8)
+
+
 def test_reference_reader_3d(tmp_path):
     """A 3-D summary: one model, its studies' rows skipped; its band is its value, so the band
     error is the relative error. Values from the committed file's base rows."""
@@ -121,7 +150,7 @@ def test_reference_reader_3d(tmp_path):
     rows = {r["quantity"]: r for r in errors(ref, 150.0, {q: 2e-6 for q in QUANTITIES})}
     assert rows["pp"]["band_error"] == pytest.approx(2e-6 / 1.8471457550054165e-06 - 1)
     assert rows["pp"]["error_fe3d"] == rows["pp"]["band_error"]
-    assert rows["pp"]["fe3d_m"] == 1.8471457550054165e-06 and "plane_strain_m" not in rows["pp"]
+    assert rows["pp"]["fe3d"] == 1.8471457550054165e-06 and "plane_strain" not in rows["pp"]
     lines = path.read_text().splitlines()
     cases = {
         "allowed: plane_stress, plane_strain (2-D) or one model 3d_*":

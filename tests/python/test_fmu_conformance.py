@@ -219,7 +219,8 @@ def test_model_description_is_consistent(fmu_path, md):
     for i, sv in enumerate(svs, start=1):
         name, causality, initial = sv.get("name"), sv.get("causality"), sv.get("initial")
         index[name] = i
-        (typ,) = list(sv)
+        typ, *rest = list(sv)
+        assert [e.tag for e in rest] in ([], ["Annotations"]), name  # open bounds (param_ranges.h)
         unit, display = typ.get("unit"), typ.get("displayUnit")
         if unit is not None:
             assert unit in units, name
@@ -255,14 +256,16 @@ def test_model_description_is_consistent(fmu_path, md):
             assert deps == sorted(deps) and len(deps) == len(dep_kinds)
             assert all(causality[d] in knowns for d in deps)
             assert set(dep_kinds) <= kinds
-    # TE is solved from every input in the quasi-static mode, so it declares them all, as do
-    # the contact outputs (friction and damping use the velocities)
-    inputs = [str(i) for i, c in causality.items() if c == "input"]
-    for name in ("mesh.te", "gear1.fx"):
-        unknown = {int(u.get("index")): u
-                   for u in root.findall("ModelStructure/Outputs/Unknown")}[index[name]]
-        assert unknown.get("dependencies").split() == inputs, name
-        assert set(unknown.get("dependenciesKind").split()) == {"dependent"}, name
+    # The union over the modes (docs/fmi.md, "Feedthrough"; every pair measured in
+    # test_fmu_feedthrough.py): the contact outputs on every input but the large-step drive,
+    # the TE also not on the axial velocities (damping only), the energy account on none.
+    drive = {f"gear{g}.{n}" for g in (1, 2) for n in ("torque", "shaft_phi", "shaft_omega")}
+    inputs = [name for name, i in index.items() if causality[i] == "input"]
+    outputs = {int(u.get("index")): u for u in root.findall("ModelStructure/Outputs/Unknown")}
+    for name, ignored in (("gear1.fx", drive), ("mesh.te", drive | {"gear1.vz", "gear2.vz"}),
+                          ("energy.work_in", set(inputs))):
+        deps = outputs[index[name]].get("dependencies").split()
+        assert deps == [str(index[n]) for n in inputs if n not in ignored], name
 
     cs = root.find("CoSimulation")
     assert cs.get("modelIdentifier") == "GearMesh"
@@ -488,14 +491,17 @@ def test_initialization_mode_allows_set_get_iteration(new):
     assert inst.get("mesh.te") == te2  # outputs at the start time
 
 
-def test_outputs_in_step_complete_are_those_of_the_last_step(new):
+def test_outputs_in_step_complete_are_those_of_the_current_inputs(new):
+    """Direct feedthrough (docs/fmi.md, "Feedthrough"): an input set after a step is read back at
+    the same communication point; the next step, with that input held, publishes the same."""
     inst = new()
     inst.initialize()
     (out,) = run(inst, 1)
     inst.set({"gear1.phi": 3e-4})
-    assert inst.outputs() == out  # no re-evaluation after fmi2SetReal
+    read = inst.outputs()
+    assert read != out
     inst.slave.doStep(H, H)
-    assert inst.outputs() != out
+    assert inst.outputs() == read
 
 
 def test_step_arguments_are_checked(new):
@@ -560,8 +566,9 @@ def test_spin_angle_out_of_range_is_refused_in_every_call_sequence(new, gear, ba
 
 def test_te_jump_of_a_base_pitch_is_discarded_and_the_instance_goes_on(new):
     """A step whose TE jumps by a whole base pitch (a skipped tooth: the forces repeat every
-    pitch) returns fmi2Discard naming the jump; time does not advance, the published outputs
-    stay, and the instance accepts the proper step afterwards."""
+    pitch) returns fmi2Discard naming the jump; time does not advance, nothing changes (the
+    inputs of the last accepted step give its outputs), and the instance accepts the proper
+    step afterwards."""
     inst = new(logging_on=True)  # the message is logged as a warning (logStatusWarning)
     inst.initialize()
     run(inst, 3)
@@ -580,6 +587,7 @@ def test_te_jump_of_a_base_pitch_is_discarded_and_the_instance_goes_on(new):
         t = c_double()
         s.fmi2GetRealStatus(s.component, fmi2LastSuccessfulTime, byref(t))
         assert t.value == 3 * H  # the step was not taken
+        inst.set(drive(2 * H))  # the inputs held over the last accepted step
         assert inst.outputs() == published
     after = run(inst, 2, t0=3 * H)  # the proper inputs: accepted
     assert after[0] != published and after[0][OUTPUTS_REAL.index("mesh.normal_force")] > 0

@@ -4,7 +4,8 @@ evaluates; in single contact the slice force lies below the database's linear bo
 (the local Hertz law adds compliance) and above half of it; a database for another tooth count is
 refused naming gear1.compliance; fmi2GetDirectionalDerivative at level 5 (smooth databases on a
 17 x 13 flank grid, +-2 coupled teeth) matches Richardson differences of repeated steps, plain and
-quasi-static.
+quasi-static; a read at a communication point after other inputs were set leaves the next step's
+bits unchanged.
 """
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ import zlib
 
 import pytest
 
-from test_fmu_conformance import assert_error
+from test_fmu_conformance import H, assert_error
+from test_fmu_feedthrough import outputs, serialized
 from test_fmu_jacobian import check_against_repeated_steps
 from test_fmu_microgeometry import Pair
 from test_fmu_user_tables import scene_fmu, started
@@ -122,3 +124,42 @@ def test_level_5_directional_derivative_matches_repeated_steps(fmu_path, tmp_pat
              "gear1.compliance": "smooth.gcdb", "gear2.compliance": "smooth.gcdb"}
     directory, md = scene_fmu(fmu_path, tmp_path, scene, {"smooth.gcdb": databases["smooth.gcdb"]})
     check_against_repeated_steps(directory, md, name, params, quasi_step=25.0)
+
+
+@pytest.mark.parametrize("quasi", [False, True], ids=["plain", "quasi-static"])
+def test_level_5_read_at_a_point_leaves_the_next_step_unchanged(new, fmu_path, tmp_path, databases, quasi):
+    """Feedthrough at level 5 (docs/fmi.md, "Feedthrough"): outputs read after other inputs were
+    set, and directional derivatives, are evaluated on scratch memory, so the coupled solve's warm
+    start and kept tangent, where the next step starts, stay the step's: two instances, one of
+    which sets other inputs, reads, takes a derivative and sets the step's inputs back, give the
+    same bits over the next steps (outputs and FMU state; the derivative on the step's memory
+    moved the forces by ~1e-13); the read itself is the evaluation at those inputs (to the
+    solve's tolerance)."""
+    scene = {"model.stiffness": 5, "model.coupled_teeth": 2, "model.slices": 3,
+             "gear1.compliance": "smooth.gcdb", "gear2.compliance": "smooth.gcdb"}
+    directory, md = scene_fmu(fmu_path, tmp_path, scene, {"smooth.gcdb": databases["smooth.gcdb"]})
+    params = {"model.quasi_static": True} if quasi else {}
+    inputs = {"gear1.phi": 1e-4, "gear1.omega": 100.0, "gear2.omega": -100.0, "mesh.load_torque": 200.0}
+    a, b = new(directory=directory, model_description=md), new(directory=directory, model_description=md)
+    for inst in (a, b):
+        inst.initialize(params)
+        for t in (0.0, H):
+            inst.set({**inputs, "gear1.phi": 1e-4 + 100.0 * t})
+            inst.slave.doStep(t, H)
+    other = {"gear1.phi": 1.3e-4, "gear2.uy": 1e-6, "mesh.load_torque": 260.0}
+    a.set(other)
+    read = outputs(a)
+    c = new(directory=directory, model_description=md)
+    c.initialize(params)
+    c.set({**inputs, "gear1.phi": 1e-4 + 100.0 * H, **other})
+    c.slave.doStep(0.0, H)
+    assert read["mesh.normal_force"] == pytest.approx(outputs(c)["mesh.normal_force"], rel=1e-7)
+    assert read["mesh.normal_force"] != outputs(b)["mesh.normal_force"]
+    a.slave.getDirectionalDerivative([a.vr("mesh.te")], [a.vr("gear1.phi")], [1.0])
+    a.set({**inputs, "gear1.phi": 1e-4 + 100.0 * H, "gear2.uy": 0.0})
+    for t in (2 * H, 3 * H):
+        for inst in (a, b):
+            inst.set({"gear1.phi": 1e-4 + 100.0 * t})
+            inst.slave.doStep(t, H)
+        assert outputs(a) == outputs(b)
+    assert serialized(a) == serialized(b)

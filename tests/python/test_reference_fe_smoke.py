@@ -15,7 +15,11 @@ one tooth pair carries the load. Checks, each able to fail:
 * TE ~ T^n between 50 and 150 N m with 0.85 <= n <= 1.02: bending and body deflection are
   linear in the load and the 2-D Hertz approach grows slightly less than linearly
   (w ~ F (ln(c/F) + const)), so the pair stiffens a little; a contact that had not closed
-  (TE set by the initial closure) or a penalty that dominated would break this.
+  (TE set by the initial closure) or a penalty that dominated would break this;
+* the per-tooth contact totals (*CONTACT PRINT CF, reference_fe/pairs.py): their moments about
+  gear 1's axis add up to the torque (equilibrium; a misread block or unit would not), tooth 0
+  carries it all (single contact) and its force is the torque over the base radius
+  (frictionless: the force lies on the line of action, at r_b1 from the axis).
 """
 from __future__ import annotations
 
@@ -74,3 +78,7 @@ def test_single_pair_te_at_the_pitch_point():
     n = math.log(te150 / te50) / math.log(3.0)
     print(f"exponent n = {n:.4f}")
     assert 0.85 <= n <= 1.02, n
+    for T, forces, moments in zip(torques, r.pair_force_N, r.pair_moment_Nm):
+        assert abs(sum(moments.values())) == pytest.approx(T, rel=1e-4)
+        assert forces["0"] == pytest.approx(T / rb1, rel=1e-3)
+        assert sum(f for tooth, f in forces.items() if tooth != "0") < 1e-6 * forces["0"]

@@ -11,8 +11,8 @@ from tqdm import tqdm
 
 from gearmesh import accuracy_iso, accuracy_ledger, accuracy_report, accuracy_settings
 from gearmesh.accuracy_reference import (KINDS, Reference, ReferenceError, curve_error, errors,
-                                         positions_path, read_positions, read_summary,
-                                         summary_path)
+                                         pair_errors, pairs_path, positions_path, read_pairs,
+                                         read_positions, read_summary, summary_path)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.accuracy_timing import round_trip
 from gearmesh.scene import Scene
@@ -51,7 +51,7 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
     coupled_dbs = {}
     if preset == "full":
         for c in accuracy_settings.COUPLED:
-            dbs = accuracy_settings.cached_databases(scene, c)
+            dbs = accuracy_settings.cached_databases(scene, c, generic_fmu)
             if dbs:
                 coupled_dbs[c] = dbs
                 for i, path in dbs.items():
@@ -101,6 +101,8 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
     torques = accuracy_settings.torques(preset, reference.torques)
     curves = read_positions(positions_path(reference.path.parent, scene.name, reference.kind),
                             reference.n_positions)
+    shares, loads = (read_pairs(pairs_path(reference.path.parent, scene.name),
+                                reference.n_positions) if reference.kind == "2d" else ({}, {}))
     rows = []
     for setting, values in tqdm(plan, desc=f"{scene.name} ({reference.kind})",
                                 disable=not progress, leave=False):
@@ -111,7 +113,10 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
                 "quasi_static_raw_us": result.qs_step * 1e6, "round_trip_us": round_trip_s * 1e6}
         for torque in torques:
             curve = curve_error(curves, torque, result.te[torque], reference.models)
-            for e in errors(reference, torque, result.summary[torque]) + ([curve] if curve else []):
+            pairs = pair_errors(shares, loads, torque, result.load_share[torque],
+                                result.pair_line_load[torque], reference.models)
+            for e in (errors(reference, torque, result.summary[torque])
+                      + ([curve] if curve else []) + pairs):
                 rows.append({"scene": scene.name, "reference": reference.kind,
                              "setting": setting.label, "level": setting.level,
                              "slices": setting.slices,

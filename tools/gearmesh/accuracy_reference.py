@@ -12,6 +12,14 @@ lies between the two models at every position can have a larger p-p than either 
 plane strain where two pairs carry, soft like plane stress where one does). So the TE curve is
 also compared position by position (`<scene>.reference_fe.te.csv`): the quantity "curve" is the
 worst signed distance of the product's TE to the band of the two models at the same position.
+Where the reference has the per-tooth contact forces (`<scene>.reference_fe.pairs.csv`), the
+most loaded tooth pair's share of the force is compared position by position ("load_share", with
+the FMU's mesh.max_load_share), and that pair's force over the face width, largest over the
+positions, with the band of the models' ("pair_line_load"). A plane model spreads a pair's force
+evenly over the face, so this is the face-average line load of the most loaded pair: the product's
+is mesh.max_load_share x mesh.normal_force / face width, not mesh.max_line_load (the largest
+slice's, which at level 5 with several slices resolves the load across the face that the 2-D
+reference cannot: docs/validation.md, "Load share and line load").
 
 3-D: `<scene>.reference_fe3d.summary.csv` holds one model (3-D sectors of both gears, a name
 starting with "3d_"); its "band" is that one value, so the band error is the relative error. Its
@@ -32,9 +40,11 @@ KINDS = ("2d", "3d")
 _FILE_STEM = {"2d": "reference_fe", "3d": "reference_fe3d"}
 QUANTITIES = ("mean", "pp", "order1", "order2", "order3")  # the summary's <q>_te_m / <q>_m columns
 CURVE = "curve"  # the TE position by position against the per-position band (te.csv)
+LOAD_SHARE = "load_share"  # the most loaded pair's share, position by position (pairs.csv)
+PAIR_LINE_LOAD = "pair_line_load"  # the most loaded pair's force / face width, largest (pairs.csv)
 MIN_POSITIONS = 8  # per pitch: mesh order 3 below the Nyquist order (n/2)
 # The quantities a reference of each kind scores (a setting's score: the largest |band error|).
-SCORED = {"2d": QUANTITIES, "3d": ("pp", "order1", "order2")}
+SCORED = {"2d": (*QUANTITIES, LOAD_SHARE, PAIR_LINE_LOAD), "3d": ("pp", "order1", "order2")}
 _COLUMNS = {"mean": "mean_te_m", "pp": "pp_te_m", "order1": "order1_m", "order2": "order2_m",
             "order3": "order3_m"}
 _REQUIRED = ("scene", "model", "torque_Nm", "n_positions", *_COLUMNS.values())
@@ -156,27 +166,95 @@ def read_positions(path: pathlib.Path, n_positions: int) -> dict[tuple[str, floa
     return out
 
 
-def curve_error(positions: dict[tuple[str, float], list[float]], torque: float,
-                te, models: tuple[str, ...] = MODELS) -> dict | None:
-    """The "curve" row of a product TE at the reference's positions: at the position where the
-    TE lies farthest outside the band of the models there, the product's and the models'
-    values and the signed distance; against each model the worst relative error over the
-    positions. None without every model's curve at this torque."""
-    if any((m, torque) not in positions for m in models):
+def position_error(curves: dict[tuple[str, float], list[float]], torque: float, values,
+                   models: tuple[str, ...], quantity: str, unit: str) -> dict | None:
+    """A quantity compared position by position with the band of the models' curves at each
+    position: at the position where the product lies farthest outside, the product's and the
+    models' values and the signed distance; against each model the worst relative error over
+    the positions. None without every model's curve at this torque."""
+    if any((m, torque) not in curves for m in models):
         return None
     worst = None
-    for k, value in enumerate(te):
-        here = [positions[(m, torque)][k] for m in models]
+    for k, value in enumerate(values):
+        here = [curves[(m, torque)][k] for m in models]
         d = band_error(value, min(here), max(here))
         if worst is None or abs(d) > abs(worst[0]):
             worst = (d, k)
     d, k = worst
-    row = {"quantity": CURVE, "product_m": float(te[k]), "band_error": d}
+    row = {"quantity": quantity, "unit": unit, "product": float(values[k]), "band_error": d}
     for m in models:
-        ref = positions[(m, torque)]
-        row[f"{column(m)}_m"] = ref[k]
-        row[f"error_{column(m)}"] = max((relative_error(v, r) for v, r in zip(te, ref)), key=abs)
+        ref = curves[(m, torque)]
+        row[column(m)] = ref[k]
+        row[f"error_{column(m)}"] = max((relative_error(v, r) for v, r in zip(values, ref)),
+                                        key=abs)
     return row
+
+
+def curve_error(positions: dict[tuple[str, float], list[float]], torque: float,
+                te, models: tuple[str, ...] = MODELS) -> dict | None:
+    """The "curve" row of a product TE at the reference's positions (position_error)."""
+    return position_error(positions, torque, te, models, CURVE, "m")
+
+
+def pairs_path(reference_dir: pathlib.Path, scene_name: str) -> pathlib.Path:
+    return pathlib.Path(reference_dir) / f"{scene_name}.reference_fe.pairs.csv"
+
+
+def read_pairs(path: pathlib.Path, n_positions: int) -> tuple[dict, dict]:
+    """From the per-tooth contact forces (reference_fe/README.md, "Load share and peak line
+    load"): (model, torque) -> per position 0..n-1 the most loaded tooth's share of the total
+    contact force, and its line load (N/m); ({}, {}) when the file does not exist."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        return {}, {}
+    teeth: dict[tuple[str, float, int], list[tuple[float, float]]] = {}
+    with path.open(newline="") as fh:
+        for line, row in enumerate(csv.DictReader(l for l in fh if not l.lstrip().startswith("#")),
+                                   start=2):
+            try:
+                if int(row["n_positions"]) != n_positions:
+                    continue
+                key = (row["model"], float(row["torque_Nm"]), int(row["position"]))
+                teeth.setdefault(key, []).append((float(row["force_N"]),
+                                                  float(row["line_load_N_per_m"])))
+            except (KeyError, ValueError) as exc:
+                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+    shares: dict[tuple[str, float], dict[int, float]] = {}
+    loads: dict[tuple[str, float], dict[int, float]] = {}
+    for (model, torque, k), forces in teeth.items():
+        total = sum(f for f, _ in forces)
+        if not total > 0:
+            raise ReferenceError(f"{path}: {model} at {torque:g} N m, position {k}: no contact "
+                                 "force; allowed: a loaded position")
+        top = max(forces)
+        shares.setdefault((model, torque), {})[k] = top[0] / total
+        loads.setdefault((model, torque), {})[k] = top[1]
+    for by_position in (shares, loads):
+        for key, values in by_position.items():
+            if sorted(values) != list(range(n_positions)):
+                raise ReferenceError(f"{path}: {key[0]} at {key[1]:g} N m has positions "
+                                     f"{sorted(values)}; required: 0..{n_positions - 1}")
+    return ({key: [v[k] for k in range(n_positions)] for key, v in shares.items()},
+            {key: [v[k] for k in range(n_positions)] for key, v in loads.items()})
+
+
+def pair_errors(shares: dict, loads: dict, torque: float, product_shares, product_loads,
+                models: tuple[str, ...] = MODELS) -> list[dict]:
+    """The "load_share" row (the most loaded pair's share, position by position) and the
+    "pair_line_load" row (that pair's force over the face width, the largest over the
+    positions, against the band of the models' largest); [] without the reference's per-tooth
+    forces at this torque."""
+    share = position_error(shares, torque, product_shares, models, LOAD_SHARE, "1")
+    if share is None or any((m, torque) not in loads for m in models):
+        return []
+    peak = {m: max(loads[(m, torque)]) for m in models}
+    product = float(max(product_loads))
+    row = {"quantity": PAIR_LINE_LOAD, "unit": "N/m", "product": product,
+           "band_error": band_error(product, min(peak.values()), max(peak.values()))}
+    for m in models:
+        row[column(m)] = peak[m]
+        row[f"error_{column(m)}"] = relative_error(product, peak[m])
+    return [share, row]
 
 
 def column(model: str) -> str:
@@ -204,10 +282,10 @@ def errors(reference: Reference, torque: float, product: dict[str, float]) -> li
     rows = []
     for q in QUANTITIES:
         low, high = reference.band(torque, q)
-        row = {"quantity": q, "product_m": product[q],
+        row = {"quantity": q, "unit": "m", "product": product[q],
                "band_error": band_error(product[q], low, high)}
         for m in reference.models:
-            row[f"{column(m)}_m"] = reference.values[(m, torque)][q]
+            row[column(m)] = reference.values[(m, torque)][q]
             row[f"error_{column(m)}"] = relative_error(product[q], reference.values[(m, torque)][q])
         rows.append(row)
     return rows

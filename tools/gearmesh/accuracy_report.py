@@ -9,18 +9,20 @@ import math
 import pathlib
 from collections import defaultdict
 
-from gearmesh.accuracy_reference import CURVE, QUANTITIES, SCORED
+from gearmesh.accuracy_reference import CURVE, LOAD_SHARE, PAIR_LINE_LOAD, QUANTITIES, SCORED
 
-# reference: "2d" (plane_* columns filled) or "3d" (fe3d columns filled); the others are empty
+# reference: "2d" (plane_* columns filled) or "3d" (fe3d columns filled); the others are empty.
+# product, plane_stress, plane_strain, fe3d: the quantity's values in its unit (SI; "1" for a share)
 COLUMNS = ["scene", "reference", "setting", "level", "slices", "coupled_teeth", "torque_Nm",
-           "quantity", "product_m", "plane_stress_m", "plane_strain_m", "fe3d_m", "band_error",
+           "quantity", "unit", "product", "plane_stress", "plane_strain", "fe3d", "band_error",
            "error_plane_stress", "error_plane_strain", "error_fe3d", "plain_us", "plain_raw_us",
            "quasi_static_us", "quasi_static_raw_us", "round_trip_us"]
 ERROR_COLUMNS = ("band_error", "error_plane_stress", "error_plane_strain", "error_fe3d")
 TIME_COLUMNS = ("plain_us", "plain_raw_us", "quasi_static_us", "quasi_static_raw_us",
                 "round_trip_us")
 # A setting's score: the largest |band error| over the torques and its reference's SCORED.
-SHOWN = (*QUANTITIES, CURVE)  # CURVE: n/a where the reference has no per-position file
+# CURVE, LOAD_SHARE, PAIR_LINE_LOAD: n/a where the reference has no per-position or per-tooth file
+SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PAIR_LINE_LOAD)
 _REFERENCE_TITLE = {"2d": "2-D band [plane stress, plane strain], whole gears",
                     "3d": "3-D sectors (ripple scored; the mean is biased low by the sectors)"}
 
@@ -44,7 +46,7 @@ def read_csv(path: pathlib.Path) -> list[dict]:
         rows = list(csv.DictReader(line for line in fh if not line.startswith("#")))
     for row in rows:
         row["reference"] = row.get("reference") or "2d"
-        for key in ("torque_Nm", "product_m", "plane_stress_m", "plane_strain_m", "fe3d_m",
+        for key in ("torque_Nm", "product", "plane_stress", "plane_strain", "fe3d",
                     *ERROR_COLUMNS, *TIME_COLUMNS):
             row[key] = float(row.get(key) or "nan")
     return rows
@@ -71,7 +73,7 @@ def per_setting(rows: list[dict]) -> list[dict]:
         for q in SHOWN:
             errors = [r["band_error"] for r in group if r["quantity"] == q]
             entry[q] = max(errors, key=abs) if errors else math.nan
-        entry["score"] = max(abs(entry[q]) for q in SCORED[reference])
+        entry["score"] = max(abs(entry[q]) for q in SCORED[reference] if not math.isnan(entry[q]))
         out.append(entry)
     return out
 
@@ -113,15 +115,20 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
              "through fmpy minus the bare fmpy round trip (raw: without the subtraction), plain "
              "mode (prescribed spins) and quasi-static mode. TE curve: the worst distance of the "
              "TE to the band of the two models position by position (a p-p or an order outside "
-             "the band of p-p values can come from a curve inside the band everywhere). The "
-             "error against each model is in accuracy.csv.", ""]
+             "the band of p-p values can come from a curve inside the band everywhere). Load "
+             "share: the most loaded tooth pair's share of the force (mesh.max_load_share) "
+             "against the band of the models' position by position; pair line load: that pair's "
+             "force over the face width, the largest over the positions, against the band of "
+             "the models' largest "
+             "(2-D references with per-tooth forces). The error against each model is in "
+             "accuracy.csv.", ""]
     lines += [f"* {n}" for n in notes]
     for (scene, kind), group in groups(entries).items():
         front = {id(e) for e in pareto_front(group)}
         lines += ["", f"## {scene}: {_REFERENCE_TITLE[kind]}", "",
-                  "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | TE curve | score | "
-                  "plain µs (raw) | quasi-static µs (raw) | front |",
-                  "|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | TE curve | "
+                  "load share | pair line load | score | plain µs (raw) | quasi-static µs (raw) | "
+                  "front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for e in group:
             lines.append(
                 f"| {e['setting']} | " + " | ".join(pct(e[q]) for q in SHOWN)

@@ -8,11 +8,11 @@ import pathlib
 from dataclasses import dataclass
 
 from gearmesh import compliance
+from gearmesh.param_ranges import fmu_ranges
 from gearmesh.scene import Scene
 
 SLICES = (1, 3, 10, 20, 40)
 COUPLED = (0, 1, 2, 3)
-MAX_COUPLED = 10  # params.cpp: model.coupled_teeth in [0, 10]
 # quick: the CI ledger (docs/validation.md): levels 2, 3, 4 at 10 slices, the reference's lowest
 # and highest torque
 QUICK_LEVELS = (2, 3, 4)
@@ -71,15 +71,17 @@ def level5_scene(scene: Scene, coupled: int) -> Scene:
     return dataclasses.replace(scene, parameters=parameters)
 
 
-def cached_databases(scene: Scene, coupled: int, tool: pathlib.Path | None = None,
+def cached_databases(scene: Scene, coupled: int, fmu: pathlib.Path, tool: pathlib.Path | None = None,
                      cache: pathlib.Path | None = None) -> dict[int, pathlib.Path] | None:
-    """Both gears' cached databases that serve `coupled` teeth (built for `coupled` or more: a
-    database for n coupled teeth serves any model.coupled_teeth <= n), or None."""
+    """Both gears' cached databases that serve `coupled` teeth (built for `coupled` or more, up
+    to the FMU's max of model.coupled_teeth: a database for n coupled teeth serves any
+    model.coupled_teeth <= n), or None."""
     tool = pathlib.Path(tool or compliance.default_tool())
     cache = pathlib.Path(cache or compliance.default_cache())
     if not tool.is_file() or not cache.is_dir():
         return None
-    for built_for in range(coupled, MAX_COUPLED + 1):
+    most = int(fmu_ranges(fmu)["model.coupled_teeth"].hi)
+    for built_for in range(coupled, most + 1):
         at = level5_scene(scene, built_for)
         paths = {i: cache / f"{compliance.cache_key(at, i, tool)}.gcdb" for i in (1, 2)}
         if all(p.is_file() for p in paths.values()):

@@ -14,11 +14,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from gearmesh.accuracy_reference import MIN_POSITIONS
+from gearmesh.accuracy_iso import face_overlap
 from gearmesh.accuracy_timing import StepTimer
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import mesh_order_amplitudes, pair_kinematics
 
 OMEGA1 = 10 * 2 * math.pi / 60  # rad/s: only the friction direction, and there is no friction
+_READ = ["mesh.te", "gear1.mz", "mesh.max_load_share", "mesh.normal_force"]
+_FACES = [f"gear{i}.{n}" for i in (1, 2) for n in ("face_width", "axial_offset")]
 
 
 @dataclass
@@ -30,6 +33,10 @@ class SweepResult:
     qs_calls: int
     plain_calls: int
     gear1_torque: dict[float, float]       # torque -> mean of gear1.mz over the positions (N m)
+    load_share: dict[float, np.ndarray]    # torque -> mesh.max_load_share at the positions
+    # torque -> the most loaded pair's force over the face width at the positions (N/m):
+    # mesh.max_load_share x mesh.normal_force / the face widths' overlap
+    pair_line_load: dict[float, np.ndarray]
 
 
 def summarize(te: np.ndarray) -> dict[str, float]:
@@ -50,6 +57,8 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
     common = {**parameters, "model.friction_coefficient": 0.0}
     te: dict[float, np.ndarray] = {}
     gear1_torque: dict[float, float] = {}
+    load_share: dict[float, np.ndarray] = {}
+    pair_line_load: dict[float, np.ndarray] = {}
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": True},
                      instance_name="accuracy_qs") as fmu:
         kin = pair_kinematics(fmu)
@@ -57,19 +66,21 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
         angles = np.arange(n_positions) * (2 * math.pi / z1) / n_positions
         omega2 = -kin.sign * OMEGA1 * kin.r_b1 / kin.r_b2
         ratio = kin.r_b2 / kin.r_b1  # gear 2's load torque per unit torque on gear 1
+        width = face_overlap(fmu.get(_FACES))
         timer = StepTimer(fmu)
         for rep in range(repeats):
             for torque in torques:
-                values, moments = [], []
+                rows = []
                 for phi1 in angles:
                     fmu.step({"gear1.phi": phi1, "mesh.load_torque": torque * ratio,
                               "gear1.omega": OMEGA1, "gear2.omega": omega2})
-                    out = fmu.get(["mesh.te", "gear1.mz"])
-                    values.append(out["mesh.te"])
-                    moments.append(out["gear1.mz"])
+                    rows.append(fmu.get(_READ))
                 if rep == 0:
-                    te[torque] = np.asarray(values)
-                    gear1_torque[torque] = float(np.mean(moments))
+                    te[torque] = np.array([r["mesh.te"] for r in rows])
+                    gear1_torque[torque] = float(np.mean([r["gear1.mz"] for r in rows]))
+                    load_share[torque] = np.array([r["mesh.max_load_share"] for r in rows])
+                    pair_line_load[torque] = np.array(
+                        [r["mesh.max_load_share"] * r["mesh.normal_force"] / width for r in rows])
         qs_step, qs_calls = timer.median(), len(timer.seconds)
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": False},
                      instance_name="accuracy_plain") as fmu:
@@ -80,4 +91,4 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
                     fmu.step({"gear1.phi": phi1, "gear2.phi": kin.phi2(value, phi1)})
         plain_step, plain_calls = timer.median(), len(timer.seconds)
     return SweepResult(te, {t: summarize(v) for t, v in te.items()}, qs_step, plain_step,
-                       qs_calls, plain_calls, gear1_torque)
+                       qs_calls, plain_calls, gear1_torque, load_share, pair_line_load)

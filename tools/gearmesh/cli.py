@@ -19,8 +19,11 @@ def main(argv: list[str] | None = None) -> int:
     p_main.add_argument("scenes", nargs="*", type=pathlib.Path, help="scene files (TOML)")
     p_main.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
     p_main.add_argument("--out", type=pathlib.Path, default=REPO / "output")
-    p_check = sub.add_parser("check", help="validate scene files")
+    p_check = sub.add_parser("check", help="validate scene files (against the ranges the FMU "
+                             "declares)")
     p_check.add_argument("scenes", nargs="+", type=pathlib.Path)
+    p_check.add_argument("--fmu", type=pathlib.Path, help="default: $GEARMESH_FMU, else "
+                         "build/GearMesh.fmu")
     p_batch = sub.add_parser("batch", help="scenes x torques x parameter variations in parallel")
     p_batch.add_argument("scenes", nargs="*", type=pathlib.Path)
     p_batch.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
@@ -85,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"gearmesh: {exc}", file=sys.stderr)
             return 2
     try:
-        scenes = [load_scene(p) for p in (args.scenes or DEFAULT_SCENES)]
+        scenes = [load_scene(p, getattr(args, "fmu", None)) for p in (args.scenes or DEFAULT_SCENES)]
     except (SceneError, OSError) as exc:
         print(f"gearmesh: {exc}", file=sys.stderr)
         return 2

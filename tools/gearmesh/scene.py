@@ -1,7 +1,9 @@
 """Scene files: TOML with the unit in every key name, validated in this one place.
 
 A scene lists only what it uses; every key it omits keeps the FMU's default (the core's
-gm_default_params). Each key maps to one FMU parameter with a factor to SI.
+gm_default_params). Each key maps to one FMU parameter with a factor to SI, and is checked against
+that parameter's range as the FMU declares it (its modelDescription.xml's min and max, which the
+binary enforces: gearmesh.param_ranges), converted to the key's unit for the message.
 
 The FE level (model.stiffness_level = 5) adds two kinds of tables that are not FMU parameters but
 inputs of compliance_tool (gearmesh.compliance builds each gear's database from them):
@@ -18,6 +20,8 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 
+from gearmesh.param_ranges import Range, fmu_ranges
+
 
 class SceneError(ValueError):
     """A scene key has a wrong name, type or value; the message names key, value and range."""
@@ -27,7 +31,7 @@ class SceneError(ValueError):
 class Key:
     variable: str        # FMU variable name
     factor: float = 1.0  # scene unit -> SI
-    lo: float = -math.inf
+    lo: float = -math.inf  # lo, hi: a scene-only key's range (an FMU parameter's is the FMU's)
     hi: float = math.inf
     kind: type = float   # float, int, bool, str or list (of `item`)
     unit: str = ""       # the unit the key's name carries, for messages
@@ -36,61 +40,58 @@ class Key:
 
 DEG = math.pi / 180.0
 
-# section -> key -> Key. Ranges mirror the core's validation; the core checks again.
+# section -> key -> Key of an FMU parameter; its range is the FMU's (fmu_ranges).
 SCHEMA: dict[str, dict[str, Key]] = {
     "pair": {
-        "center_distance_mm": Key("pair.center_distance", 1e-3, 0.1, 20000, unit="mm"),
-        "normal_module_mm": Key("pair.normal_module", 1e-3, 0.1, 100, unit="mm"),
-        "pressure_angle_deg": Key("pair.pressure_angle", DEG, 10, 35, unit="deg"),
-        "helix_angle_deg": Key("pair.helix_angle", DEG, -45, 45, unit="deg"),
+        "center_distance_mm": Key("pair.center_distance", 1e-3, unit="mm"),
+        "normal_module_mm": Key("pair.normal_module", 1e-3, unit="mm"),
+        "pressure_angle_deg": Key("pair.pressure_angle", DEG, unit="deg"),
+        "helix_angle_deg": Key("pair.helix_angle", DEG, unit="deg"),
         "internal": Key("pair.internal", kind=bool),
-        "rack_addendum": Key("pair.rack_addendum", 1.0, 0.5, 2.0, unit="modules"),
-        "rack_dedendum": Key("pair.rack_dedendum", 1.0, 0.5, 3.0, unit="modules"),
-        "rack_tip_radius": Key("pair.rack_tip_radius", 1.0, 0.0, 1.0, unit="modules"),
+        "rack_addendum": Key("pair.rack_addendum", 1.0, unit="modules"),
+        "rack_dedendum": Key("pair.rack_dedendum", 1.0, unit="modules"),
+        "rack_tip_radius": Key("pair.rack_tip_radius", 1.0, unit="modules"),
     },
     **{
         f"gear{i}": {
-            "teeth": Key(f"gear{i}.teeth", 1, 5, 2000, kind=int),
-            "profile_shift": Key(f"gear{i}.profile_shift", 1.0, -1.5, 3.0),
-            "face_width_mm": Key(f"gear{i}.face_width", 1e-3, 0.01, 2000, unit="mm"),
-            "tip_diameter_mm": Key(f"gear{i}.tip_diameter", 1e-3, 0.0, 40000, unit="mm"),
-            "thickness_allowance_um": Key(f"gear{i}.thickness_allowance", 1e-6, -50000, 0,
-                                          unit="um"),
-            "axial_offset_mm": Key(f"gear{i}.axial_offset", 1e-3, -2000, 2000, unit="mm"),
-            "youngs_modulus_GPa": Key(f"gear{i}.youngs_modulus", 1e9, 0.1, 10000, unit="GPa"),
-            "poisson_ratio": Key(f"gear{i}.poisson_ratio", 1.0, 0.0, 0.499),
+            "teeth": Key(f"gear{i}.teeth", 1, kind=int),
+            "profile_shift": Key(f"gear{i}.profile_shift", 1.0),
+            "face_width_mm": Key(f"gear{i}.face_width", 1e-3, unit="mm"),
+            "tip_diameter_mm": Key(f"gear{i}.tip_diameter", 1e-3, unit="mm"),
+            "thickness_allowance_um": Key(f"gear{i}.thickness_allowance", 1e-6, unit="um"),
+            "axial_offset_mm": Key(f"gear{i}.axial_offset", 1e-3, unit="mm"),
+            "youngs_modulus_GPa": Key(f"gear{i}.youngs_modulus", 1e9, unit="GPa"),
+            "poisson_ratio": Key(f"gear{i}.poisson_ratio", 1.0),
             # micro-geometry, both flanks alike (docs/physics.md §2; flank-specific: deviations_file)
-            "profile_crowning_um": Key(f"gear{i}.profile_crowning", 1e-6, 0, 1000, unit="um"),
-            "tip_relief_um": Key(f"gear{i}.tip_relief", 1e-6, 0, 1000, unit="um"),
-            "tip_relief_length_mm": Key(f"gear{i}.tip_relief_length", 1e-3, 0, 1000, unit="mm"),
+            "profile_crowning_um": Key(f"gear{i}.profile_crowning", 1e-6, unit="um"),
+            "tip_relief_um": Key(f"gear{i}.tip_relief", 1e-6, unit="um"),
+            "tip_relief_length_mm": Key(f"gear{i}.tip_relief_length", 1e-3, unit="mm"),
             "tip_relief_parabolic": Key(f"gear{i}.tip_relief_parabolic", kind=bool),
-            "root_relief_um": Key(f"gear{i}.root_relief", 1e-6, 0, 1000, unit="um"),
-            "root_relief_length_mm": Key(f"gear{i}.root_relief_length", 1e-3, 0, 1000, unit="mm"),
+            "root_relief_um": Key(f"gear{i}.root_relief", 1e-6, unit="um"),
+            "root_relief_length_mm": Key(f"gear{i}.root_relief_length", 1e-3, unit="mm"),
             "root_relief_parabolic": Key(f"gear{i}.root_relief_parabolic", kind=bool),
-            "profile_slope_um": Key(f"gear{i}.profile_slope", 1e-6, -1000, 1000, unit="um"),
-            "lead_crowning_um": Key(f"gear{i}.lead_crowning", 1e-6, 0, 1000, unit="um"),
-            "helix_slope_um": Key(f"gear{i}.helix_slope", 1e-6, -1000, 1000, unit="um"),
-            "end_relief_um": Key(f"gear{i}.end_relief", 1e-6, 0, 1000, unit="um"),
-            "end_relief_length_mm": Key(f"gear{i}.end_relief_length", 1e-3, 0, 1000, unit="mm"),
+            "profile_slope_um": Key(f"gear{i}.profile_slope", 1e-6, unit="um"),
+            "lead_crowning_um": Key(f"gear{i}.lead_crowning", 1e-6, unit="um"),
+            "helix_slope_um": Key(f"gear{i}.helix_slope", 1e-6, unit="um"),
+            "end_relief_um": Key(f"gear{i}.end_relief", 1e-6, unit="um"),
+            "end_relief_length_mm": Key(f"gear{i}.end_relief_length", 1e-3, unit="mm"),
             "deviations_file": Key(f"gear{i}.deviations", kind=str),
         }
         for i in (1, 2)
     },
     "model": {
-        "stiffness_level": Key("model.stiffness", 1, 0, 5, kind=int),
-        "user_stiffness_N_per_mm_um": Key("model.user_stiffness", 1e9, 1e-6, 1e5,
-                                          unit="N/(mm um)"),
-        "slices": Key("model.slices", 1, 1, 200, kind=int),
-        "friction_coefficient": Key("model.friction_coefficient", 1.0, 0.0, 2.0),
-        "friction_velocity_mm_per_s": Key("model.friction_velocity", 1e-3, 1e-6, 10000,
-                                          unit="mm/s"),
-        "damping_Ns_per_m2": Key("model.damping", 1.0, 0.0, 1e9, unit="N s/m^2"),
-        "rated_line_load_N_per_mm": Key("model.rated_line_load", 1e3, 0.0, 1e5, unit="N/mm"),
+        "stiffness_level": Key("model.stiffness", 1, kind=int),
+        "user_stiffness_N_per_mm_um": Key("model.user_stiffness", 1e9, unit="N/(mm um)"),
+        "slices": Key("model.slices", 1, kind=int),
+        "friction_coefficient": Key("model.friction_coefficient", 1.0),
+        "friction_velocity_mm_per_s": Key("model.friction_velocity", 1e-3, unit="mm/s"),
+        "damping_Ns_per_m2": Key("model.damping", 1.0, unit="N s/m^2"),
+        "rated_line_load_N_per_mm": Key("model.rated_line_load", 1e3, unit="N/mm"),
         # user tables (core/src/user_tables.hpp): files next to the scene, shipped in resources/
         "stiffness_table_file": Key("model.stiffness_table", kind=str),  # level 1
         "te_table_file": Key("model.te_table", kind=str),                # any level
         # FE level: neighbour teeth coupled each side (the databases are built with as many)
-        "coupled_teeth": Key("model.coupled_teeth", 1, 0, 10, kind=int),
+        "coupled_teeth": Key("model.coupled_teeth", 1, kind=int),
     },
 }
 
@@ -150,7 +151,9 @@ class Scene:
     fe: dict[str, float | int] = field(default_factory=dict)                 # [fe] key -> value
 
 
-def _convert(where: str, key: Key, value):
+def _convert(where: str, key: Key, value, fmu_range: Range | None = None):
+    """The value in SI (an int stays an int). A scene-only key is checked against its lo, hi; an
+    FMU parameter's against fmu_range, the FMU's range in SI, after conversion as the FMU will."""
     if key.kind is list:
         if not isinstance(value, list) or not value:
             raise SceneError(f"{where} = {_short(value)}: expected a non-empty list of numbers")
@@ -169,18 +172,30 @@ def _convert(where: str, key: Key, value):
         raise SceneError(f"{where} = {_short(value)}: expected a number")
     if key.kind is int and not isinstance(value, int):
         raise SceneError(f"{where} = {_short(value)}: expected a whole number")
-    if not (key.lo <= value <= key.hi and (isinstance(value, int) or math.isfinite(value))):
+    rng, scale = (fmu_range, key.factor) if fmu_range is not None else (Range(key.lo, key.hi), 1)
+    if not rng.contains(_scaled(value, scale)):
         unit = f" {key.unit}" if key.unit else ""
-        raise SceneError(f"{where} = {_short(value)}{unit}: allowed range [{key.lo:g}, {key.hi:g}]{unit}")
+        raise SceneError(f"{where} = {_short(value)}{unit}: allowed range {rng.text(scale)}{unit}")
     return value if key.kind is int else value * key.factor
 
 
-def parse_scene(text: str, path: pathlib.Path | str = "<string>") -> Scene:
+def _scaled(value: int | float, scale: float) -> int | float:
+    """value * scale; an int too large for a float is infinite (outside every range)."""
+    try:
+        return value if scale == 1 else value * scale
+    except OverflowError:
+        return math.inf
+
+
+def parse_scene(text: str, path: pathlib.Path | str = "<string>",
+                fmu: pathlib.Path | str | None = None) -> Scene:
     """Validate a scene's TOML text; raise SceneError naming the file (if a path is given) and
-    the first bad key, or the line of a syntax error. Nothing else is raised for any text."""
+    the first bad key, or the line of a syntax error. Nothing else is raised for any text. The
+    FMU parameters' ranges are those of `fmu` (default: gearmesh.param_ranges.default_fmu());
+    an FMU that is missing or unreadable raises OSError (param_ranges.fmu_ranges)."""
     path = pathlib.Path(path)
     try:
-        return _parse_scene(text, path)
+        return _parse_scene(text, path, fmu)
     except SceneError as exc:
         if str(path) == "<string>":
             raise
@@ -210,7 +225,7 @@ def _deep_line(text: str, depth: int = 100) -> int:
     return 1
 
 
-def _parse_scene(text: str, path: pathlib.Path) -> Scene:
+def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
     if not isinstance(text, str):
         raise SceneError(f"expected the scene as text, got {type(text).__name__}")
     if text.startswith("\ufeff"):  # a UTF-8 byte-order mark (some Windows editors write one)
@@ -260,7 +275,9 @@ def _parse_scene(text: str, path: pathlib.Path) -> Scene:
                 if section in ("gear1", "gear2"):
                     allowed += f"; and the table [{section}.body] (FE level)"
                 raise SceneError(f"{section}.{key}: unknown key; allowed: {allowed}")
-            value = _convert(f"{section}.{key}", spec, value)
+            numeric = spec.kind in (int, float)
+            value = _convert(f"{section}.{key}", spec, value,
+                             fmu_ranges(fmu).get(spec.variable, Range()) if numeric else None)
             if spec.kind is str:  # a file beside the scene, shipped in the FMU's resources/
                 source = _resource_file(f"{section}.{key}", value, path, root)
                 name = f"{section}_{source.name}"
@@ -440,10 +457,10 @@ def _check_fe_level(scene: Scene, level: int) -> None:
 MAX_SCENE_BYTES = 1 << 20  # a scene is a few kB; more is not a scene
 
 
-def load_scene(path: pathlib.Path | str) -> Scene:
-    """Read and validate a scene file. A file that is not UTF-8 TOML, or not a readable regular
-    file of at most 1 MiB, is a SceneError naming it (a UTF-8 byte-order mark is accepted); a
-    missing file is FileNotFoundError."""
+def load_scene(path: pathlib.Path | str, fmu: pathlib.Path | str | None = None) -> Scene:
+    """Read and validate a scene file against the ranges of `fmu` (parse_scene). A file that is
+    not UTF-8 TOML, or not a readable regular file of at most 1 MiB, is a SceneError naming it (a
+    UTF-8 byte-order mark is accepted); a missing file is FileNotFoundError."""
     path = pathlib.Path(path)
     if path.exists() and not path.is_file():
         raise SceneError(f"{path}: not a regular file (a directory, FIFO, device or socket); "
@@ -467,4 +484,4 @@ def load_scene(path: pathlib.Path | str) -> Scene:
     if "\x00" in text:
         line = text.count("\n", 0, text.index("\x00")) + 1
         raise SceneError(f"{path}: line {line}: contains a NUL character; a scene is text (TOML)")
-    return parse_scene(text, path)
+    return parse_scene(text, path, fmu)

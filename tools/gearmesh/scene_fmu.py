@@ -93,7 +93,7 @@ def _variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
     root = ET.fromstring(xml)
     out = {}
     for sv in root.iter("ScalarVariable"):
-        (typ,) = list(sv)
+        typ = sv[0]  # the type element; Annotations may follow
         out[sv.get("name")] = (typ.tag, sv.get("causality", "local"), typ.get("start"))
     return out
 

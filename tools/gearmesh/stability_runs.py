@@ -108,7 +108,7 @@ def prepare(case: Case, generic_fmu: pathlib.Path, workdir: pathlib.Path) -> Pre
 
         scene_file = workdir / f"{case.name}.toml"
         scene_file.write_text(case.fe_scene, encoding="utf-8")
-        scene = with_databases(load_scene(scene_file), progress=False)
+        scene = with_databases(load_scene(scene_file, fmu_path), progress=False)
         params = {**scene.parameters, **BASE, **case.params}
         params.pop("model.stiffness_level", None)
         resources.update(scene.resources)

@@ -174,6 +174,8 @@ typedef struct gm_result {
   int flank;              /* 0 none, 1 flank A, 2 flank B, 3 both */
   double friction_power;  /* power dissipated by friction, W */
   double max_line_load;   /* largest slice line load, N/m */
+  double max_load_share;  /* share of normal_force carried by the most loaded tooth pair, 0..1
+                             (0 without contact; the load sharing ratio's upper branch) */
   int solver_iterations;  /* iterations of the last force solve (0 = closed form) */
   double solver_residual; /* KKT residual of the last solve, m */
   double elastic_energy;  /* elastic potential of the loaded slices, J: sum of int F dDelta at the
