@@ -499,11 +499,23 @@ gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int
 }
 
 gm_status check_db_values(const ComplianceDb& db, int gear, std::string& msg) {
-  if (!(db.depth <= 0.5 * db.tip_diameter)) {
-    msg = "gear" + std::to_string(gear + 1) + ".compliance: depth = " + num(db.depth) +
-          " m; allowed (0, " + num(0.5 * db.tip_diameter) + "] m (inside the gear: at most its tip radius)";
+  const std::string name = "gear" + std::to_string(gear + 1) + ".compliance: ";
+  const double r_a = 0.5 * db.tip_diameter;
+  if (!(db.depth >= kComplianceDbMinLength && db.depth <= r_a)) {
+    msg = name + "depth = " + num(db.depth) + " m; allowed [" + num(kComplianceDbMinLength) + ", " + num(r_a) +
+          "] m (inside the gear: at most its tip radius)";
     return GM_ERR_PARAMETER;
   }
+  for (const auto* axis : {&db.roll, &db.face})
+    for (std::size_t i = 0; i < axis->size(); ++i) {
+      const double v = (*axis)[i], step = i ? v - (*axis)[i - 1] : kComplianceDbMinLength;
+      if (!(std::abs(v) <= db.tip_diameter && step >= kComplianceDbMinLength)) {
+        msg = name + (axis == &db.roll ? "roll[" : "face[") + std::to_string(i) + "] = " + fmt("%.17g", v) +
+              " m; allowed within +-" + num(db.tip_diameter) + " m (the tip diameter), at least " +
+              num(kComplianceDbMinLength) + " m after the previous value";
+        return GM_ERR_PARAMETER;
+      }
+    }
   for (std::size_t b = 0; b < db.blocks.size(); ++b)
     for (std::size_t i = 0; i < db.blocks[b].size(); ++i)
       if (!(std::abs(db.blocks[b][i]) <= kComplianceDbMaxValue)) {

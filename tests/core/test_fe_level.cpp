@@ -385,8 +385,8 @@ TEST(FeLevel, DatabaseOfAnotherGearIsRefusedNamingItsParameter) {
 // A database value beyond 1e-3 m/N (a gear body's compliance is about 1e-10 .. 1e-7 m/N), or a
 // depth outside the gear, is refused at model creation naming the gear, field and range: databases
 // scaled by 1e200 gave forces near 1e-300 N whose local Hertz law made the outputs and derivatives
-// NaN, and so did a depth of 7.5e168 m at 144 N (tests/fuzz/fuzz_fe_model). Negative and zero
-// values stay allowed (coupling terms, a rigid gear).
+// NaN, and so did a depth of 7.5e168 m at 144 N and one of 5.2e-310 m at 7.5 kN
+// (tests/fuzz/fuzz_fe_model). Negative and zero values stay allowed (coupling terms, a rigid gear).
 TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
   gm_model_params p = fe_paper(2);
   p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
@@ -403,9 +403,17 @@ TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
   const gm_model_params edge = with_database(p, f, 1, soft, "values_edge.gcdb", path);
   ASSERT_EQ(gm_model_create(&edge, &m, text, sizeof text), GM_OK) << text;
   gm_model_free(m);
-  soft.depth = 7.5e168;  // beyond the gear's tip radius
-  msg = refusal(with_database(p, f, 1, soft, "values_deep.gcdb", path));
-  EXPECT_NE(msg.find("gear2.compliance: depth = 7.5e+168 m; allowed (0, 0.07761"), std::string::npos) << msg;
+  for (double depth : {7.5e168, 5.2e-310}) {  // beyond the gear's tip radius; subnormal
+    soft.depth = depth;
+    msg = refusal(with_database(p, f, 1, soft, "values_depth.gcdb", path));
+    EXPECT_NE(msg.find("m; allowed [1e-09, 0.07761"), std::string::npos) << msg;
+    EXPECT_EQ(msg.rfind("gear2.compliance: depth = ", 0), 0u) << msg;
+  }
+  soft = synthetic_db(p, 1, {});
+  soft.roll[1] = std::nextafter(soft.roll[0], 1.0);  // a grid step of one ulp
+  msg = refusal(with_database(p, f, 1, soft, "values_step.gcdb", path));
+  EXPECT_NE(msg.find("gear2.compliance: roll[1] = "), std::string::npos) << msg;
+  EXPECT_NE(msg.find("at least 1e-09 m after the previous value"), std::string::npos) << msg;
 }
 
 }  // namespace

@@ -142,9 +142,16 @@ gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int
 // (tests/fuzz/fuzz_fe_model).
 constexpr double kComplianceDbMaxValue = 1e-3;
 
-// Check that every block entry of db is within +-kComplianceDbMaxValue and that the depth h lies
-// inside the gear, h <= its tip radius tip_diameter/2 (a depth of 7.5e168 m made the derivatives
-// of the local Hertz law NaN at 144 N: tests/fuzz/fuzz_fe_model). On failure GM_ERR_PARAMETER and
+// Smallest depth h and grid spacing gm_model_create accepts, m (compliance_tool's default depth is
+// 0.5 mm, its grid spacing about a millimetre).
+constexpr double kComplianceDbMinLength = 1e-9;
+
+// Check that every block entry of db is within +-kComplianceDbMaxValue, that the depth h lies in
+// [kComplianceDbMinLength, the gear's tip radius tip_diameter/2] (a depth of 7.5e168 m made the
+// derivatives of the local Hertz law NaN at 144 N, a subnormal one its energy NaN at 7.5 kN:
+// tests/fuzz/fuzz_fe_model), and that the roll and face grids lie within +-tip_diameter with
+// steps of at least kComplianceDbMinLength (their interpolation divides by the steps). On
+// failure GM_ERR_PARAMETER and
 // msg names the gear's parameter (gear1.compliance), the field (block and entry, or depth), its
 // value and the allowed range.
 gm_status check_db_values(const ComplianceDb& db, int gear, std::string& msg);
