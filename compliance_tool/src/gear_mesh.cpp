@@ -28,6 +28,11 @@ std::string fmt(const char* f, double a, double b = 0, double c = 0) {
   return buf;
 }
 
+gm_status fail_with(std::string& msg, const std::string& text) {
+  msg = "gear mesher: " + text;
+  return GM_ERR_PARAMETER;
+}
+
 // gmsh is process-global: initialize/finalize around one build, also on exceptions.
 struct GmshSession {
   GmshSession() {
@@ -103,10 +108,7 @@ struct BodyGeometry {
 gm_status body_geometry(const gm_model_params& p, const gm_pair_geometry& g, int gear,
                         const GearBodyOptions& o, const ToothOutline& to, BodyGeometry& bg,
                         GearBodyMesh& out, std::string& msg) {
-  auto fail = [&msg](const std::string& text) {
-    msg = "gear mesher: " + text;
-    return GM_ERR_PARAMETER;
-  };
+  auto fail = [&msg](const std::string& text) { return fail_with(msg, text); };
   bg.z = p.gear[gear].teeth;
   bg.ring = to.ring;
   bg.b = p.gear[gear].face_width;
@@ -150,24 +152,463 @@ gm_status read_mesh_file(const GearBodyOptions& o, const BodyGeometry& bg, GearB
 
 }  // namespace
 
+namespace {
+
+// What build_gear_body decides before gmsh runs: the axial stages, the fine sector and the
+// element sizes of the size field (gear_mesh.hpp, "Size field").
+struct BodyPlan {
+  int z = 0, hand = 0;
+  bool ring = false, has_web = false, all_fine = false;
+  double b = 0, twist_rate = 0, r_f = 0;
+  double bore = 0;                 // the clamped radius (external: bore; ring: outer rim)
+  std::vector<double> zs;          // axial stage boundaries, -b/2 .. b/2
+  int web_stage = -1;              // the stage that holds the web (-1: every stage)
+  int fine_teeth = 0, elements_on_tip = 0;
+  double h_t = 0, h_c = 0, h_b = 0, fine = 0, sector = 0, growth = 0;
+  double tip_land = 0, root_land = 0;  // arc lengths of the tip and root lands, m
+  double rot0 = 0;                 // turn of the meshed section (at z = -b/2)
+  int stages() const { return static_cast<int>(zs.size()) - 1; }
+  bool is_fine(int k) const { return all_fine || std::min(k, z - k) <= fine_teeth; }
+  int n_tip(double h) const {
+    return elements_on_tip > 0 ? elements_on_tip
+                               : std::max(1, static_cast<int>(std::lround(tip_land / h)));
+  }
+  int n_root(double h) const { return std::max(1, static_cast<int>(std::lround(root_land / h))); }
+};
+
+// The gmsh model as it is built: the section's curves and regions, then the extruded volumes
+// and, per region and section curve, the lateral surfaces of every stage.
+struct BodyModel {
+  Builder B;
+  std::vector<int> loop;                            // the toothed outline
+  std::vector<std::array<int, 2>> involute_curve;   // [A, B] per tooth
+  std::vector<int> clamp_c;                         // the clamped circle's arcs
+  std::vector<Region> regions;
+  int web_region = -1, outer_region = 0, clamp_region = 0;
+  std::vector<std::vector<std::vector<int>>> laterals;  // [region][curve][stage]
+  std::vector<int> volumes;                         // the kept volumes
+};
+
+gm_status check_options(int gear, const GearBodyOptions& o, std::string& msg) {
+  if (gear != 0 && gear != 1) return fail_with(msg, "gear index must be 0 or 1");
+  if (o.order != 2) return fail_with(msg, "only quadratic elements (order 2) are supported");
+  if (o.elements_along_profile < 1 || o.elements_across_width < 1 || o.elements_in_fillet < 1 ||
+      o.elements_on_tip < 0)
+    return fail_with(msg, "element counts must be >= 1");
+  if (!(o.size_growth > 0) || !std::isfinite(o.size_growth))
+    return fail_with(msg, fmt("size_growth %g must be > 0", o.size_growth));
+  if (o.body_size < 0 || o.fine_depth < 0 || o.mesh_tolerance < 0)
+    return fail_with(msg, "body_size, fine_depth and mesh_tolerance must be >= 0 (0 = default)");
+  return GM_OK;
+}
+
+// Rim, web and holes: checked against each other and the root circle; the axial stages split at
+// the web's faces when the web is narrower than the face.
+gm_status plan_stages(const GearBodyOptions& o, BodyPlan& pl, std::string& msg) {
+  const double b = pl.b, r_f = pl.r_f;
+  pl.has_web = !pl.ring && o.rim_inner_radius > 0;
+  if (pl.has_web && !(pl.bore < o.hub_radius && o.hub_radius < o.rim_inner_radius && o.rim_inner_radius < r_f))
+    return fail_with(msg, fmt("rim and web need bore_radius < hub_radius < rim_inner_radius < root radius "
+                              "(%g, %g, root %g m)",
+                              o.hub_radius, o.rim_inner_radius, r_f));
+  const double ann_in = pl.has_web ? o.hub_radius : pl.bore;
+  const double ann_out = pl.has_web ? o.rim_inner_radius : r_f;
+  if (o.holes > 0) {
+    if (!(o.hole_radius > 0) || o.hole_circle_radius - o.hole_radius <= ann_in ||
+        o.hole_circle_radius + o.hole_radius >= ann_out ||
+        2 * o.hole_radius >= 2 * o.hole_circle_radius * std::sin(kPi / o.holes))
+      return fail_with(msg, fmt("lightening holes (radius %g m on radius %g m) must lie inside the web "
+                                "annulus and not overlap (annulus %g m ..)",
+                                o.hole_radius, o.hole_circle_radius, ann_in));
+  }
+  pl.zs = {-0.5 * b, 0.5 * b};
+  pl.web_stage = -1;
+  if (pl.has_web && o.web_thickness > 0 && o.web_thickness < b) {
+    const double w0 = o.web_offset - 0.5 * o.web_thickness, w1 = o.web_offset + 0.5 * o.web_thickness;
+    if (w0 < -0.5 * b - 1e-12 || w1 > 0.5 * b + 1e-12)
+      return fail_with(msg, fmt("the web (offset %g m, thickness %g m) must lie within the face width %g m",
+                                o.web_offset, o.web_thickness, b));
+    const double tol = 1e-9 * b;
+    pl.zs.clear();
+    pl.zs.push_back(-0.5 * b);
+    if (w0 > -0.5 * b + tol) pl.zs.push_back(w0);
+    pl.web_stage = static_cast<int>(pl.zs.size()) - 1;
+    if (w1 < 0.5 * b - tol) pl.zs.push_back(w1);
+    pl.zs.push_back(0.5 * b);
+  }
+  return GM_OK;
+}
+
+// Element sizes of the fine teeth, the far teeth and the body, and the fine sector.
+gm_status plan_sizes(const GearBodyOptions& o, const ToothOutline& to, double m_n, BodyPlan& pl,
+                     std::string& msg) {
+  if (o.far_elements_along_profile < 1 || o.far_elements_in_fillet < 1)
+    return fail_with(msg, "far_elements_along_profile and far_elements_in_fillet must be >= 1");
+  const int z = pl.z;
+  pl.fine_teeth = o.fine_teeth;
+  pl.elements_on_tip = o.elements_on_tip;
+  pl.all_fine = o.fine_teeth < 0 || 2 * o.fine_teeth + 1 >= z;
+  pl.h_t = polyline_length(to.involute) / o.elements_along_profile;
+  pl.h_c = pl.all_fine ? pl.h_t : polyline_length(to.involute) / o.far_elements_along_profile;
+  pl.sector = pl.all_fine ? kPi : (o.fine_teeth + 0.5) * 2.0 * kPi / z;
+  pl.h_b = o.body_size > 0 ? o.body_size : 2.0 * m_n;
+  pl.fine = o.fine_depth > 0 ? o.fine_depth : 1.0 * m_n;
+  pl.growth = o.size_growth;
+  pl.tip_land = 2.0 * (pl.ring ? kPi / z - to.tip_half_angle : to.tip_half_angle) * to.tip_radius;
+  pl.root_land = 2.0 * (pl.ring ? to.root_half_angle : kPi / z - to.root_half_angle) * pl.r_f;
+  pl.rot0 = -pl.hand * pl.twist_rate * 0.5 * pl.b;
+  return GM_OK;
+}
+
+gm_status plan_body(const GearBodyOptions& o, const BodyGeometry& bg, const ToothOutline& to,
+                    BodyPlan& pl, std::string& msg) {
+  pl.z = bg.z;
+  pl.hand = bg.hand;
+  pl.ring = bg.ring;
+  pl.b = bg.b;
+  pl.twist_rate = bg.twist_rate;
+  pl.r_f = to.root_radius;
+  pl.bore = bg.clamped;
+  if (plan_stages(o, pl, msg) != GM_OK) return GM_ERR_PARAMETER;
+  return plan_sizes(o, to, bg.m_n, pl, msg);
+}
+
+void set_mesh_options(int threads) {
+  gmsh::option::setNumber("General.NumThreads", std::max(1, threads));
+  gmsh::option::setNumber("Mesh.Algorithm", 6);
+  // Quadratic elements whose curved edges (on the fillets, where big elements meet the curved
+  // outline) would invert are repaired by gmsh's high-order optimization (it moves interior
+  // high-order nodes of the invalid elements' neighbourhood only).
+  gmsh::option::setNumber("Mesh.HighOrderOptimize", 1);
+  gmsh::option::setNumber("Mesh.MeshSizeFromCurvature", 0);
+  gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 0);
+  gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 1);
+  gmsh::option::setNumber("Mesh.ElementOrder", 2);
+  gmsh::option::setNumber("Mesh.SecondOrderLinear", 0);
+  gmsh::option::setNumber("Mesh.RandomSeed", 1);
+}
+
+// The size field of gear_mesh.hpp: radial, fine on the teeth and a band below the root circle.
+void set_size_field(const BodyPlan& pl) {
+  const bool ring = pl.ring;
+  const double r_f = pl.r_f, fine = pl.fine, sector = pl.sector, rot_sec = pl.rot0;
+  const double h_t = pl.h_t, h_c = pl.h_c, h_b = pl.h_b, growth = pl.growth;
+  gmsh::model::mesh::setSizeCallback(
+      [=](int, int, double x, double y, double, double lc) {
+        const double R = std::hypot(x, y);
+        const double below = std::max(0.0, ring ? R - (r_f + fine) : (r_f - fine) - R);
+        // Distance to the fine region F (see the header).
+        const double th = std::remainder(std::atan2(y, x) - rot_sec, 2.0 * kPi);
+        double d = below;
+        if (std::fabs(th) > sector) {
+          const Eigen::Vector2d e(std::cos(rot_sec + std::copysign(sector, th)),
+                                  std::sin(rot_sec + std::copysign(sector, th)));
+          const Eigen::Vector2d X(x, y);
+          const double t = ring ? std::clamp(X.dot(e), 0.0, r_f + fine) : std::max(X.dot(e), r_f - fine);
+          d = (X - t * e).norm();
+        }
+        auto ramp = [&](double h0, double dist) {
+          return h_b >= h0 ? std::min(h_b, h0 + growth * dist) : std::max(h_b, h0 - growth * dist);
+        };
+        return std::min(lc, std::min(ramp(h_t, d), ramp(h_c, below)));
+      });
+}
+
+// A spline through pts turned by a (mirrored for flank B, reversed if asked), reusing the point
+// tag `first` as its start: the curve tag and its point tags.
+std::pair<int, std::vector<int>> add_spline(Builder& B, const std::vector<Eigen::Vector2d>& pts,
+                                            double a, bool flank_b, bool reverse, int first,
+                                            double size) {
+  std::vector<int> tags;
+  const int n = static_cast<int>(pts.size());
+  for (int i = 0; i < n; ++i) {
+    const int j = reverse ? n - 1 - i : i;
+    const Eigen::Vector2d v = flank_b ? Eigen::Vector2d(pts[j].x(), -pts[j].y()) : pts[j];
+    if (i == 0 && first) tags.push_back(first);
+    else tags.push_back(B.point(rot(v, a), size));
+  }
+  return {gmsh::model::geo::addSpline(tags), tags};
+}
+
+// Element counts along both fillets and both involutes.
+void set_flank_counts(int fillet_a, int fillet_b, int involute_a, int involute_b, int n_fil, int n_prof) {
+  namespace geo = gmsh::model::geo;
+  geo::mesh::setTransfiniteCurve(fillet_b, n_fil + 1);
+  geo::mesh::setTransfiniteCurve(fillet_a, n_fil + 1);
+  geo::mesh::setTransfiniteCurve(involute_b, n_prof + 1);
+  geo::mesh::setTransfiniteCurve(involute_a, n_prof + 1);
+}
+
+// Tooth k of the outline (external gear: tooth; ring: space): its five curves, counter-clockwise,
+// external [fillet B, involute B, tip arc, involute A, fillet A], ring [involute B, fillet B,
+// root arc, fillet A, involute A], then a slot for the arc to the next tooth. Returns the
+// outline's first and last point tags of this tooth.
+std::array<int, 2> draw_tooth(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to,
+                              int k, BodyModel& m) {
+  namespace geo = gmsh::model::geo;
+  const double a = pl.rot0 + 2.0 * kPi * k / pl.z;
+  const bool fk = pl.is_fine(k);
+  const int n_prof = fk ? o.elements_along_profile : o.far_elements_along_profile;
+  const int n_fil = fk ? o.elements_in_fillet : o.far_elements_in_fillet;
+  const double hk = fk ? pl.h_t : pl.h_c, h_t = pl.h_t;
+  Builder& B = m.B;
+  if (!pl.ring) {
+    auto fb = add_spline(B, to.fillet, a, true, false, 0, h_t);                   // root -> form
+    auto ib = add_spline(B, to.involute, a, true, false, fb.second.back(), h_t);  // form -> tip
+    auto ia = add_spline(B, to.involute, a, false, true, 0, h_t);                 // tip -> form
+    auto fa = add_spline(B, to.fillet, a, false, true, ia.second.back(), h_t);    // form -> root
+    const int tip = geo::addCircleArc(ib.second.back(), B.centre, ia.second.front());
+    m.loop.insert(m.loop.end(), {fb.first, ib.first, tip, ia.first, fa.first, 0});
+    m.involute_curve[k] = {ia.first, ib.first};
+    set_flank_counts(fa.first, fb.first, ia.first, ib.first, n_fil, n_prof);
+    geo::mesh::setTransfiniteCurve(tip, pl.n_tip(hk) + 1);
+    return {fb.second.front(), fa.second.back()};
+  }
+  auto ib = add_spline(B, to.involute, a, true, true, 0, h_t);                  // tip -> form
+  auto fb = add_spline(B, to.fillet, a, true, true, ib.second.back(), h_t);     // form -> root
+  auto fa = add_spline(B, to.fillet, a, false, false, 0, h_t);                  // root -> form
+  auto ia = add_spline(B, to.involute, a, false, false, fa.second.back(), h_t); // form -> tip
+  const int root = geo::addCircleArc(fb.second.back(), B.centre, fa.second.front());
+  m.loop.insert(m.loop.end(), {ib.first, fb.first, root, fa.first, ia.first, 0});
+  m.involute_curve[k] = {ia.first, ib.first};
+  set_flank_counts(fa.first, fb.first, ia.first, ib.first, n_fil, n_prof);
+  geo::mesh::setTransfiniteCurve(root, pl.n_root(hk) + 1);
+  return {ib.second.front(), ia.second.back()};
+}
+
+// The whole toothed outline, counter-clockwise; the ring's is reversed (it is a hole).
+void draw_outline(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to, BodyModel& m) {
+  namespace geo = gmsh::model::geo;
+  const int z = pl.z;
+  m.involute_curve.resize(z);
+  std::vector<int> first_pt(z), last_pt(z);
+  for (int k = 0; k < z; ++k) {
+    const std::array<int, 2> ends = draw_tooth(pl, o, to, k, m);
+    first_pt[k] = ends[0];
+    last_pt[k] = ends[1];
+  }
+  // The arcs between neighbouring teeth (external: root arcs; ring: tip arcs).
+  for (int k = 0; k < z; ++k) {
+    const int arc = geo::addCircleArc(last_pt[k], m.B.centre, first_pt[(k + 1) % z]);
+    const double h = pl.is_fine(k) || pl.is_fine((k + 1) % z) ? pl.h_t : pl.h_c;
+    geo::mesh::setTransfiniteCurve(arc, (pl.ring ? pl.n_tip(h) : pl.n_root(h)) + 1);
+    m.loop[6 * k + 5] = arc;
+  }
+  // A hole's loop runs clockwise: reversed as given, gmsh would reverse it itself and the
+  // lateral surfaces of the extrusion would then come in the reversed curve order.
+  if (pl.ring) {
+    std::reverse(m.loop.begin(), m.loop.end());
+    for (int& c : m.loop) c = -c;
+  }
+}
+
+// The section's regions (ring: one; disc: one with its holes; web: rim, web with holes, hub)
+// and their plane surfaces.
+void add_regions(const BodyPlan& pl, const GearBodyOptions& o, BodyModel& m) {
+  namespace geo = gmsh::model::geo;
+  Builder& B = m.B;
+  const double h_b = pl.h_b;
+  m.clamp_c = B.circle(pl.bore, std::min(h_b, 2.0 * kPi * pl.bore / 24.0));
+  std::vector<std::vector<int>> holes;
+  for (int h = 0; h < o.holes; ++h) {
+    const double ah = pl.rot0 + 2.0 * kPi * h / o.holes;
+    holes.push_back(B.circle_at({o.hole_circle_radius * std::cos(ah), o.hole_circle_radius * std::sin(ah)},
+                                o.hole_radius, std::min(h_b, 2.0 * kPi * o.hole_radius / 12.0)));
+  }
+  if (pl.ring) {
+    m.regions.push_back({{m.clamp_c, m.loop}, 0});
+  } else if (pl.has_web) {
+    const std::vector<int> rim_c = B.circle(o.rim_inner_radius, std::min(h_b, 2.0 * kPi * o.rim_inner_radius / 24.0));
+    const std::vector<int> hub_c = B.circle(o.hub_radius, std::min(h_b, 2.0 * kPi * o.hub_radius / 24.0));
+    m.regions.push_back({{m.loop, rim_c}, 0});
+    Region web{{rim_c, hub_c}, 0};
+    for (const auto& hl : holes) web.loops.push_back(hl);
+    m.regions.push_back(web);
+    m.regions.push_back({{hub_c, m.clamp_c}, 0});
+    m.web_region = 1;
+    m.clamp_region = 2;
+  } else {
+    Region disc{{m.loop, m.clamp_c}, 0};
+    for (const auto& hl : holes) disc.loops.push_back(hl);
+    m.regions.push_back(disc);
+  }
+  for (Region& r : m.regions) {
+    std::vector<int> wires;
+    for (const auto& l : r.loops) wires.push_back(geo::addCurveLoop(l));
+    r.surface = geo::addPlaneSurface(wires);
+  }
+}
+
+// Extrude the regions stage by stage (layers proportional to the stage's length; twisted for
+// helical gears), keep the web only in its stage, and collect the lateral surfaces.
+void extrude_stages(const BodyPlan& pl, const GearBodyOptions& o, BodyModel& m) {
+  namespace geo = gmsh::model::geo;
+  const int stages = pl.stages();
+  const std::vector<double>& zs = pl.zs;
+  std::vector<int> layers(stages);
+  for (int st = 0; st < stages; ++st)
+    layers[st] = std::max(1, static_cast<int>(std::lround(o.elements_across_width * (zs[st + 1] - zs[st]) / pl.b)));
+  m.laterals.assign(m.regions.size(), {});
+  for (size_t r = 0; r < m.regions.size(); ++r) m.laterals[r].resize(m.regions[r].curves().size());
+  std::vector<int> dropped;
+  for (int st = 0; st < stages; ++st) {
+    gmsh::vectorpair in, res;
+    for (const Region& r : m.regions) in.push_back({2, r.surface});
+    const double dz = zs[st + 1] - zs[st];
+    const double angle = pl.hand * pl.twist_rate * dz;
+    if (pl.hand != 0)
+      geo::twist(in, 0, 0, 0, 0, 0, dz, 0, 0, 1, angle, res, {layers[st]}, {1.0}, false);
+    else
+      geo::extrude(in, 0, 0, dz, res, {layers[st]}, {1.0}, false);
+    size_t pos = 0;
+    for (size_t r = 0; r < m.regions.size(); ++r) {
+      const size_t nc = m.laterals[r].size();
+      if (pos + 2 + nc > res.size() || res[pos].first != 2 || res[pos + 1].first != 3)
+        throw std::runtime_error("unexpected extrusion result");
+      m.regions[r].surface = res[pos].second;
+      const bool keep = !(static_cast<int>(r) == m.web_region && pl.web_stage >= 0 && st != pl.web_stage);
+      (keep ? m.volumes : dropped).push_back(res[pos + 1].second);
+      for (size_t c = 0; c < nc; ++c) m.laterals[r][c].push_back(res[pos + 2 + c].second);
+      pos += 2 + nc;
+    }
+  }
+  if (!dropped.empty()) {
+    gmsh::vectorpair d;
+    for (int v : dropped) d.push_back({3, v});
+    geo::remove(d, false);
+  }
+  geo::synchronize();
+}
+
+// Which lateral surface belongs to which section curve: gmsh may start or orient a loop
+// differently from the order given, so match them by their boundary (the section curve is an
+// edge of its first-stage lateral; later stages follow in the same order).
+void match_laterals(BodyModel& m) {
+  for (size_t r = 0; r < m.regions.size(); ++r) {
+    const std::vector<int> curves = m.regions[r].curves();
+    std::map<int, size_t> owner;  // section curve -> position in laterals[r]
+    for (size_t j = 0; j < m.laterals[r].size(); ++j) {
+      gmsh::vectorpair bnd;
+      gmsh::model::getBoundary({{2, m.laterals[r][j][0]}}, bnd, false, false, false);
+      for (const auto& d : bnd) owner[std::abs(d.second)] = j;
+    }
+    std::vector<std::vector<int>> sorted(curves.size());
+    for (size_t c = 0; c < curves.size(); ++c) {
+      const auto it = owner.find(std::abs(curves[c]));
+      if (it == owner.end()) throw std::runtime_error("a section curve has no lateral surface");
+      sorted[c] = m.laterals[r][it->second];
+    }
+    m.laterals[r] = std::move(sorted);
+  }
+}
+
+// Nodes and TET10 elements of the kept volumes, numbered from 0 in the order of gmsh's tags;
+// returns gmsh tag -> node index.
+std::unordered_map<std::size_t, int> collect_elements(const BodyModel& m, GearBodyMesh& out) {
+  std::vector<std::size_t> ntags;
+  std::vector<double> coord, param;
+  gmsh::model::mesh::getNodes(ntags, coord, param, -1, -1, true, false);
+  std::unordered_map<std::size_t, size_t> where;
+  for (size_t i = 0; i < ntags.size(); ++i) where[ntags[i]] = i;
+  std::vector<std::size_t> conn;
+  for (int v : m.volumes) {
+    std::vector<std::size_t> et, nt;
+    gmsh::model::mesh::getElementsByType(kTet10, et, nt, v);
+    conn.insert(conn.end(), nt.begin(), nt.end());
+  }
+  if (conn.empty()) throw std::runtime_error("gmsh produced no TET10 elements");
+  std::vector<std::size_t> used(conn);
+  std::sort(used.begin(), used.end());
+  used.erase(std::unique(used.begin(), used.end()), used.end());
+  std::unordered_map<std::size_t, int> index;
+  out.nodes.reserve(used.size());
+  for (size_t i = 0; i < used.size(); ++i) {
+    index[used[i]] = static_cast<int>(i);
+    const size_t j = where.at(used[i]);
+    out.nodes.emplace_back(coord[3 * j], coord[3 * j + 1], coord[3 * j + 2]);
+  }
+  out.tets.resize(conn.size() / 10);
+  for (size_t e = 0; e < out.tets.size(); ++e)
+    for (int a = 0; a < 10; ++a) out.tets[e][a] = index.at(conn[10 * e + a]);
+  return index;
+}
+
+// The sorted node indices on the given surfaces.
+std::vector<int> surface_nodes(const std::vector<int>& surfaces,
+                               const std::unordered_map<std::size_t, int>& index) {
+  std::vector<int> ids;
+  for (int sf : surfaces) {
+    std::vector<std::size_t> t;
+    std::vector<double> c, pc;
+    gmsh::model::mesh::getNodes(t, c, pc, 2, sf, true, false);
+    for (std::size_t tag : t) {
+      auto it = index.find(tag);
+      if (it != index.end()) ids.push_back(it->second);
+    }
+  }
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  return ids;
+}
+
+// The clamped surface (the laterals of the bore's or the ring rim's arcs) and the flank nodes
+// of every tooth with their roll distance and face coordinate.
+void collect_node_sets(const BodyModel& m, const ToothOutline& to, int z,
+                       const std::unordered_map<std::size_t, int>& index, GearBodyMesh& out) {
+  {
+    const std::vector<int> curves = m.regions[m.clamp_region].curves();
+    std::vector<int> surf;
+    for (size_t c = 0; c < curves.size(); ++c)
+      if (std::find(m.clamp_c.begin(), m.clamp_c.end(), std::abs(curves[c])) != m.clamp_c.end())
+        surf.insert(surf.end(), m.laterals[m.clamp_region][c].begin(), m.laterals[m.clamp_region][c].end());
+    out.clamped_nodes = surface_nodes(surf, index);
+  }
+  out.flanks.resize(z);
+  const std::vector<int> curves = m.regions[m.outer_region].curves();
+  std::map<int, size_t> curve_pos;
+  for (size_t c = 0; c < curves.size(); ++c) curve_pos[std::abs(curves[c])] = c;
+  for (int k = 0; k < z; ++k)
+    for (int f = 0; f < 2; ++f) {
+      const std::vector<int> ids =
+          surface_nodes(m.laterals[m.outer_region][curve_pos.at(m.involute_curve[k][f])], index);
+      for (int id : ids) {
+        const Eigen::Vector3d& x = out.nodes[id];
+        const double R = std::hypot(x.x(), x.y());
+        FlankNode fn;
+        fn.node = id;
+        fn.roll = std::sqrt(std::max(0.0, R * R - to.base_radius * to.base_radius));
+        fn.face = x.z();
+        out.flanks[k][f].push_back(fn);
+      }
+    }
+}
+
+// The gmsh part: model, outline, regions, extrusion, mesh, node sets.
+void mesh_body(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to, GearBodyMesh& out) {
+  GmshSession session;
+  gmsh::model::add("gear_body");
+  set_mesh_options(o.threads);
+  set_size_field(pl);
+  BodyModel m;
+  m.B.z0 = pl.zs.front();
+  m.B.centre = gmsh::model::geo::addPoint(0, 0, m.B.z0);
+  draw_outline(pl, o, to, m);
+  add_regions(pl, o, m);
+  extrude_stages(pl, o, m);
+  match_laterals(m);
+  gmsh::model::mesh::generate(3);
+  gmsh::model::mesh::setOrder(2);
+  const std::unordered_map<std::size_t, int> index = collect_elements(m, out);
+  collect_node_sets(m, to, pl.z, index, out);
+}
+
+}  // namespace
+
 gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, int gear,
                           const GearBodyOptions& o, GearBodyMesh& out, std::string& msg) {
   out = GearBodyMesh{};
   msg.clear();
-  auto fail = [&msg](const std::string& text) {
-    msg = "gear mesher: " + text;
-    return GM_ERR_PARAMETER;
-  };
-  if (gear != 0 && gear != 1) return fail("gear index must be 0 or 1");
-  if (o.order != 2) return fail("only quadratic elements (order 2) are supported");
-  if (o.elements_along_profile < 1 || o.elements_across_width < 1 || o.elements_in_fillet < 1 ||
-      o.elements_on_tip < 0)
-    return fail("element counts must be >= 1");
-  if (!(o.size_growth > 0) || !std::isfinite(o.size_growth))
-    return fail(fmt("size_growth %g must be > 0", o.size_growth));
-  if (o.body_size < 0 || o.fine_depth < 0 || o.mesh_tolerance < 0)
-    return fail("body_size, fine_depth and mesh_tolerance must be >= 0 (0 = default)");
-
+  if (check_options(gear, o, msg) != GM_OK) return GM_ERR_PARAMETER;
   ToothOutline to;
   const int samples = std::max(8, o.samples_per_piece);
   if (build_tooth_outline(p, g, gear, samples, samples, to, msg) != GM_OK) return GM_ERR_PARAMETER;
@@ -179,347 +620,16 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
     out.mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return st;
   }
-  const int z = bg.z, hand = bg.hand;
-  const bool ring = bg.ring;
-  const double b = bg.b, m_n = bg.m_n, twist_rate = bg.twist_rate;
-  const double r_f = to.root_radius;
-  const double bore = bg.clamped;  // external gears
-  const bool has_web = !ring && o.rim_inner_radius > 0;
-  if (has_web && !(bore < o.hub_radius && o.hub_radius < o.rim_inner_radius && o.rim_inner_radius < r_f))
-    return fail(fmt("rim and web need bore_radius < hub_radius < rim_inner_radius < root radius "
-                    "(%g, %g, root %g m)",
-                    o.hub_radius, o.rim_inner_radius, r_f));
-  const double ann_in = has_web ? o.hub_radius : bore, ann_out = has_web ? o.rim_inner_radius : r_f;
-  if (o.holes > 0) {
-    if (!(o.hole_radius > 0) || o.hole_circle_radius - o.hole_radius <= ann_in ||
-        o.hole_circle_radius + o.hole_radius >= ann_out ||
-        2 * o.hole_radius >= 2 * o.hole_circle_radius * std::sin(kPi / o.holes))
-      return fail(fmt("lightening holes (radius %g m on radius %g m) must lie inside the web "
-                      "annulus and not overlap (annulus %g m ..)",
-                      o.hole_radius, o.hole_circle_radius, ann_in));
-  }
-  // Axial stages: split at the web's faces when the web is narrower than the face.
-  std::vector<double> zs = {-0.5 * b, 0.5 * b};
-  int web_stage = -1;  // the stage that holds the web (-1: every stage)
-  if (has_web && o.web_thickness > 0 && o.web_thickness < b) {
-    const double w0 = o.web_offset - 0.5 * o.web_thickness, w1 = o.web_offset + 0.5 * o.web_thickness;
-    if (w0 < -0.5 * b - 1e-12 || w1 > 0.5 * b + 1e-12)
-      return fail(fmt("the web (offset %g m, thickness %g m) must lie within the face width %g m",
-                      o.web_offset, o.web_thickness, b));
-    const double tol = 1e-9 * b;
-    zs.clear();
-    zs.push_back(-0.5 * b);
-    if (w0 > -0.5 * b + tol) zs.push_back(w0);
-    web_stage = static_cast<int>(zs.size()) - 1;
-    if (w1 < 0.5 * b - tol) zs.push_back(w1);
-    zs.push_back(0.5 * b);
-  }
-  const int stages = static_cast<int>(zs.size()) - 1;
-
-  if (o.far_elements_along_profile < 1 || o.far_elements_in_fillet < 1)
-    return fail("far_elements_along_profile and far_elements_in_fillet must be >= 1");
-  const bool all_fine = o.fine_teeth < 0 || 2 * o.fine_teeth + 1 >= z;
-  auto is_fine = [&](int k) { return all_fine || std::min(k, z - k) <= o.fine_teeth; };
-  const double h_t = polyline_length(to.involute) / o.elements_along_profile;
-  const double h_c = all_fine ? h_t : polyline_length(to.involute) / o.far_elements_along_profile;
-  const double sector = all_fine ? kPi : (o.fine_teeth + 0.5) * 2.0 * kPi / z;
-  const double h_b = o.body_size > 0 ? o.body_size : 2.0 * m_n;
-  const double fine = o.fine_depth > 0 ? o.fine_depth : 1.0 * m_n;
-  out.profile_size = h_t;
-
+  BodyPlan pl;
+  if (plan_body(o, bg, to, pl, msg) != GM_OK) return GM_ERR_PARAMETER;
+  out.profile_size = pl.h_t;
   const auto t_start = std::chrono::steady_clock::now();
   try {
-    GmshSession session;
-    gmsh::model::add("gear_body");
-    gmsh::option::setNumber("General.NumThreads", std::max(1, o.threads));
-    gmsh::option::setNumber("Mesh.Algorithm", 6);
-    // Quadratic elements whose curved edges (on the fillets, where big elements meet the curved
-    // outline) would invert are repaired by gmsh's high-order optimization (it moves interior
-    // high-order nodes of the invalid elements' neighbourhood only).
-    gmsh::option::setNumber("Mesh.HighOrderOptimize", 1);
-    gmsh::option::setNumber("Mesh.MeshSizeFromCurvature", 0);
-    gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 0);
-    gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 1);
-    gmsh::option::setNumber("Mesh.ElementOrder", 2);
-    gmsh::option::setNumber("Mesh.SecondOrderLinear", 0);
-    gmsh::option::setNumber("Mesh.RandomSeed", 1);
-    // Size field (see the header): radial, fine on the teeth and a band below the root circle.
-    const double growth = o.size_growth;
-    const double rot_sec = -hand * twist_rate * 0.5 * b;  // the section is meshed at z = -b/2
-    gmsh::model::mesh::setSizeCallback(
-        [=](int, int, double x, double y, double, double lc) {
-          const double R = std::hypot(x, y);
-          const double below = std::max(0.0, ring ? R - (r_f + fine) : (r_f - fine) - R);
-          // Distance to the fine region F (see the header).
-          const double th = std::remainder(std::atan2(y, x) - rot_sec, 2.0 * kPi);
-          double d = below;
-          if (std::fabs(th) > sector) {
-            const Eigen::Vector2d e(std::cos(rot_sec + std::copysign(sector, th)),
-                                    std::sin(rot_sec + std::copysign(sector, th)));
-            const Eigen::Vector2d X(x, y);
-            const double t = ring ? std::clamp(X.dot(e), 0.0, r_f + fine) : std::max(X.dot(e), r_f - fine);
-            d = (X - t * e).norm();
-          }
-          auto ramp = [&](double h0, double dist) {
-            return h_b >= h0 ? std::min(h_b, h0 + growth * dist) : std::max(h_b, h0 - growth * dist);
-          };
-          return std::min(lc, std::min(ramp(h_t, d), ramp(h_c, below)));
-        });
-
-    namespace geo = gmsh::model::geo;
-    Builder B;
-    B.z0 = zs.front();
-    B.centre = geo::addPoint(0, 0, B.z0);
-    const double rot0 = -hand * twist_rate * 0.5 * b;  // section at z = -b/2
-
-    // The outline, all teeth (ring: spaces), counter-clockwise. Per tooth five curves, then the
-    // arc to the next tooth: external [fillet B, involute B, tip arc, involute A, fillet A] +
-    // root arc; ring [involute B, fillet B, root arc, fillet A, involute A] + tip arc.
-    std::vector<int> loop;
-    std::vector<std::array<int, 2>> involute_curve(z);  // [A, B] per tooth
-    auto place = [&](const Eigen::Vector2d& v, double a, bool flank_b) {
-      return rot(flank_b ? Eigen::Vector2d(v.x(), -v.y()) : v, a);
-    };
-    const double tip_land = 2.0 * (ring ? kPi / z - to.tip_half_angle : to.tip_half_angle) * to.tip_radius;
-    const double root_land = 2.0 * (ring ? to.root_half_angle : kPi / z - to.root_half_angle) * r_f;
-    auto n_tip = [&](double h) {
-      return o.elements_on_tip > 0 ? o.elements_on_tip
-                                   : std::max(1, static_cast<int>(std::lround(tip_land / h)));
-    };
-    auto n_root = [&](double h) { return std::max(1, static_cast<int>(std::lround(root_land / h))); };
-    std::vector<int> first_pt(z), last_pt(z);
-    for (int k = 0; k < z; ++k) {
-      const double a = rot0 + 2.0 * kPi * k / z;
-      const bool fk = is_fine(k);
-      const int n_prof = fk ? o.elements_along_profile : o.far_elements_along_profile;
-      const int n_fil = fk ? o.elements_in_fillet : o.far_elements_in_fillet;
-      const double hk = fk ? h_t : h_c;
-      // A spline through pts (reversed if asked), reusing the point tag `first` as its start.
-      auto spline = [&](const std::vector<Eigen::Vector2d>& pts, bool flank_b, bool reverse, int first) {
-        std::vector<int> tags;
-        const int n = static_cast<int>(pts.size());
-        for (int i = 0; i < n; ++i) {
-          const int j = reverse ? n - 1 - i : i;
-          if (i == 0 && first) tags.push_back(first);
-          else tags.push_back(B.point(place(pts[j], a, flank_b), h_t));
-        }
-        return std::make_pair(geo::addSpline(tags), tags);
-      };
-      // element counts along both fillets and both involutes
-      auto counts = [&](int fillet_a, int fillet_b, int involute_a, int involute_b) {
-        geo::mesh::setTransfiniteCurve(fillet_b, n_fil + 1);
-        geo::mesh::setTransfiniteCurve(fillet_a, n_fil + 1);
-        geo::mesh::setTransfiniteCurve(involute_b, n_prof + 1);
-        geo::mesh::setTransfiniteCurve(involute_a, n_prof + 1);
-      };
-      if (!ring) {
-        auto fb = spline(to.fillet, true, false, 0);                   // root -> form
-        auto ib = spline(to.involute, true, false, fb.second.back());  // form -> tip
-        auto ia = spline(to.involute, false, true, 0);                 // tip -> form
-        auto fa = spline(to.fillet, false, true, ia.second.back());    // form -> root
-        const int tip = geo::addCircleArc(ib.second.back(), B.centre, ia.second.front());
-        loop.insert(loop.end(), {fb.first, ib.first, tip, ia.first, fa.first, 0});
-        involute_curve[k] = {ia.first, ib.first};
-        first_pt[k] = fb.second.front();
-        last_pt[k] = fa.second.back();
-        counts(fa.first, fb.first, ia.first, ib.first);
-        geo::mesh::setTransfiniteCurve(tip, n_tip(hk) + 1);
-      } else {
-        auto ib = spline(to.involute, true, true, 0);                  // tip -> form
-        auto fb = spline(to.fillet, true, true, ib.second.back());     // form -> root
-        auto fa = spline(to.fillet, false, false, 0);                  // root -> form
-        auto ia = spline(to.involute, false, false, fa.second.back()); // form -> tip
-        const int root = geo::addCircleArc(fb.second.back(), B.centre, fa.second.front());
-        loop.insert(loop.end(), {ib.first, fb.first, root, fa.first, ia.first, 0});
-        involute_curve[k] = {ia.first, ib.first};
-        first_pt[k] = ib.second.front();
-        last_pt[k] = ia.second.back();
-        counts(fa.first, fb.first, ia.first, ib.first);
-        geo::mesh::setTransfiniteCurve(root, n_root(hk) + 1);
-      }
-    }
-    // The arcs between neighbouring teeth (external: root arcs; ring: tip arcs).
-    for (int k = 0; k < z; ++k) {
-      const int arc = geo::addCircleArc(last_pt[k], B.centre, first_pt[(k + 1) % z]);
-      const double h = is_fine(k) || is_fine((k + 1) % z) ? h_t : h_c;
-      geo::mesh::setTransfiniteCurve(arc, (ring ? n_tip(h) : n_root(h)) + 1);
-      loop[6 * k + 5] = arc;
-    }
-
-    // A hole's loop runs clockwise: reversed as given, gmsh would reverse it itself and the
-    // lateral surfaces of the extrusion would then come in the reversed curve order.
-    if (ring) {
-      std::reverse(loop.begin(), loop.end());
-      for (int& c : loop) c = -c;
-    }
-
-    // Regions.
-    std::vector<Region> regions;
-    const std::vector<int> clamp_c = B.circle(bore, std::min(h_b, 2.0 * kPi * bore / 24.0));
-    std::vector<std::vector<int>> holes;
-    for (int h = 0; h < o.holes; ++h) {
-      const double ah = rot0 + 2.0 * kPi * h / o.holes;
-      holes.push_back(B.circle_at({o.hole_circle_radius * std::cos(ah), o.hole_circle_radius * std::sin(ah)},
-                                  o.hole_radius, std::min(h_b, 2.0 * kPi * o.hole_radius / 12.0)));
-    }
-    int web_region = -1, outer_region = 0, clamp_region = 0;
-    if (ring) {
-      regions.push_back({{clamp_c, loop}, 0});
-    } else if (has_web) {
-      const std::vector<int> rim_c = B.circle(o.rim_inner_radius, std::min(h_b, 2.0 * kPi * o.rim_inner_radius / 24.0));
-      const std::vector<int> hub_c = B.circle(o.hub_radius, std::min(h_b, 2.0 * kPi * o.hub_radius / 24.0));
-      regions.push_back({{loop, rim_c}, 0});
-      Region web{{rim_c, hub_c}, 0};
-      for (const auto& hl : holes) web.loops.push_back(hl);
-      regions.push_back(web);
-      regions.push_back({{hub_c, clamp_c}, 0});
-      web_region = 1;
-      clamp_region = 2;
-    } else {
-      Region disc{{loop, clamp_c}, 0};
-      for (const auto& hl : holes) disc.loops.push_back(hl);
-      regions.push_back(disc);
-    }
-    for (Region& r : regions) {
-      std::vector<int> wires;
-      for (const auto& l : r.loops) wires.push_back(geo::addCurveLoop(l));
-      r.surface = geo::addPlaneSurface(wires);
-    }
-
-    // Layers per stage, proportional to the stage's length.
-    std::vector<int> layers(stages);
-    for (int st = 0; st < stages; ++st)
-      layers[st] = std::max(1, static_cast<int>(std::lround(o.elements_across_width * (zs[st + 1] - zs[st]) / b)));
-
-    // Extrude stage by stage. laterals[region][curve index] collects the lateral surfaces.
-    std::vector<std::vector<std::vector<int>>> laterals(regions.size());
-    for (size_t r = 0; r < regions.size(); ++r) laterals[r].resize(regions[r].curves().size());
-    std::vector<int> volumes, dropped;
-    for (int st = 0; st < stages; ++st) {
-      gmsh::vectorpair in, res;
-      for (const Region& r : regions) in.push_back({2, r.surface});
-      const double dz = zs[st + 1] - zs[st];
-      const double angle = hand * twist_rate * dz;
-      if (hand != 0)
-        geo::twist(in, 0, 0, 0, 0, 0, dz, 0, 0, 1, angle, res, {layers[st]}, {1.0}, false);
-      else
-        geo::extrude(in, 0, 0, dz, res, {layers[st]}, {1.0}, false);
-      size_t pos = 0;
-      for (size_t r = 0; r < regions.size(); ++r) {
-        const size_t nc = laterals[r].size();
-        if (pos + 2 + nc > res.size() || res[pos].first != 2 || res[pos + 1].first != 3)
-          throw std::runtime_error("unexpected extrusion result");
-        regions[r].surface = res[pos].second;
-        const bool keep = !(static_cast<int>(r) == web_region && web_stage >= 0 && st != web_stage);
-        (keep ? volumes : dropped).push_back(res[pos + 1].second);
-        for (size_t c = 0; c < nc; ++c) laterals[r][c].push_back(res[pos + 2 + c].second);
-        pos += 2 + nc;
-      }
-    }
-    if (!dropped.empty()) {
-      gmsh::vectorpair d;
-      for (int v : dropped) d.push_back({3, v});
-      geo::remove(d, false);
-    }
-    geo::synchronize();
-    // Which lateral surface belongs to which section curve: gmsh may start or orient a loop
-    // differently from the order given, so match them by their boundary (the section curve is an
-    // edge of its first-stage lateral; later stages follow in the same order).
-    for (size_t r = 0; r < regions.size(); ++r) {
-      const std::vector<int> curves = regions[r].curves();
-      std::map<int, size_t> owner;  // section curve -> position in laterals[r]
-      for (size_t j = 0; j < laterals[r].size(); ++j) {
-        gmsh::vectorpair bnd;
-        gmsh::model::getBoundary({{2, laterals[r][j][0]}}, bnd, false, false, false);
-        for (const auto& d : bnd) owner[std::abs(d.second)] = j;
-      }
-      std::vector<std::vector<int>> sorted(curves.size());
-      for (size_t c = 0; c < curves.size(); ++c) {
-        const auto it = owner.find(std::abs(curves[c]));
-        if (it == owner.end()) throw std::runtime_error("a section curve has no lateral surface");
-        sorted[c] = laterals[r][it->second];
-      }
-      laterals[r] = std::move(sorted);
-    }
-    gmsh::model::mesh::generate(3);
-    gmsh::model::mesh::setOrder(2);
-
-    // Nodes and TET10 elements of the kept volumes.
-    std::vector<std::size_t> ntags;
-    std::vector<double> coord, param;
-    gmsh::model::mesh::getNodes(ntags, coord, param, -1, -1, true, false);
-    std::unordered_map<std::size_t, size_t> where;
-    for (size_t i = 0; i < ntags.size(); ++i) where[ntags[i]] = i;
-    std::vector<std::size_t> conn;
-    for (int v : volumes) {
-      std::vector<std::size_t> et, nt;
-      gmsh::model::mesh::getElementsByType(kTet10, et, nt, v);
-      conn.insert(conn.end(), nt.begin(), nt.end());
-    }
-    if (conn.empty()) throw std::runtime_error("gmsh produced no TET10 elements");
-    std::vector<std::size_t> used(conn);
-    std::sort(used.begin(), used.end());
-    used.erase(std::unique(used.begin(), used.end()), used.end());
-    std::unordered_map<std::size_t, int> index;
-    out.nodes.reserve(used.size());
-    for (size_t i = 0; i < used.size(); ++i) {
-      index[used[i]] = static_cast<int>(i);
-      const size_t j = where.at(used[i]);
-      out.nodes.emplace_back(coord[3 * j], coord[3 * j + 1], coord[3 * j + 2]);
-    }
-    out.tets.resize(conn.size() / 10);
-    for (size_t e = 0; e < out.tets.size(); ++e)
-      for (int a = 0; a < 10; ++a) out.tets[e][a] = index.at(conn[10 * e + a]);
-
-    auto surface_nodes = [&](const std::vector<int>& surfaces) {
-      std::vector<int> ids;
-      for (int sf : surfaces) {
-        std::vector<std::size_t> t;
-        std::vector<double> c, pc;
-        gmsh::model::mesh::getNodes(t, c, pc, 2, sf, true, false);
-        for (std::size_t tag : t) {
-          auto it = index.find(tag);
-          if (it != index.end()) ids.push_back(it->second);
-        }
-      }
-      std::sort(ids.begin(), ids.end());
-      ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-      return ids;
-    };
-    // Clamped surface: the laterals of the bore (ring: rim) circle's arcs.
-    {
-      const std::vector<int> curves = regions[clamp_region].curves();
-      std::vector<int> surf;
-      for (size_t c = 0; c < curves.size(); ++c)
-        if (std::find(clamp_c.begin(), clamp_c.end(), std::abs(curves[c])) != clamp_c.end())
-          surf.insert(surf.end(), laterals[clamp_region][c].begin(), laterals[clamp_region][c].end());
-      out.clamped_nodes = surface_nodes(surf);
-    }
-    // Flanks.
-    out.flanks.resize(z);
-    {
-      const std::vector<int> curves = regions[outer_region].curves();
-      std::map<int, size_t> curve_pos;
-      for (size_t c = 0; c < curves.size(); ++c) curve_pos[std::abs(curves[c])] = c;
-      for (int k = 0; k < z; ++k)
-        for (int f = 0; f < 2; ++f) {
-          const std::vector<int> ids =
-              surface_nodes(laterals[outer_region][curve_pos.at(involute_curve[k][f])]);
-          for (int id : ids) {
-            const Eigen::Vector3d& x = out.nodes[id];
-            const double R = std::hypot(x.x(), x.y());
-            FlankNode fn;
-            fn.node = id;
-            fn.roll = std::sqrt(std::max(0.0, R * R - to.base_radius * to.base_radius));
-            fn.face = x.z();
-            out.flanks[k][f].push_back(fn);
-          }
-        }
-    }
+    mesh_body(pl, o, to, out);
   } catch (const std::exception& e) {
     out.nodes.clear();
     out.tets.clear();
-    return fail(std::string("gmsh failed: ") + e.what());
+    return fail_with(msg, std::string("gmsh failed: ") + e.what());
   }
   out.mesh_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
