@@ -502,21 +502,20 @@ void match_laterals(BodyModel& m) {
   }
 }
 
-// Nodes and TET10 elements of the kept volumes, numbered from 0 in the order of gmsh's tags;
-// returns gmsh tag -> node index.
-std::unordered_map<std::size_t, int> collect_elements(const BodyModel& m, GearBodyMesh& out) {
+// Nodes and TET10 elements of the given gmsh volumes (-1: every entity), numbered from 0 in
+// the order of gmsh's node tags; returns gmsh tag -> node index.
+std::unordered_map<std::size_t, int> collect_tet10(const std::vector<int>& volumes, GearBodyMesh& out) {
   std::vector<std::size_t> ntags;
   std::vector<double> coord, param;
   gmsh::model::mesh::getNodes(ntags, coord, param, -1, -1, true, false);
   std::unordered_map<std::size_t, size_t> where;
   for (size_t i = 0; i < ntags.size(); ++i) where[ntags[i]] = i;
   std::vector<std::size_t> conn;
-  for (int v : m.volumes) {
+  for (int v : volumes) {
     std::vector<std::size_t> et, nt;
     gmsh::model::mesh::getElementsByType(kTet10, et, nt, v);
     conn.insert(conn.end(), nt.begin(), nt.end());
   }
-  if (conn.empty()) throw std::runtime_error("gmsh produced no TET10 elements");
   std::vector<std::size_t> used(conn);
   std::sort(used.begin(), used.end());
   used.erase(std::unique(used.begin(), used.end()), used.end());
@@ -598,7 +597,8 @@ void mesh_body(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline&
   match_laterals(m);
   gmsh::model::mesh::generate(3);
   gmsh::model::mesh::setOrder(2);
-  const std::unordered_map<std::size_t, int> index = collect_elements(m, out);
+  const std::unordered_map<std::size_t, int> index = collect_tet10(m.volumes, out);
+  if (out.tets.empty()) throw std::runtime_error("gmsh produced no TET10 elements");
   collect_node_sets(m, to, pl.z, index, out);
 }
 
@@ -665,29 +665,6 @@ double tet10_volume(const std::vector<Eigen::Vector3d>& nodes,
 
 namespace {
 
-// Nodes and TET10 elements of the current gmsh model (all entities), nodes in tag order.
-void collect_tet10(GearBodyMesh& out) {
-  std::vector<std::size_t> ntags;
-  std::vector<double> coord, param;
-  gmsh::model::mesh::getNodes(ntags, coord, param, -1, -1, true, false);
-  std::unordered_map<std::size_t, size_t> where;
-  for (size_t i = 0; i < ntags.size(); ++i) where[ntags[i]] = i;
-  std::vector<std::size_t> et, conn;
-  gmsh::model::mesh::getElementsByType(kTet10, et, conn, -1);
-  std::vector<std::size_t> used(conn);
-  std::sort(used.begin(), used.end());
-  used.erase(std::unique(used.begin(), used.end()), used.end());
-  std::unordered_map<std::size_t, int> index;
-  for (size_t i = 0; i < used.size(); ++i) {
-    index[used[i]] = static_cast<int>(i);
-    const size_t j = where.at(used[i]);
-    out.nodes.emplace_back(coord[3 * j], coord[3 * j + 1], coord[3 * j + 2]);
-  }
-  out.tets.resize(conn.size() / 10);
-  for (size_t e = 0; e < out.tets.size(); ++e)
-    for (int a = 0; a < 10; ++a) out.tets[e][a] = index.at(conn[10 * e + a]);
-}
-
 // Nodes on faces that belong to one tetrahedron only (corner and mid-edge nodes).
 std::vector<char> boundary_nodes(const GearBodyMesh& m) {
   // Faces of a TET10 in gmsh order: corners and the mid-edge nodes of their edges.
@@ -713,39 +690,39 @@ std::vector<char> boundary_nodes(const GearBodyMesh& m) {
   return on;
 }
 
-gm_status read_mesh_file(const GearBodyOptions& o, const BodyGeometry& bg, GearBodyMesh& out,
-                         std::string& msg) {
-  const std::string& path = o.mesh_file;
-  auto fail = [&](const std::string& text) {
-    msg = "gear mesher: mesh file '" + path + "': " + text;
-    out.nodes.clear();
-    out.tets.clear();
-    out.clamped_nodes.clear();
-    out.flanks.clear();
-    return GM_ERR_PARAMETER;
-  };
-  if (!std::ifstream(path).good()) return fail("cannot be opened (missing or unreadable)");
+// A mesh file's refusals: the message names the file, and nothing is left in out.
+struct MeshFileError {
+  std::string text;
+};
+
+// The file's nodes and TET10 elements (it must hold TET10 volume elements only).
+void open_mesh_file(const std::string& path, GearBodyMesh& out) {
+  if (!std::ifstream(path).good()) throw MeshFileError{"cannot be opened (missing or unreadable)"};
   try {
     GmshSession session;
     gmsh::open(path);
     std::vector<int> types;
     gmsh::model::mesh::getElementTypes(types, 3);
-    if (types.empty()) return fail("holds no volume elements; TET10 (gmsh element type 11) expected");
+    if (types.empty()) throw MeshFileError{"holds no volume elements; TET10 (gmsh element type 11) expected"};
     for (int t : types)
       if (t != kTet10) {
         std::string name;
         int dim = 0, order = 0, nn = 0, np = 0;
         std::vector<double> lc;
         gmsh::model::mesh::getElementProperties(t, name, dim, order, nn, lc, np);
-        return fail("holds volume elements of type '" + name +
-                    "'; only quadratic tetrahedra TET10 (gmsh element type 11) are accepted");
+        throw MeshFileError{"holds volume elements of type '" + name +
+                            "'; only quadratic tetrahedra TET10 (gmsh element type 11) are accepted"};
       }
-    collect_tet10(out);
+    collect_tet10({-1}, out);
   } catch (const std::exception& e) {
-    return fail(std::string("gmsh cannot read it: ") + e.what());
+    throw MeshFileError{std::string("gmsh cannot read it: ") + e.what()};
   }
-  if (out.tets.empty()) return fail("holds no TET10 elements");
-  const double tol = o.mesh_tolerance > 0 ? o.mesh_tolerance : 1e-3 * bg.m_n;
+  if (out.tets.empty()) throw MeshFileError{"holds no TET10 elements"};
+}
+
+// The face width must be the gear's; the clamped surface is the innermost (bore) or, for a
+// ring, the outermost cylinder, checked against the radius given.
+void find_clamped_nodes(const GearBodyOptions& o, const BodyGeometry& bg, double tol, GearBodyMesh& out) {
   const double b = bg.b;
   double zmin = 1e300, zmax = -1e300, rmin = 1e300, rmax = 0;
   for (const auto& x : out.nodes) {
@@ -756,31 +733,59 @@ gm_status read_mesh_file(const GearBodyOptions& o, const BodyGeometry& bg, GearB
     rmax = std::max(rmax, R);
   }
   if (std::fabs(zmin + 0.5 * b) > tol || std::fabs(zmax - 0.5 * b) > tol)
-    return fail(fmt("spans z = %g .. %g m; the body frame puts the face width at -b/2 .. +b/2 = "
-                    "+-%g m (mesh in metres, z = 0 at mid-face)",
-                    zmin, zmax, 0.5 * b));
-  // Clamped surface: the innermost (bore) or, for a ring, the outermost cylinder.
+    throw MeshFileError{fmt("spans z = %g .. %g m; the body frame puts the face width at -b/2 .. +b/2 = "
+                            "+-%g m (mesh in metres, z = 0 at mid-face)",
+                            zmin, zmax, 0.5 * b)};
   const double rc = bg.ring ? rmax : rmin;
   const double given = bg.ring ? o.outer_radius : o.bore_radius;
   if (given > 0 && std::fabs(given - rc) > tol)
-    return fail(fmt(bg.ring ? "its outer rim has radius %g m, not the outer_radius %g m given"
-                            : "its bore has radius %g m, not the bore_radius %g m given",
-                    rc, given));
+    throw MeshFileError{fmt(bg.ring ? "its outer rim has radius %g m, not the outer_radius %g m given"
+                                    : "its bore has radius %g m, not the bore_radius %g m given",
+                            rc, given)};
   if (bg.ring ? !(rc > out.root_radius) : !(rc < out.root_radius))
-    return fail(fmt(bg.ring ? "its outermost cylinder (radius %g m) is not outside the ring's root "
-                              "circle (radius %g m)"
-                            : "its innermost cylinder (radius %g m) is not inside the root circle "
-                              "(radius %g m)",
-                    rc, out.root_radius));
+    throw MeshFileError{fmt(bg.ring ? "its outermost cylinder (radius %g m) is not outside the ring's root "
+                                      "circle (radius %g m)"
+                                    : "its innermost cylinder (radius %g m) is not inside the root circle "
+                                      "(radius %g m)",
+                            rc, out.root_radius)};
   out.clamped_radius = rc;
   for (size_t i = 0; i < out.nodes.size(); ++i)
     if (std::fabs(std::hypot(out.nodes[i].x(), out.nodes[i].y()) - rc) <= tol)
       out.clamped_nodes.push_back(static_cast<int>(i));
+}
 
-  // Flank nodes: boundary nodes on the involute helicoids (see the header).
+// The nearest flank to a point at radius R and section angle psi (turned back to z = 0):
+// tooth, flank and distance along the circle.
+struct NearestFlank {
+  int tooth = 0, flank = 0;
+  double distance = 1e300;
+};
+
+NearestFlank nearest_flank(const GearBodyMesh& out, double R, double psi) {
+  const int z = out.teeth;
+  const double pitch = 2.0 * kPi / z;
+  const double e = out.eta_b - involute(std::acos(out.base_radius / R));
+  NearestFlank best;
+  for (int f = 0; f < 2; ++f) {
+    const double u = psi - (f == 0 ? e : -e);  // tooth centre angle if on flank f
+    const double d = std::remainder(u, pitch);
+    if (std::fabs(d) * R < best.distance) {
+      best.distance = std::fabs(d) * R;
+      best.flank = f;
+      best.tooth = static_cast<int>(std::lround((u - d) / pitch)) % z;
+      if (best.tooth < 0) best.tooth += z;
+    }
+  }
+  return best;
+}
+
+// Flank nodes: boundary nodes on the involute helicoids (see the header). A boundary node
+// between the form and tip circles on no involute, or a flank without nodes, means the mesh is
+// of another gear.
+void find_flank_nodes(const BodyGeometry& bg, double tol, GearBodyMesh& out) {
   const std::vector<char> on = boundary_nodes(out);
   const int z = bg.z;
-  const double rb = out.base_radius, pitch = 2.0 * kPi / z;
+  const double rb = out.base_radius;
   const double r_lo = std::min(out.form_radius, out.tip_radius), r_hi = std::max(out.form_radius, out.tip_radius);
   const double margin = 0.02 * bg.m_n;
   out.flanks.assign(z, {});
@@ -791,43 +796,48 @@ gm_status read_mesh_file(const GearBodyOptions& o, const BodyGeometry& bg, GearB
     const Eigen::Vector3d& x = out.nodes[i];
     const double R = std::hypot(x.x(), x.y());
     if (R < r_lo - tol || R > r_hi + tol || R <= rb) continue;
-    const double e = out.eta_b - involute(std::acos(rb / R));
     const double psi = std::atan2(x.y(), x.x()) - bg.hand * bg.twist_rate * x.z();
-    double best = 1e300;
-    int best_k = 0, best_f = 0;
-    for (int f = 0; f < 2; ++f) {
-      const double u = psi - (f == 0 ? e : -e);  // tooth centre angle if on flank f
-      const double d = std::remainder(u, pitch);
-      if (std::fabs(d) * R < best) {
-        best = std::fabs(d) * R;
-        best_f = f;
-        best_k = static_cast<int>(std::lround((u - d) / pitch)) % z;
-        if (best_k < 0) best_k += z;
-      }
-    }
-    if (best <= tol) {
+    const NearestFlank best = nearest_flank(out, R, psi);
+    if (best.distance <= tol) {
       FlankNode fn;
       fn.node = static_cast<int>(i);
       fn.roll = std::sqrt(std::max(0.0, R * R - rb * rb));
       fn.face = x.z();
-      out.flanks[best_k][best_f].push_back(fn);
-    } else if (R > r_lo + margin && R < r_hi - margin && std::fabs(x.z()) < 0.5 * b - tol) {
+      out.flanks[best.tooth][best.flank].push_back(fn);
+    } else if (R > r_lo + margin && R < r_hi - margin && std::fabs(x.z()) < 0.5 * bg.b - tol) {
       ++off;
-      if (best > worst) worst = best, worst_node = static_cast<int>(i);
+      if (best.distance > worst) worst = best.distance, worst_node = static_cast<int>(i);
     }
   }
   if (off > 0) {
     const Eigen::Vector3d& x = out.nodes[worst_node];
-    return fail(std::to_string(off) + fmt(" surface node(s) between the form and tip circles lie off "
-                "this gear's involutes (worst %.3g m away, at (%g, %g", worst, x.x(), x.y()) +
-                fmt(", %g) m; tolerance %g m): the mesh is not of this gear (teeth, module, "
-                    "profile shift, helix, or frame differ)", x.z(), tol));
+    throw MeshFileError{std::to_string(off) + fmt(" surface node(s) between the form and tip circles lie off "
+                        "this gear's involutes (worst %.3g m away, at (%g, %g", worst, x.x(), x.y()) +
+                        fmt(", %g) m; tolerance %g m): the mesh is not of this gear (teeth, module, "
+                            "profile shift, helix, or frame differ)", x.z(), tol)};
   }
   for (int k = 0; k < z; ++k)
     for (int f = 0; f < 2; ++f)
       if (out.flanks[k][f].empty())
-        return fail("tooth " + std::to_string(k) + " flank " + (f == 0 ? "A" : "B") +
-                    " has no surface nodes on its involute: the mesh is not of this gear");
+        throw MeshFileError{"tooth " + std::to_string(k) + " flank " + (f == 0 ? "A" : "B") +
+                            " has no surface nodes on its involute: the mesh is not of this gear"};
+}
+
+gm_status read_mesh_file(const GearBodyOptions& o, const BodyGeometry& bg, GearBodyMesh& out,
+                         std::string& msg) {
+  const double tol = o.mesh_tolerance > 0 ? o.mesh_tolerance : 1e-3 * bg.m_n;
+  try {
+    open_mesh_file(o.mesh_file, out);
+    find_clamped_nodes(o, bg, tol, out);
+    find_flank_nodes(bg, tol, out);
+  } catch (const MeshFileError& e) {
+    msg = "gear mesher: mesh file '" + o.mesh_file + "': " + e.text;
+    out.nodes.clear();
+    out.tets.clear();
+    out.clamped_nodes.clear();
+    out.flanks.clear();
+    return GM_ERR_PARAMETER;
+  }
   return GM_OK;
 }
 
