@@ -4,8 +4,10 @@
  * table (gearmesh/param_ranges.h), so the defaults and the ranges live in the core only. The table is checked here (unique names, legal causality/variability/initial, units
  * defined) so that a bad row fails the build instead of producing an FMU that importers reject.
  *
- * Usage: generate_model_description <output.xml>
- * GM_FMU_GUID and GM_FMU_VERSION are compile definitions set by CMake.
+ * Usage: generate_model_description <output.xml> [<source file>...]
+ * The source files (names inside the FMU's sources/, fmu_src/CMakeLists.txt) are listed in the
+ * CoSimulation element's <SourceFiles>. GM_FMU_GUID and GM_FMU_VERSION come from the header that
+ * modelDescription/CMakeLists.txt generates (variables.h includes it).
  */
 #include <math.h>
 #include <stdio.h>
@@ -183,8 +185,8 @@ static void put_unknown(FILE* f, size_t index, int initialization) {
 }
 
 int main(int argc, char** argv) {
-  if (argc != 2) {
-    fprintf(stderr, "usage: %s <modelDescription.xml>\n", argv[0]);
+  if (argc < 2) {
+    fprintf(stderr, "usage: %s <modelDescription.xml> [<source file>...]\n", argv[0]);
     return 2;
   }
   gm_fmu_values start;
@@ -210,8 +212,19 @@ int main(int argc, char** argv) {
         "    canHandleVariableCommunicationStepSize=\"true\" canInterpolateInputs=\"false\"\n"
         "    maxOutputDerivativeOrder=\"0\" canRunAsynchronuously=\"false\"\n"
         "    canBeInstantiatedOnlyOncePerProcess=\"false\" canNotUseMemoryManagementFunctions=\"true\"\n"
-        "    canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"true\" providesDirectionalDerivative=\"true\"/>\n",
+        "    canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"true\" providesDirectionalDerivative=\"true\"",
         f);
+  if (argc > 2) {
+    fputs(">\n    <SourceFiles>\n", f);
+    for (int i = 2; i < argc; i++) {
+      fputs("      <File name=\"", f);
+      put_escaped(f, argv[i]);
+      fputs("\"/>\n", f);
+    }
+    fputs("    </SourceFiles>\n  </CoSimulation>\n", f);
+  } else {
+    fputs("/>\n", f);
+  }
 
   fputs("  <UnitDefinitions>\n", f);
 #define D(unit, name, factor)                                                                  \
