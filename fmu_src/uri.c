@@ -52,5 +52,10 @@ char* fmu_uri_to_path(const char* uri) {
   }
   if (out[n - 1] != '/') out[n++] = '/';
   out[n] = '\0';
+#ifdef _WIN32
+  /* file:///C:/dir/ names C:/dir/ on Windows: the drive letter follows the root's '/' */
+  char drive = (char)(out[1] | 0x20);
+  if (n >= 3 && drive >= 'a' && drive <= 'z' && out[2] == ':') memmove(out, out + 1, n);
+#endif
   return out;
 }

@@ -12,6 +12,17 @@
 #include <string.h>
 #include <sys/stat.h>
 
+/* A C locale of its own for numbers, per platform (docs/platforms.md): POSIX newlocale/strtod_l
+ * (on macOS declared in xlocale.h), the Windows C runtime's _create_locale/_strtod_l. */
+#ifdef _WIN32
+typedef _locale_t locale_t;
+#define newlocale(mask, name, base) _create_locale(LC_NUMERIC, name)
+#define strtod_l _strtod_l
+#define freelocale _free_locale
+#elif defined(__APPLE__)
+#include <xlocale.h>
+#endif
+
 #define N_VARIABLES GM_FMU_VARIABLE_COUNT
 
 static void* field(const gm_fmu_values* v, const gm_fmu_variable* var) {
