@@ -184,7 +184,9 @@ void model_set_string(fmu_model* m, unsigned vr, char* owned) {
 static const char* file_kind(mode_t mode) {
   if (S_ISDIR(mode)) return "a directory";
   if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
+#ifdef S_ISSOCK /* not on Windows */
   if (S_ISSOCK(mode)) return "a socket";
+#endif
   if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
   return "not a regular file";
 }

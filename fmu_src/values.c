@@ -25,6 +25,20 @@ typedef _locale_t locale_t;
 
 #define N_VARIABLES GM_FMU_VARIABLE_COUNT
 
+/* The text of errno value err, thread-safe: glibc's GNU strerror_r returns it; the XSI strerror_r
+ * (macOS) and Windows' strerror_s fill buf. */
+static const char* error_text(int err, char* buf, size_t size) {
+#if defined(_WIN32)
+  if (strerror_s(buf, size, err) != 0) snprintf(buf, size, "error %d", err);
+  return buf;
+#elif defined(__GLIBC__)
+  return strerror_r(err, buf, size);
+#else
+  if (strerror_r(err, buf, size) != 0) snprintf(buf, size, "error %d", err);
+  return buf;
+#endif
+}
+
 static void* field(const gm_fmu_values* v, const gm_fmu_variable* var) {
   return (char*)v + var->offset;
 }
@@ -258,7 +272,7 @@ int values_read_start_file(gm_fmu_values* start, const char* resources, int* cou
     if (err == ENOENT || err == ENOTDIR) return 0; /* not a scene FMU: the generic start values */
     char reason[128];
     snprintf(msg, msg_size, "resources/" FMU_START_VALUES_FILE ": cannot open: %s",
-             strerror_r(err, reason, sizeof reason));
+             error_text(err, reason, sizeof reason));
     return 1;
   }
   char* text = malloc(START_FILE_LIMIT + 1);

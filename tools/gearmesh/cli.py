@@ -56,6 +56,8 @@ def main(argv: list[str] | None = None) -> int:
                         "(default 1e-6 1e-5 1e-4 1e-3 1e-2; --quick: 1e-5 1e-3 1e-2)")
     p_stab.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "stability")
     p_stab.add_argument("--quick", action="store_true", help="the CI subset")
+    sub.add_parser("platforms", add_help=False,
+                   help="build the multi-platform FMU (linux64, win64, darwin64) into build-platforms/")
     sub.add_parser("fmu-docs", help="regenerate the FMU's documentation/index.html from README.md "
                    "and docs/fmi.md")
     p_acc = sub.add_parser("accuracy", help="error of every stiffness setting against the FE "
@@ -72,8 +74,14 @@ def main(argv: list[str] | None = None) -> int:
     p_acc.add_argument("--reference", type=pathlib.Path, help="folder of the "
                        "<scene>.reference_fe.summary.csv (2-D) and <scene>.reference_fe3d.summary.csv "
                        "(3-D) files (default: reference/ next to each scene)")
-    args = parser.parse_args(argv)
+    args, rest = parser.parse_known_args(argv)
+    if rest and args.command != "platforms":  # `platforms` parses its own options
+        parser.error(f"unrecognized arguments: {' '.join(rest)}")
 
+    if args.command == "platforms":
+        from gearmesh import platforms
+
+        return platforms.main(rest)
     if args.command == "fmu-docs":
         from gearmesh import fmu_docs
 

@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# The platform stage's set-up (docs/platforms.md), sourced by tools/run-tests after
+# tools/bootstrap.sh (GM_PLATFORMS=0 leaves it out): installs what is missing, then builds the
+# multi-platform FMU into build-platforms/ (incremental after the first run).
+#   * Debian packages: wine and wine64 (run the win64 binary), llvm-14 (llvm-lipo joins the macOS slices),
+#     unzip;
+#   * the Zig toolchain comes with the venv (ziglang, tools/requirements.txt);
+#   * fmi-sim (crates.io, built by cargo) and VDMCheck2 (Maven Central, by mvn): into the
+#     git-ignored cache, $GM_CACHE (default .cache/ in the repository), with the downloads.
+# cargo (Rust >= 1.85, for the 2024 edition), java (>= 11) and mvn must be on the PATH.
+set -euo pipefail
+: "${GM_REPO:?source tools/bootstrap.sh first}"
+GM_CACHE="${GM_CACHE:-$GM_REPO/.cache}"
+export GM_CACHE
+GM_FMI_SIM_VERSION=0.7.0
+GM_VDMCHECK_DIR="$GM_CACHE/vdmcheck2"
+
+gm_platforms_fail() {
+  echo "gearmesh: $*" >&2
+  return 1
+}
+
+gm_install_platform_packages() {
+  local missing=() p sudo=""
+  for p in wine wine64 llvm-14 unzip; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  ((${#missing[@]})) || return 0
+  echo "gearmesh: installing Debian packages: ${missing[*]}"
+  [ "$(id -u)" -eq 0 ] || sudo=sudo
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+gm_install_fmi_sim() {
+  local bin="$GM_CACHE/cargo/bin/fmi-sim"
+  if [ -x "$bin" ] && "$bin" --version 2>&1 | grep -q "fmi-sim $GM_FMI_SIM_VERSION"; then  # (clap prints it as an error)
+    return 0
+  fi
+  command -v cargo >/dev/null || gm_platforms_fail "cargo not found: install Rust (rustup) to build fmi-sim"
+  echo "gearmesh: building fmi-sim $GM_FMI_SIM_VERSION from crates.io (cargo install)"
+  CARGO_HOME="$GM_CACHE/cargo-home" CARGO_TARGET_DIR="$GM_CACHE/cargo-target" \
+    cargo install --quiet --locked fmi-sim --version "$GM_FMI_SIM_VERSION" --root "$GM_CACHE/cargo"
+}
+
+gm_install_vdmcheck() {
+  [ -f "$GM_VDMCHECK_DIR/vdmcheck2.jar" ] && [ -d "$GM_VDMCHECK_DIR/fmi2-static-model" ] && return 0
+  command -v mvn >/dev/null || gm_platforms_fail "mvn not found: install maven (Debian) for VDMCheck2"
+  echo "gearmesh: fetching VDMCheck2 from Maven Central (tools/checkers/pom.xml)"
+  rm -rf "$GM_VDMCHECK_DIR"
+  mvn -q -B -f "$GM_REPO/tools/checkers/pom.xml" -Dmaven.repo.local="$GM_CACHE/m2" \
+    dependency:copy-dependencies -DoutputDirectory="$GM_VDMCHECK_DIR" -Dmdep.stripVersion=true
+  # vdmcheck2.jar reads its VDM-SL models and the FMI 2.0 schema as files beside it, the layout of
+  # its release zip: unpack them from the jars Maven Central has.
+  (cd "$GM_VDMCHECK_DIR" && unzip -q -o static-model.jar 'fmi2-static-model/*' &&
+    unzip -q -o rule-model.jar 'fmi2-rule-model/*' && unzip -q -o vdmcheck2.jar 'fmi2schema/*')
+}
+
+gm_install_platform_packages
+gm_install_fmi_sim
+gm_install_vdmcheck
+echo "gearmesh: building the multi-platform FMU (build-platforms/GearMesh.fmu)"
+"$GM_VENV/bin/python" -m gearmesh platforms --jobs "$(nproc)"
