@@ -12,9 +12,11 @@
  *   real <vr> <value>                  fmi2SetReal of one variable
  *   integer <vr> <value>               fmi2SetInteger
  *   step <h>                           fmi2DoStep from the current time
- *   get <vr>...                        fmi2GetReal; prints "get <values>"
+ *   get r<vr>|i<vr>...                 fmi2GetReal (r) or fmi2GetInteger (i) of each; prints
+ *                                      "get <values>"
  *   terminate
  * Exit status 0 when every call returned fmi2OK, else 1 with the failing line on stderr. */
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,7 +36,12 @@
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status, fmi2String category,
                    fmi2String message, ...) {
   (void)env;
-  fprintf(stderr, "[%s] %s (status %d): %s\n", category, instance, (int)status, message);
+  va_list args;
+  va_start(args, message);
+  fprintf(stderr, "[%s] %s (status %d): ", category, instance, (int)status);
+  vfprintf(stderr, message, args);
+  fputc('\n', stderr);
+  va_end(args);
 }
 
 static void* need(void* lib, const char* name) {
@@ -103,10 +110,16 @@ int main(int argc, char** argv) {
     } else if (strcmp(op, "get") == 0) {
       fputs("get", stdout);
       for (char* t; status == fmi2OK && (t = strtok(NULL, " "));) {
-        fmi2ValueReference vr = (fmi2ValueReference)strtoul(t, NULL, 10);
-        fmi2Real x;
-        status = FN(fmi2GetReal)(c, &vr, 1, &x);
-        printf(" %.17g", x);
+        fmi2ValueReference vr = (fmi2ValueReference)strtoul(t + 1, NULL, 10);
+        if (t[0] == 'i') {
+          fmi2Integer i = 0;
+          status = FN(fmi2GetInteger)(c, &vr, 1, &i);
+          printf(" %d", (int)i);
+        } else {
+          fmi2Real x = 0.0;
+          status = FN(fmi2GetReal)(c, &vr, 1, &x);
+          printf(" %.17g", x);
+        }
       }
       fputc('\n', stdout);
     } else if (strcmp(op, "terminate") == 0) {

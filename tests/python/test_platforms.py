@@ -125,25 +125,33 @@ def test_the_glibc_check_sees_a_newer_glibc():
     assert max(glibc_versions(native)) > (2, 17)
 
 
-def scene_fmu(generic: pathlib.Path, out: pathlib.Path) -> pathlib.Path:
-    """The paper's set A as a scene FMU, in the quasi-static mode (resources: its start values)."""
+def scene_fmu(generic: pathlib.Path, out: pathlib.Path, quasi_static: bool = True) -> pathlib.Path:
+    """The paper's set A as a scene FMU (resources: its start values), by default in the
+    quasi-static mode."""
     scene = load_scene(SCENE, generic)
-    return build_scene_fmu(generic, {**scene.parameters, "model.quasi_static": True}, scene.resources, out)
+    return build_scene_fmu(generic, {**scene.parameters, "model.quasi_static": quasi_static}, scene.resources, out)
 
 
-def sweep(fmu_path: pathlib.Path, steps: int = 30) -> list[list[float]]:
-    """Loaded TE over one base pitch at two torques through fmpy: rows of OUTPUTS."""
+def poses(fmu: GearMeshFMU, quasi_static: bool, steps: int = 30):
+    """The inputs of each step: quasi-static, gear 1 turned over one base pitch at two load
+    torques (the loaded TE is solved); plain, the same angles at two approaches (TE held)."""
+    g = fmu.get(["gear1.base_diameter", "gear2.base_diameter", "gear1.teeth"])
+    r1, r2 = g["gear1.base_diameter"] / 2, g["gear2.base_diameter"] / 2
+    for level in ((100.0, 300.0) if quasi_static else (5e-6, 15e-6)):
+        for k in range(steps // 2):
+            phi1 = k * 2 * math.pi / (g["gear1.teeth"] * steps / 2)
+            common = {"gear1.phi": phi1, "gear1.omega": 1.0, "gear2.omega": -r1 / r2}
+            yield {**common, "mesh.load_torque": level} if quasi_static else \
+                {**common, "gear2.phi": (level - r1 * phi1) / r2}
+
+
+def sweep(fmu_path: pathlib.Path, quasi_static: bool = True) -> list[list[float]]:
+    """The steps of poses() through fmpy: rows of OUTPUTS."""
     with GearMeshFMU(fmu_path) as fmu:
-        g = fmu.get(["gear1.base_diameter", "gear2.base_diameter", "gear1.teeth"])
-        omega1 = 1.0
-        omega2 = -omega1 * g["gear1.base_diameter"] / g["gear2.base_diameter"]
         rows = []
-        for torque in (100.0, 300.0):
-            for k in range(steps // 2):
-                phi1 = k * 2 * math.pi / (g["gear1.teeth"] * steps / 2)
-                fmu.step({"gear1.phi": phi1, "mesh.load_torque": torque, "gear1.omega": omega1,
-                          "gear2.omega": omega2})
-                rows.append(list(fmu.get(OUTPUTS).values()))
+        for inputs in list(poses(fmu, quasi_static)):
+            fmu.step(inputs)
+            rows.append(list(fmu.get(OUTPUTS).values()))
     return rows
 
 
@@ -173,23 +181,18 @@ def wine() -> str:
     return shutil.which("wine")
 
 
-def call_script(fmu: pathlib.Path, unzipped: pathlib.Path, uri: str, steps: int = 30) -> str:
-    """The sweep of sweep() as a run_calls script (tests/platforms/run_calls.c)."""
+def call_script(fmu: pathlib.Path, uri: str, quasi_static: bool) -> str:
+    """The steps of poses() as a run_calls script (tests/platforms/run_calls.c)."""
     import fmpy
 
     md = fmpy.read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    with GearMeshFMU(fmu) as f:
-        g = f.get(["gear1.base_diameter", "gear2.base_diameter", "gear1.teeth"])
-    omega2 = -g["gear1.base_diameter"] / g["gear2.base_diameter"]
+    get = {v.name: ("i" if v.type == "Integer" else "r") + str(v.valueReference) for v in md.modelVariables}
     lines = [f"instantiate {md.guid} {uri}", "setup 0", "init"]
-    for torque in (100.0, 300.0):
-        for k in range(steps // 2):
-            phi1 = k * 2 * math.pi / (g["gear1.teeth"] * steps / 2)
-            for name, value in (("gear1.phi", phi1), ("mesh.load_torque", torque), ("gear1.omega", 1.0),
-                                ("gear2.omega", omega2)):
-                lines.append(f"real {vr[name]} {value!r}")
-            lines += ["step 0.001", "get " + " ".join(str(vr[n]) for n in OUTPUTS)]
+    with GearMeshFMU(fmu) as f:
+        for inputs in list(poses(f, quasi_static)):
+            lines += [f"real {vr[name]} {value!r}" for name, value in inputs.items()]
+            lines += ["step 0.001", "get " + " ".join(get[n] for n in OUTPUTS)]
     lines.append("terminate")
     return "\n".join(lines) + "\n"
 
@@ -200,23 +203,27 @@ def run_calls_output(cmd: list[str], env=None) -> list[list[float]]:
     return [[float(x) for x in line.split()[1:]] for line in done.stdout.splitlines() if line.startswith("get")]
 
 
-def test_win64_runs_under_wine_like_linux64(multi_fmu, tmp_path):
+@pytest.mark.parametrize("quasi_static, rel", [(False, 1e-12), (True, 1e-10)], ids=["plain", "quasi_static"])
+def test_win64_runs_under_wine_like_linux64(multi_fmu, tmp_path, quasi_static, rel):
     """run_calls.c, cross-compiled for Windows, LoadLibrary's the DLL under wine and runs the
     scene's calls; the same driver built for Linux runs them on the linux64 binary. The
-    resource location is a file URI with a drive letter (file:///Z:/..., wine's Z: is /)."""
-    fmu = scene_fmu(multi_fmu, tmp_path / "scene.fmu")
+    resource location is a file URI with a drive letter (file:///Z:/..., wine's Z: is /).
+    Plain mode (poses in, forces out): within 1e-12 relative (measured 2.9e-13, a small friction
+    force component). Quasi-static: the TE is solved from the load by iteration, and the two C
+    runtimes' libm differ in the last bits: measured 1.0e-11 relative on the TE (6e-17 m), so
+    1e-10 (docs/platforms.md)."""
+    fmu = scene_fmu(multi_fmu, tmp_path / "scene.fmu", quasi_static)
     unzipped = tmp_path / "unzipped"
     with zipfile.ZipFile(fmu) as z:
         z.extractall(unzipped)
-    zig = str(platforms.zig())
     driver = REPO / "tests" / "platforms" / "run_calls.c"
     flags = ["-O2", f"-I{platforms.FMI2_HEADERS}"]
-    subprocess.run([zig, "cc", "-target", platforms.WINDOWS_TARGET, *flags, driver, "-o",
+    subprocess.run([platforms.zig(), "cc", "-target", platforms.WINDOWS_TARGET, *flags, driver, "-o",
                     tmp_path / "run_calls.exe"], check=True, env=platforms.zig_env())
     subprocess.run(["cc", *flags, driver, "-o", tmp_path / "run_calls", "-ldl"], check=True)
     resources = (unzipped / "resources").as_posix() + "/"
-    (tmp_path / "linux.txt").write_text(call_script(fmu, unzipped, "file://" + resources))
-    (tmp_path / "win.txt").write_text(call_script(fmu, unzipped, "file:///Z:" + resources))
+    (tmp_path / "linux.txt").write_text(call_script(fmu, "file://" + resources, quasi_static))
+    (tmp_path / "win.txt").write_text(call_script(fmu, "file:///Z:" + resources, quasi_static))
     linux = run_calls_output([tmp_path / "run_calls", unzipped / "binaries/linux64/GearMesh.so",
                               tmp_path / "linux.txt"])
     env = {**os.environ, "WINEPREFIX": str(platforms.cache_dir() / "wineprefix"), "WINEDEBUG": "-all"}
@@ -224,8 +231,8 @@ def test_win64_runs_under_wine_like_linux64(multi_fmu, tmp_path):
                             "Z:" + (unzipped / "binaries/win64/GearMesh.dll").as_posix(),
                             "Z:" + (tmp_path / "win.txt").as_posix()], env=env)
     assert len(linux) == 30
-    assert any(row[1] > 0 for row in linux)  # loaded: a normal force
-    assert_close(win, linux)
+    assert all(row[1] > 0 for row in linux)  # loaded: a normal force at every step
+    assert_close(win, linux, rel)
 
 
 def test_win64_exports_the_fmi2_functions(binary):
@@ -247,7 +254,12 @@ def test_darwin64_is_a_universal_dylib_exporting_the_fmi2_functions(binary):
     for macho in fat:
         cpus.add(macho.header.cpu_type)
         assert macho.header.file_type == lief.MachO.Header.FILE_TYPE.DYLIB
-        assert {s.name for s in macho.exported_symbols} == {"_" + f for f in FMI2}
+        exported = {s.name for s in macho.exported_symbols}
+        # besides the fmi2 functions: libc++'s replaceable operator new/delete (__Znwm, __ZdlPv,
+        # ...) and the linker's own image symbols (docs/platforms.md, "Targets and toolchain")
+        others = {e for e in exported if not e.startswith("_fmi2")}
+        assert exported - others == {"_" + f for f in FMI2}
+        assert all(re.match(r"__Z(nw|na|dl|da)", e) for e in others - {"__mh_dylib_header", "___dso_handle"}), others
         assert [lib.name for lib in macho.libraries if not lib.name.endswith("GearMesh.dylib")] == \
             ["/usr/lib/libSystem.B.dylib"]
     assert cpus == {lief.MachO.Header.CPU_TYPE.X86_64, lief.MachO.Header.CPU_TYPE.ARM64}

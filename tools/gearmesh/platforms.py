@@ -185,15 +185,13 @@ def build_from_sources(fmu: pathlib.Path, out: pathlib.Path, jobs: int) -> dict[
     dll = compile_sources(sources, files, cc, cxx, ["-shared"], work / WINDOWS_TARGET / "GearMesh.dll",
                           work / WINDOWS_TARGET / "obj", jobs, env)
     built["win64"] = dll
-    exports = work / "exported_symbols.txt"
-    exports.write_text("".join(f"_{name}\n" for name in exported_functions()))
+    # Zig's Mach-O linker ignores -exported_symbols_list: hidden visibility leaves the fmi2
+    # functions and libc++'s replaceable operator new/delete exported (docs/platforms.md).
     slices = []
     for t in DARWIN_TARGETS:
         cc, cxx = target(t)
-        slices.append(compile_sources(
-            sources, files, cc, cxx,
-            ["-shared", f"-Wl,-exported_symbols_list,{exports}", "-Wl,-install_name,@rpath/GearMesh.dylib"],
-            work / t / "GearMesh.dylib", work / t / "obj", jobs, env))
+        slices.append(compile_sources(sources, files, cc, cxx, ["-shared", "-Wl,-install_name,@rpath/GearMesh.dylib"],
+                                      work / t / "GearMesh.dylib", work / t / "obj", jobs, env))
     built["darwin64"] = lipo(slices, work / "GearMesh.dylib")
     return built
 
