@@ -2,12 +2,12 @@
 # The platform stage's set-up (docs/platforms.md), sourced by tools/run-tests after
 # tools/bootstrap.sh (GM_PLATFORMS=0 leaves it out): installs what is missing, then builds the
 # multi-platform FMU into build-platforms/ (incremental after the first run).
-#   * Debian packages: wine and wine64 (run the win64 binary), llvm-14 (llvm-lipo joins the macOS slices),
-#     unzip;
+#   * Debian packages: wine and wine64 (run the win64 binary), llvm-14 (llvm-lipo joins the macOS
+#     slices), unzip, maven and Java 17 (VDMCheck2);
 #   * the Zig toolchain comes with the venv (ziglang, tools/requirements.txt);
 #   * fmi-sim (crates.io, built by cargo) and VDMCheck2 (Maven Central, by mvn): into the
 #     git-ignored cache, $GM_CACHE (default .cache/ in the repository), with the downloads.
-# cargo (Rust >= 1.85, for the 2024 edition), java (>= 11) and mvn must be on the PATH.
+# cargo must be on the PATH (Rust >= 1.85, for fmi-sim's 2024 edition: rustup; Debian 12's is too old).
 set -euo pipefail
 : "${GM_REPO:?source tools/bootstrap.sh first}"
 GM_CACHE="${GM_CACHE:-$GM_REPO/.cache}"
@@ -18,18 +18,6 @@ GM_VDMCHECK_DIR="$GM_CACHE/vdmcheck2"
 gm_platforms_fail() {
   echo "gearmesh: $*" >&2
   return 1
-}
-
-gm_install_platform_packages() {
-  local missing=() p sudo=""
-  for p in wine wine64 llvm-14 unzip; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-  done
-  ((${#missing[@]})) || return 0
-  echo "gearmesh: installing Debian packages: ${missing[*]}"
-  [ "$(id -u)" -eq 0 ] || sudo=sudo
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
 gm_install_fmi_sim() {
@@ -46,7 +34,6 @@ gm_install_fmi_sim() {
 
 gm_install_vdmcheck() {
   [ -f "$GM_VDMCHECK_DIR/vdmcheck2.jar" ] && [ -d "$GM_VDMCHECK_DIR/fmi2-static-model" ] && return 0
-  command -v mvn >/dev/null || gm_platforms_fail "mvn not found: install maven (Debian) for VDMCheck2"
   echo "gearmesh: fetching VDMCheck2 from Maven Central (tools/checkers/pom.xml)"
   rm -rf "$GM_VDMCHECK_DIR"
   mvn -q -B -f "$GM_REPO/tools/checkers/pom.xml" -Dmaven.repo.local="$GM_CACHE/m2" \
@@ -57,7 +44,7 @@ gm_install_vdmcheck() {
     unzip -q -o rule-model.jar 'fmi2-rule-model/*' && unzip -q -o vdmcheck2.jar 'fmi2schema/*')
 }
 
-gm_install_platform_packages
+gm_install_debian_packages wine wine64 llvm-14 unzip maven openjdk-17-jre-headless
 gm_install_fmi_sim
 gm_install_vdmcheck
 echo "gearmesh: building the multi-platform FMU (build-platforms/GearMesh.fmu)"

@@ -22,9 +22,10 @@ GM_APT_PACKAGES=(
   clang libclang-rt-14-dev
 )
 
+# Installs those of the named Debian packages that are missing (tools/bootstrap-platforms.sh too).
 gm_install_debian_packages() {
   local missing=() p
-  for p in "${GM_APT_PACKAGES[@]}"; do
+  for p in "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   ((${#missing[@]})) || return 0
@@ -57,6 +58,6 @@ gm_build() {
   cmake --build "$GM_BUILD" --parallel "$(nproc)"
 }
 
-gm_install_debian_packages
+gm_install_debian_packages "${GM_APT_PACKAGES[@]}"
 gm_make_venv
 gm_build
