@@ -230,8 +230,9 @@ def pack(linux_fmu: pathlib.Path, binaries: dict[str, pathlib.Path], out: pathli
 
 
 def build(out: pathlib.Path, jobs: int) -> pathlib.Path:
-    """The multi-platform FMU, out/GearMesh.fmu."""
+    """The multi-platform FMU, out/GearMesh.fmu (removed first: a failed build leaves none)."""
     out.mkdir(parents=True, exist_ok=True)
+    (out / "GearMesh.fmu").unlink(missing_ok=True)
     linux_fmu = build_linux64(out, jobs)
     return pack(linux_fmu, build_from_sources(linux_fmu, out, jobs), out / "GearMesh.fmu")
 
