@@ -254,6 +254,7 @@ def test_darwin64_is_a_universal_dylib_exporting_the_fmi2_functions(binary):
     for macho in fat:
         cpus.add(macho.header.cpu_type)
         assert macho.header.file_type == lief.MachO.Header.FILE_TYPE.DYLIB
+        assert list(macho.build_version.minos) == [12, 0, 0]  # loads on macOS 12 and later
         exported = {s.name for s in macho.exported_symbols}
         # besides the fmi2 functions: libc++'s replaceable operator new/delete (__Znwm, __ZdlPv,
         # ...) and the linker's own image symbols (docs/platforms.md, "Targets and toolchain")

@@ -33,7 +33,8 @@ MODEL_IDENTIFIER = "GearMesh"
 
 LINUX_TARGET = "x86_64-linux-gnu.2.17"  # glibc 2.17 (2012): CentOS 7 and every later distribution
 WINDOWS_TARGET = "x86_64-windows-gnu"
-DARWIN_TARGETS = ("x86_64-macos", "aarch64-macos")  # macOS 10.14+ / 11+, Zig's default minimums
+# macOS 12 (2021) and later; without a version Zig 0.17 takes its newest, 15.0
+DARWIN_TARGETS = ("x86_64-macos.12.0", "aarch64-macos.12.0")
 SUFFIX = {"linux64": ".so", "win64": ".dll", "darwin64": ".dylib"}
 
 # Flags of the compile units, for every compiler: the CMake Release build's language levels (C11
