@@ -251,7 +251,7 @@ gm_status plan_sizes(const GearBodyOptions& o, const ToothOutline& to, double m_
   pl.h_t = polyline_length(to.involute) / o.elements_along_profile;
   pl.h_c = pl.all_fine ? pl.h_t : polyline_length(to.involute) / o.far_elements_along_profile;
   pl.sector = pl.all_fine ? kPi : (o.fine_teeth + 0.5) * 2.0 * kPi / z;
-  pl.h_b = o.body_size > 0 ? o.body_size : 2.0 * m_n;
+  pl.h_b = o.body_size > 0 ? o.body_size : 4.0 * m_n;
   pl.fine = o.fine_depth > 0 ? o.fine_depth : 1.0 * m_n;
   pl.growth = o.size_growth;
   pl.tip_land = 2.0 * (pl.ring ? kPi / z - to.tip_half_angle : to.tip_half_angle) * to.tip_radius;
