@@ -26,7 +26,7 @@ and the bin-size sensitivity of the peak (one layer against two), the TE against
 run3d base (6 layers; not refused: a different mesh).
 
 Writes DIR/<scene>.reference_fe3d.lineload.csv (per binning, torque, position, tooth and bin:
-z range, force, line load) and DIR/<scene>.reference_fe3d.lineload.json (provenance, mesh,
+z range, force, moment about gear 1's axis, line load) and DIR/<scene>.reference_fe3d.lineload.json (provenance, mesh,
 binning, summary, checks, cost). Regenerate only on purpose.
 """
 from __future__ import annotations
@@ -54,26 +54,28 @@ def binnings(layers: int) -> list[int]:
 
 def bin_loads(teeth: dict, layers: int, bins: int, face_width: float) -> dict:
     """teeth: tooth -> layer -> [fx, fy, fz, mz] (PositionResult.layer_force_N of one torque).
-    Returns tooth -> (forces N, line loads N/m) per bin, bin 0 at z = -b/2: the vector sum
-    of the bin's layers' forces, its magnitude over the bin's width."""
+    Returns tooth -> (forces N, line loads N/m, moments about gear 1's axis N m) per bin, bin 0
+    at z = -b/2: the vector sum of the bin's layers' forces, its magnitude over the bin's
+    width, the sum of their moments."""
     merge = layers // bins
     if merge * bins != layers:
         raise ValueError(f"{bins} bins do not divide {layers} layers")
     width = face_width / bins
     out = {}
     for tooth, by_layer in teeth.items():
-        f = np.zeros((layers, 3))
+        f = np.zeros((layers, 4))
         for j, v in by_layer.items():
-            f[int(j)] = v[:3]
-        force = np.linalg.norm(f.reshape(bins, merge, 3).sum(axis=1), axis=1)
-        out[tooth] = (force, force / width)
+            f[int(j)] = v
+        f = f.reshape(bins, merge, 4).sum(axis=1)
+        force = np.linalg.norm(f[:, :3], axis=1)
+        out[tooth] = (force, force / width, f[:, 3])
     return out
 
 
 def peak(teeth_bins: dict) -> tuple[float, str, int]:
     """(largest line load, its tooth, its bin) over the teeth and bins of bin_loads."""
     best = (-1.0, "", -1)
-    for tooth, (_, q) in teeth_bins.items():
+    for tooth, (_, q, _) in teeth_bins.items():
         j = int(np.argmax(q))
         if q[j] > best[0]:
             best = (float(q[j]), tooth, j)
@@ -186,17 +188,18 @@ def run_scene(path, torques, out_dir, n, layers, cache, log):
         w = csv.writer(f)
         w.writerow(["scene", "model", "torque_Nm", "position", "n_positions", "gear1_angle_rad",
                     "te_m", "bins", "bin_width_m", "tooth", "bin", "z_low_m", "z_high_m",
-                    "force_N", "line_load_N_per_m"])
+                    "force_N", "moment_Nm", "line_load_N_per_m"])
         for bins in binnings(layers):
             for r in sorted(res, key=lambda r: r.position):
                 for ti, T in enumerate(r.torques):
-                    for tooth, (force, q) in bin_loads(r.layer_force_N[ti], layers, bins,
-                                                       b).items():
+                    for tooth, (force, q, mz) in bin_loads(r.layer_force_N[ti], layers, bins,
+                                                           b).items():
                         for j in range(bins):
                             w.writerow([spec.name, f"3d_{model.variant}", f"{T:g}", r.position,
                                         n, _g(r.dphi1), _g(r.te[ti]), bins, _g(b / bins), tooth,
                                         j, _g(-b / 2 + j * b / bins),
-                                        _g(-b / 2 + (j + 1) * b / bins), _g(force[j]), _g(q[j])])
+                                        _g(-b / 2 + (j + 1) * b / bins), _g(force[j]),
+                                        _g(mz[j]), _g(q[j])])
     prov = {
         **provenance(spec.name, path),
         "model": {"description": "run3d's base model (120 deg sectors, mesh level 0, penalty "
