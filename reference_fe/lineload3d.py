@@ -41,7 +41,7 @@ import numpy as np
 
 from . import analysis, mesh3d, model3d, scene
 from .report import THREADS, _cost, _g, provenance, write_provenance
-from .run3d import SECTOR_DEG, parse_scene_arg
+from .run3d import SECTOR_DEG, add_scene_arguments, parse_scene_arg
 
 MOMENT_TOLERANCE = 1e-4  # relative: the layers' contact moments against the torque
 FORCE_TOLERANCE = 2e-2   # relative: the sum of the bins' forces against T / r_b1
@@ -234,13 +234,9 @@ def run_scene(path, torques, out_dir, n, layers, cache, log):
 
 def add_parser(sub):
     p = sub.add_parser("lineload3d", help="3-D contact line load across the face (CalculiX)")
-    p.add_argument("scenes", nargs="+", help="SCENE or SCENE:T1,T2 (torques, N m)")
-    p.add_argument("--out", required=True)
-    p.add_argument("--positions", type=int, default=8, help="positions per base pitch")
-    p.add_argument("--torques", default="150,350", help="N m, for scenes without :T1,T2")
+    add_scene_arguments(p)
     p.add_argument("--layers", type=int, default=0,
                    help="element layers over the face (0: the scene's [model] slices)")
-    p.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
     return p
 
 

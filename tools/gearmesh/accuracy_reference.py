@@ -144,6 +144,27 @@ def read_summary(path: pathlib.Path) -> Reference:
     return Reference(scenes.pop(), path, counts.pop(), values, kind, models)
 
 
+def _rows(path: pathlib.Path, n_positions: int, parse):
+    """parse(row) of the rows of a reference CSV with n_positions = n ('#' lines are comments),
+    None results left out; a KeyError or ValueError of a row is a ReferenceError naming file and
+    row."""
+    with path.open(newline="") as fh:
+        reader = csv.DictReader(l for l in fh if not l.lstrip().startswith("#"))
+        for line, row in enumerate(reader, start=2):
+            try:
+                value = parse(row) if int(row["n_positions"]) == n_positions else None
+            except (KeyError, ValueError) as exc:
+                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+            if value is not None:
+                yield value
+
+
+def _require_positions(path: pathlib.Path, what: str, by_position: dict, n_positions: int):
+    if sorted(by_position) != list(range(n_positions)):
+        raise ReferenceError(f"{path}: {what} has positions {sorted(by_position)}; required: "
+                             f"0..{n_positions - 1}")
+
+
 def positions_path(reference_dir: pathlib.Path, scene_name: str, kind: str = "2d") -> pathlib.Path:
     return pathlib.Path(reference_dir) / f"{scene_name}.{_FILE_STEM[kind]}.te.csv"
 
@@ -156,22 +177,16 @@ def read_positions(path: pathlib.Path, n_positions: int) -> dict[tuple[str, floa
     if not path.is_file():
         return {}
     curves: dict[tuple[str, float], dict[int, float]] = {}
-    with path.open(newline="") as fh:
-        for line, row in enumerate(csv.DictReader(l for l in fh if not l.lstrip().startswith("#")),
-                                   start=2):
-            try:
-                if (int(row["n_positions"]) != n_positions or row.get("mesh_level", "0") != "0"
-                        or row.get("case", "base") != "base"):
-                    continue
-                key = (row["model"], float(row["torque_Nm"]))
-                curves.setdefault(key, {})[int(row["position"])] = float(row["te_m"])
-            except (KeyError, ValueError) as exc:
-                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+    def parse(row):
+        if row.get("mesh_level", "0") != "0" or row.get("case", "base") != "base":
+            return None
+        return (row["model"], float(row["torque_Nm"])), int(row["position"]), float(row["te_m"])
+
+    for key, k, te in _rows(path, n_positions, parse):
+        curves.setdefault(key, {})[k] = te
     out = {}
     for key, by_position in curves.items():
-        if sorted(by_position) != list(range(n_positions)):
-            raise ReferenceError(f"{path}: {key[0]} at {key[1]:g} N m has positions "
-                                 f"{sorted(by_position)}; required: 0..{n_positions - 1}")
+        _require_positions(path, f"{key[0]} at {key[1]:g} N m", by_position, n_positions)
         out[key] = [by_position[k] for k in range(n_positions)]
     return out
 
@@ -218,17 +233,12 @@ def read_pairs(path: pathlib.Path, n_positions: int) -> tuple[dict, dict]:
     if not path.is_file():
         return {}, {}
     teeth: dict[tuple[str, float, int], list[tuple[float, float]]] = {}
-    with path.open(newline="") as fh:
-        for line, row in enumerate(csv.DictReader(l for l in fh if not l.lstrip().startswith("#")),
-                                   start=2):
-            try:
-                if int(row["n_positions"]) != n_positions:
-                    continue
-                key = (row["model"], float(row["torque_Nm"]), int(row["position"]))
-                teeth.setdefault(key, []).append((float(row["force_N"]),
-                                                  float(row["line_load_N_per_m"])))
-            except (KeyError, ValueError) as exc:
-                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+    def parse(row):
+        return ((row["model"], float(row["torque_Nm"]), int(row["position"])),
+                (float(row["force_N"]), float(row["line_load_N_per_m"])))
+
+    for key, force_and_load in _rows(path, n_positions, parse):
+        teeth.setdefault(key, []).append(force_and_load)
     shares: dict[tuple[str, float], dict[int, float]] = {}
     loads: dict[tuple[str, float], dict[int, float]] = {}
     for (model, torque, k), forces in teeth.items():
@@ -241,9 +251,7 @@ def read_pairs(path: pathlib.Path, n_positions: int) -> tuple[dict, dict]:
         loads.setdefault((model, torque), {})[k] = top[1]
     for by_position in (shares, loads):
         for key, values in by_position.items():
-            if sorted(values) != list(range(n_positions)):
-                raise ReferenceError(f"{path}: {key[0]} at {key[1]:g} N m has positions "
-                                     f"{sorted(values)}; required: 0..{n_positions - 1}")
+            _require_positions(path, f"{key[0]} at {key[1]:g} N m", values, n_positions)
     return ({key: [v[k] for k in range(n_positions)] for key, v in shares.items()},
             {key: [v[k] for k in range(n_positions)] for key, v in loads.items()})
 
@@ -312,26 +320,17 @@ def read_lineload(path: pathlib.Path, n_positions: int) -> dict[tuple[int, float
     if not path.is_file():
         return {}
     peaks: dict[tuple[int, float], dict[int, float]] = {}
-    with path.open(newline="") as fh:
-        for line, row in enumerate(csv.DictReader(l for l in fh if not l.lstrip().startswith("#")),
-                                   start=2):
-            try:
-                if int(row["n_positions"]) != n_positions:
-                    continue
-                key = (int(row["bins"]), float(row["torque_Nm"]))
-                q = float(row["line_load_N_per_m"])
-                k = int(row["position"])
-            except (KeyError, ValueError) as exc:
-                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
-            if not (math.isfinite(q) and q >= 0):
-                raise ReferenceError(f"{path}: row {line}: line_load_N_per_m = {q}; allowed: "
-                                     "finite, >= 0")
-            by_position = peaks.setdefault(key, {})
-            by_position[k] = max(by_position.get(k, 0.0), q)
+    def parse(row):
+        q = float(row["line_load_N_per_m"])
+        if not (math.isfinite(q) and q >= 0):
+            raise ValueError(f"line_load_N_per_m = {q}; allowed: finite, >= 0")
+        return (int(row["bins"]), float(row["torque_Nm"])), int(row["position"]), q
+
+    for key, k, q in _rows(path, n_positions, parse):
+        by_position = peaks.setdefault(key, {})
+        by_position[k] = max(by_position.get(k, 0.0), q)
     for (bins, torque), by_position in peaks.items():
-        if sorted(by_position) != list(range(n_positions)):
-            raise ReferenceError(f"{path}: {bins} bins at {torque:g} N m has positions "
-                                 f"{sorted(by_position)}; required: 0..{n_positions - 1}")
+        _require_positions(path, f"{bins} bins at {torque:g} N m", by_position, n_positions)
         unloaded = [k for k, q in by_position.items() if not q > 0]
         if unloaded:
             raise ReferenceError(f"{path}: {bins} bins at {torque:g} N m, position(s) {unloaded}: "
