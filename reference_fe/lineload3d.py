@@ -23,7 +23,8 @@ Checks (written into the JSON; refused when they fail):
   the total normal force T / r_b1 within FORCE_TOLERANCE (a spur pair's contact normal lies on
   the line of action only up to tip-corner contact and the lead crowning's tilt);
 and the bin-size sensitivity of the peak (one layer against two), the TE against the committed
-run3d base (6 layers; not refused: a different mesh).
+run3d base (6 layers; not refused: a different mesh). --study-layers N: the study positions
+again with N layers, the peak at the bin counts both share (the mesh across the face).
 
 Writes DIR/<scene>.reference_fe3d.lineload.csv (per binning, torque, position, tooth and bin:
 z range, force, moment about gear 1's axis, line load) and DIR/<scene>.reference_fe3d.lineload.json (provenance, mesh,
@@ -167,12 +168,40 @@ def sensitivity(summary: list[dict], layers: int) -> list[dict]:
              "change": two[T] / one[T] - 1} for T in sorted(one)]
 
 
-def run_scene(path, torques, out_dir, n, layers, cache, log):
+def layer_study(base, study, torques, layers: int, study_layers: int, b: float) -> list[dict]:
+    """The peak at the study positions with `study_layers` layers against the base's `layers`,
+    at every bin count of the base that the study's layers divide into too."""
+    out = []
+    by_position = {r.position: r for r in base}
+    for r in study:
+        for bins in binnings(layers):
+            if study_layers % bins:
+                continue
+            for ti, T in enumerate(torques):
+                q0 = peak(bin_loads(by_position[r.position].layer_force_N[ti], layers, bins, b))[0]
+                q1 = peak(bin_loads(r.layer_force_N[ti], study_layers, bins, b))[0]
+                out.append({"position": r.position, "torque_Nm": T, "bins": bins,
+                            "layers": [layers, study_layers], "peaks_N_per_m": [q0, q1],
+                            "change": q1 / q0 - 1,
+                            "te_m": [by_position[r.position].te[ti], r.te[ti]]})
+    return out
+
+
+def run_scene(path, torques, out_dir, n, layers, cache, log, study_layers=0,
+              study_positions=(0,)):
     spec = scene.load(path, dims=3)
     t_start = time.time()
     model = lineload_model(spec, layers)
     layers = model.size.layers
     res = analysis.run_case(spec, model, model3d.Case3D(), range(n), n, torques, cache, log)
+    studies = {}
+    if study_layers:
+        fine = lineload_model(spec, study_layers)
+        res_s = analysis.run_case(spec, fine, model3d.Case3D(), study_positions, n, torques,
+                                  cache, log)
+        studies[f"layers{study_layers}"] = {
+            "positions": list(study_positions), "mesh": fine.stats(), "cost": _cost(res_s),
+            "peaks": layer_study(res, res_s, torques, layers, study_layers, model.pair.g1.b)}
     pr = model.pair
     b, rb1 = pr.g1.b, pr.g1.rb
     out_dir = pathlib.Path(out_dir)
@@ -219,6 +248,7 @@ def run_scene(path, torques, out_dir, n, layers, cache, log):
         "mesh": model.stats(),
         "summary": summary,
         "checks": checks,
+        "studies": studies,
         "cost": _cost(res),
         "elapsed_s_this_invocation": time.time() - t_start,
         "threads": THREADS,
@@ -230,6 +260,11 @@ def run_scene(path, torques, out_dir, n, layers, cache, log):
             f"{s['peak_N_per_m']:.4g} N/m ({s['peak_over_face_average']:.3f} x face average) "
             f"at position {s['at']['position']}, tooth {s['at']['tooth']}, bin {s['at']['bin']}")
     log(f"checks: {checks}")
+    for label, st in studies.items():
+        for row in st["peaks"]:
+            log(f"study {label}: position {row['position']}, {row['torque_Nm']:g} N m, "
+                f"{row['bins']} bins: peak {row['peaks_N_per_m'][0]:.4g} -> "
+                f"{row['peaks_N_per_m'][1]:.4g} N/m ({100 * row['change']:+.2f} %)")
 
 
 def add_parser(sub):
@@ -237,6 +272,9 @@ def add_parser(sub):
     add_scene_arguments(p)
     p.add_argument("--layers", type=int, default=0,
                    help="element layers over the face (0: the scene's [model] slices)")
+    p.add_argument("--study-layers", type=int, default=0,
+                   help="a layer study: this many layers at the study positions (0: none)")
+    p.add_argument("--study-positions", default="0", help="positions of the layer study")
     return p
 
 
@@ -244,4 +282,5 @@ def main(a, log):
     default = [float(t) for t in a.torques.split(",")]
     for arg in a.scenes:
         path, torques = parse_scene_arg(arg, default)
-        run_scene(path, torques, a.out, a.positions, a.layers or None, a.cache, log)
+        run_scene(path, torques, a.out, a.positions, a.layers or None, a.cache, log,
+                  a.study_layers, [int(k) for k in a.study_positions.split(",") if k.strip()])
