@@ -24,7 +24,8 @@ Checks (written into the JSON; refused when they fail):
   the line of action only up to tip-corner contact and the lead crowning's tilt);
 and the bin-size sensitivity of the peak (one layer against two), the TE against the committed
 run3d base (6 layers; not refused: a different mesh). --study-layers N: the study positions
-again with N layers, the peak at the bin counts both share (the mesh across the face).
+again with N layers, the peak at the bin counts both share (the mesh across the face) and at
+N bins against the base's finest (the bin width).
 
 Writes DIR/<scene>.reference_fe3d.lineload.csv (per binning, torque, position, tooth and bin:
 z range, force, moment about gear 1's axis, line load) and DIR/<scene>.reference_fe3d.lineload.json (provenance, mesh,
@@ -45,7 +46,10 @@ from .report import THREADS, _cost, _g, provenance, write_provenance
 from .run3d import SECTOR_DEG, add_scene_arguments, parse_scene_arg
 
 MOMENT_TOLERANCE = 1e-4  # relative: the layers' contact moments against the torque
-FORCE_TOLERANCE = 2e-2   # relative: the sum of the bins' forces against T / r_b1
+# relative: the sum of the layers' forces against T / r_b1; measured on set A crowned (8
+# positions, 150 / 350 N m): worst +0.24 % (tip-corner contact off the line of action), mean
+# +0.015 %
+FORCE_TOLERANCE = 5e-3
 
 
 def binnings(layers: int) -> list[int]:
@@ -169,18 +173,19 @@ def sensitivity(summary: list[dict], layers: int) -> list[dict]:
 
 
 def layer_study(base, study, torques, layers: int, study_layers: int, b: float) -> list[dict]:
-    """The peak at the study positions with `study_layers` layers against the base's `layers`,
-    at every bin count of the base that the study's layers divide into too."""
+    """The peak at the study positions with `study_layers` layers against the base's `layers`:
+    at every bin count of the base that the study's layers divide into too (the mesh), and the
+    study's finest bins (one per study layer) against the base's (the bin width)."""
     out = []
     by_position = {r.position: r for r in base}
     for r in study:
-        for bins in binnings(layers):
-            if study_layers % bins:
-                continue
+        pairs = [(bins, bins) for bins in binnings(layers) if study_layers % bins == 0]
+        for bins0, bins1 in pairs + [(layers, study_layers)]:
             for ti, T in enumerate(torques):
-                q0 = peak(bin_loads(by_position[r.position].layer_force_N[ti], layers, bins, b))[0]
-                q1 = peak(bin_loads(r.layer_force_N[ti], study_layers, bins, b))[0]
-                out.append({"position": r.position, "torque_Nm": T, "bins": bins,
+                q0 = peak(bin_loads(by_position[r.position].layer_force_N[ti], layers, bins0,
+                                    b))[0]
+                q1 = peak(bin_loads(r.layer_force_N[ti], study_layers, bins1, b))[0]
+                out.append({"position": r.position, "torque_Nm": T, "bins": [bins0, bins1],
                             "layers": [layers, study_layers], "peaks_N_per_m": [q0, q1],
                             "change": q1 / q0 - 1,
                             "te_m": [by_position[r.position].te[ti], r.te[ti]]})
@@ -263,7 +268,7 @@ def run_scene(path, torques, out_dir, n, layers, cache, log, study_layers=0,
     for label, st in studies.items():
         for row in st["peaks"]:
             log(f"study {label}: position {row['position']}, {row['torque_Nm']:g} N m, "
-                f"{row['bins']} bins: peak {row['peaks_N_per_m'][0]:.4g} -> "
+                f"{row['layers']} layers, {row['bins']} bins: peak {row['peaks_N_per_m'][0]:.4g} -> "
                 f"{row['peaks_N_per_m'][1]:.4g} N/m ({100 * row['change']:+.2f} %)")
 
 

@@ -27,7 +27,7 @@ FILES = sorted(REFERENCE.glob("*.reference_fe3d.lineload.csv"))
 # set A (and its crowned variant): r_b1 = m z cos(20 deg) / 2, 57 teeth of module 2.6 mm
 BASE_RADIUS = 0.0026 * 57 * math.cos(math.radians(20.0)) / 2
 FACE_WIDTH = 0.023
-FORCE_TOLERANCE = 2e-3   # measured: see reference_fe/README.md, "3-D line load"
+FORCE_TOLERANCE = 5e-3   # measured worst +0.24 %: reference_fe/README.md, "3-D line load"
 
 
 def rows(path: pathlib.Path) -> list[dict]:
