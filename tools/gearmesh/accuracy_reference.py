@@ -28,7 +28,7 @@ slice width), the largest over the positions, with the reference's largest bin l
 the teeth and positions at the same bin count as the setting's slices (like with like: a slice
 is a bin of the same width); no row where the reference has no such bin count. Shown, not
 scored: the sectors that bias the 3-D TE's level (held cut faces, stiffer) also shape the load
-distribution across the face, and the line load has no mesh study of its own.
+distribution across the face, and the line load has a layer study at one position only.
 
 3-D: `<scene>.reference_fe3d.summary.csv` holds one model (3-D sectors of both gears, a name
 starting with "3d_"); its "band" is that one value, so the band error is the relative error. Its
