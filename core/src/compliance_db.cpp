@@ -279,20 +279,20 @@ gm_status write_compliance_db(const char* path, const ComplianceDb& db, std::str
   return GM_OK;
 }
 
-gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& msg) {
-  out = ComplianceDb{};
-  if (!path) {
-    msg = "compliance database: no file name given";
-    return GM_ERR_ARGUMENT;
-  }
-  const std::string what = std::string("compliance database '") + path + "'";
+namespace {
+
+// The steps of read_compliance_db: each names the file (what) and returns GM_OK or sets msg.
+
+// A regular file of at most 2 GiB, opened; size receives its length.
+gm_status open_db_file(const char* path, const std::string& what, std::ifstream& is, std::uint64_t& size,
+                       std::string& msg) {
   // a FIFO would block the open until a writer comes (forever), a directory or device is no file
   struct stat st;
   if (::stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
     msg = what + ": not a regular file (a directory, FIFO, socket or device); allowed: a .gcdb file";
     return GM_ERR_PARAMETER;
   }
-  std::ifstream is(path, std::ios::binary);
+  is.open(path, std::ios::binary);
   if (!is) {
     msg = what + ": cannot open the file (missing or not readable)";
     return GM_ERR_PARAMETER;
@@ -304,14 +304,16 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
     msg = what + ": cannot determine the file's length";
     return GM_ERR_PARAMETER;
   }
-  const std::uint64_t size = std::uint64_t(end);
+  size = std::uint64_t(end);
   if (size > kComplianceDbMaxFile) {
     msg = what + ": " + std::to_string(size) + " bytes, allowed <= 2 GiB (" + std::to_string(kComplianceDbMaxFile) + ")";
     return GM_ERR_PARAMETER;
   }
+  return GM_OK;
+}
 
-  // Magic and version first: a file of another kind or a newer format is named as such.
-  Reader r(is);
+// Magic and version first: a file of another kind or a newer format is named as such.
+gm_status check_magic_and_version(Reader& r, std::uint64_t size, const std::string& what, std::string& msg) {
   unsigned char magic[5];
   r.bytes(magic, 5);
   if (!r.ok || std::memcmp(magic, kMagic, 5) != 0) {
@@ -334,43 +336,50 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
           " bytes";
     return GM_ERR_PARAMETER;
   }
+  return GM_OK;
+}
 
-  // Checksum over the whole file before any field is trusted.
-  {
-    is.seekg(0, std::ios::beg);
-    std::vector<unsigned char> chunk(std::size_t(std::min<std::uint64_t>(size, 1 << 20)));  // the whole file, at most 1 MiB
-    std::uint32_t crc = 0;
-    std::uint64_t left = size - 4;
-    while (left > 0) {
-      const std::size_t n = std::size_t(std::min<std::uint64_t>(left, chunk.size()));
-      is.read(reinterpret_cast<char*>(chunk.data()), std::streamsize(n));
-      if (std::size_t(is.gcount()) != n) {
-        msg = what + ": read error while checking the checksum";
-        return GM_ERR_PARAMETER;
-      }
-      crc = crc32_update(crc, chunk.data(), n);
-      left -= n;
-    }
-    unsigned char b[4];
-    is.read(reinterpret_cast<char*>(b), 4);
-    if (is.gcount() != 4) {
+// The CRC-32 over the whole file before any field is trusted; leaves the stream after the
+// version.
+gm_status check_checksum(std::ifstream& is, std::uint64_t size, const std::string& what, std::string& msg) {
+  is.seekg(0, std::ios::beg);
+  std::vector<unsigned char> chunk(std::size_t(std::min<std::uint64_t>(size, 1 << 20)));  // the whole file, at most 1 MiB
+  std::uint32_t crc = 0;
+  std::uint64_t left = size - 4;
+  while (left > 0) {
+    const std::size_t n = std::size_t(std::min<std::uint64_t>(left, chunk.size()));
+    is.read(reinterpret_cast<char*>(chunk.data()), std::streamsize(n));
+    if (std::size_t(is.gcount()) != n) {
       msg = what + ": read error while checking the checksum";
       return GM_ERR_PARAMETER;
     }
-    const std::uint32_t stored = std::uint32_t(b[0]) | std::uint32_t(b[1]) << 8 | std::uint32_t(b[2]) << 16 |
-                                 std::uint32_t(b[3]) << 24;
-    if (stored != crc) {
-      char buf[160];
-      std::snprintf(buf, sizeof buf, ": checksum mismatch (stored CRC-32 %08X, contents give %08X): the file is "
-                    "corrupt or truncated; regenerate it with compliance_tool", unsigned(stored), unsigned(crc));
-      msg = what + buf;
-      return GM_ERR_PARAMETER;
-    }
-    is.clear();
-    is.seekg(9, std::ios::beg);
+    crc = crc32_update(crc, chunk.data(), n);
+    left -= n;
   }
+  unsigned char b[4];
+  is.read(reinterpret_cast<char*>(b), 4);
+  if (is.gcount() != 4) {
+    msg = what + ": read error while checking the checksum";
+    return GM_ERR_PARAMETER;
+  }
+  const std::uint32_t stored = std::uint32_t(b[0]) | std::uint32_t(b[1]) << 8 | std::uint32_t(b[2]) << 16 |
+                               std::uint32_t(b[3]) << 24;
+  if (stored != crc) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, ": checksum mismatch (stored CRC-32 %08X, contents give %08X): the file is "
+                  "corrupt or truncated; regenerate it with compliance_tool", unsigned(stored), unsigned(crc));
+    msg = what + buf;
+    return GM_ERR_PARAMETER;
+  }
+  is.clear();
+  is.seekg(9, std::ios::beg);
+  return GM_OK;
+}
 
-  ComplianceDb db;
+// The header after the version: the gear, mesh and grid sizes, checked, and the file's length
+// against the length they imply.
+gm_status read_header(Reader& r, std::uint64_t size, const std::string& what, ComplianceDb& db,
+                      std::uint32_t& n_roll, std::uint32_t& n_face, std::string& msg) {
   r.pos = 9;
   db.teeth = r.u32();
   db.internal = r.u32();
@@ -395,8 +404,8 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
   }
   db.cyclic = r.u32();
   db.mirror = r.u32();
-  const std::uint32_t n_roll = r.u32();
-  const std::uint32_t n_face = r.u32();
+  n_roll = r.u32();
+  n_face = r.u32();
   db.n_coupled = r.u32();
   if (!r.ok) {
     msg = what + ": truncated inside the header (" + std::to_string(size) + " bytes)";
@@ -411,6 +420,12 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
           " bytes, the file has " + std::to_string(size) + " (allowed: exactly the declared size, <= 2 GiB)";
     return GM_ERR_PARAMETER;
   }
+  return GM_OK;
+}
+
+// The grid axes and the compliance blocks, each checked as it is read.
+gm_status read_arrays(Reader& r, std::uint64_t size, std::uint32_t n_roll, std::uint32_t n_face,
+                      const std::string& what, ComplianceDb& db, std::string& msg) {
   try {
     db.roll.resize(n_roll);
     db.face.resize(n_face);
@@ -432,6 +447,28 @@ gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& m
     msg = what + ": read error or inconsistent length while reading the compliance blocks";
     return GM_ERR_PARAMETER;
   }
+  return GM_OK;
+}
+
+}  // namespace
+
+gm_status read_compliance_db(const char* path, ComplianceDb& out, std::string& msg) {
+  out = ComplianceDb{};
+  if (!path) {
+    msg = "compliance database: no file name given";
+    return GM_ERR_ARGUMENT;
+  }
+  const std::string what = std::string("compliance database '") + path + "'";
+  std::ifstream is;
+  std::uint64_t size = 0;
+  if (gm_status s = open_db_file(path, what, is, size, msg); s != GM_OK) return s;
+  Reader r(is);
+  if (gm_status s = check_magic_and_version(r, size, what, msg); s != GM_OK) return s;
+  if (gm_status s = check_checksum(is, size, what, msg); s != GM_OK) return s;
+  ComplianceDb db;
+  std::uint32_t n_roll = 0, n_face = 0;
+  if (gm_status s = read_header(r, size, what, db, n_roll, n_face, msg); s != GM_OK) return s;
+  if (gm_status s = read_arrays(r, size, n_roll, n_face, what, db, msg); s != GM_OK) return s;
   out = std::move(db);
   return GM_OK;
 }

@@ -16,6 +16,14 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxSlices = 200;  // = the parameter range of model.slices
 
+// The stages of detect_impl are inlined into it: called out of line, the frame they share
+// escapes and every read of it becomes a reload (measured 1.5-3 % on the 1-slice evaluation).
+#if defined(__GNUC__)
+#define GM_STAGE inline __attribute__((always_inline))
+#else
+#define GM_STAGE inline
+#endif
+
 // Integer part n and fraction f of x / period with x = n period + f, 0 <= f < period.
 template <class T>
 void split_periods(const T& x, double period, double& n, T& f) {
@@ -218,70 +226,238 @@ int slice_capacity(const MeshLayout& L) {
 
 namespace {
 
-template <class T, class K>
-int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int capacity,
-                std::string& msg) {
-  GM_AD_USING;
-  const int s = L.sign;
+// The spins detection takes: the period split below casts tooth counts to int, so only finite
+// spins in range get there.
+template <class K>
+bool spins_in_range(const K& kin, std::string& msg) {
   for (int i = 0; i < 2; ++i) {
-    // the period split below casts tooth counts to int: only finite spins in range get there
     if (!(std::fabs(val(kin.phi[i])) <= GM_MAX_SPIN_ANGLE)) {
       char buf[160];
       std::snprintf(buf, sizeof buf, "gear%d.phi = %g rad: outside the allowed range [-%g, %g] rad",
                     i + 1, val(kin.phi[i]), GM_MAX_SPIN_ANGLE, GM_MAX_SPIN_ANGLE);
       msg = buf;
-      return -1;
+      return false;
     }
   }
+  return true;
+}
+
+// The slices of one evaluation: the axes, the axial overlap split into equal slices, the
+// section in the middle of the overlap (coarse step: it finds the candidate pairs) and, when
+// tilted, each slice's own section (fine step; aligned slices share `mid`). Trivially
+// constructible like Section: scratch on the stack.
+template <class T>
+struct SliceFrame {
   Axis<T> ax[2];
+  bool aligned;           // no tilt (dual numbers: nor a tilting direction)
+  T zlo, zhi, width, z_mid;
+  Section<T> mid;
+  Section<T> sections[kMaxSlices];
+  double tilt_margin;     // how far the slices' sections move the path (a decision bound: values)
+};
+
+// 1 with F made, 0 when the face widths do not overlap, -1 with msg set.
+template <class T, class K>
+GM_STAGE int make_frame(const MeshLayout& L, const K& kin, SliceFrame<T>& F, std::string& msg) {
+  GM_AD_USING;
+  Axis<T>* ax = F.ax;
   for (int i = 0; i < 2; ++i) {
     ax[i].c = Vec3<T>(kin.u[i][0] + (i == 1 ? L.center_distance : 0.0), kin.u[i][1],
                       kin.u[i][2]);
     // axis direction exp([r_x, r_y, 0]^) e_z = (r_y, -r_x, 1) to first order
     ax[i].slope = Vec2<T>(kin.r[i][1], -kin.r[i][0]);
   }
-  // (dual numbers: aligned only if the direction does not tilt either)
-  const bool aligned = identical(T(kin.r[0][0]), T(0.0)) && identical(T(kin.r[0][1]), T(0.0)) &&
-                       identical(T(kin.r[1][0]), T(0.0)) && identical(T(kin.r[1][1]), T(0.0));
-
-  // Axial overlap of the two face widths, split into equal slices. Equal face ends (equal
-  // widths, aligned) are a kink: fmax/fmin give the derivative on the side the seed points to.
+  F.aligned = identical(T(kin.r[0][0]), T(0.0)) && identical(T(kin.r[0][1]), T(0.0)) &&
+              identical(T(kin.r[1][0]), T(0.0)) && identical(T(kin.r[1][1]), T(0.0));
+  // Equal face ends (equal widths, aligned) are a kink: fmax/fmin give the derivative on the
+  // side the seed points to.
   const T z1lo = ax[0].c.z() + L.axial_offset[0] - 0.5 * L.face_width[0];
   const T z2lo = ax[1].c.z() + L.axial_offset[1] - 0.5 * L.face_width[1];
-  const T zlo = fmax(z1lo, z2lo);
-  const T zhi = fmin(T(z1lo + L.face_width[0]), T(z2lo + L.face_width[1]));
-  if (zhi <= zlo) return 0;
-  const T width = (zhi - zlo) / L.slices;
-  const T z_mid = 0.5 * (zlo + zhi);
-
-  // Coarse step: the section in the middle of the overlap finds the candidate pairs.
-  Section<T> mid;
-  if (!make_section<T>(L, ax, z_mid, mid, msg)) return -1;
-  // Fine step: each slice's own section (only when tilted; aligned slices share `mid`).
-  Section<T> sections[kMaxSlices];
-  double tilt_margin = 0;  // a decision bound: values only
-  if (!aligned) {
+  F.zlo = fmax(z1lo, z2lo);
+  F.zhi = fmin(T(z1lo + L.face_width[0]), T(z2lo + L.face_width[1]));
+  if (F.zhi <= F.zlo) return 0;
+  F.width = (F.zhi - F.zlo) / L.slices;
+  F.z_mid = 0.5 * (F.zlo + F.zhi);
+  if (!make_section<T>(L, ax, F.z_mid, F.mid, msg)) return -1;
+  F.tilt_margin = 0;
+  if (!F.aligned) {
     for (int k = 0; k < L.slices; ++k) {
-      Section<T>& S = sections[k];
-      if (!make_section<T>(L, ax, T(zlo + (k + 0.5) * width), S, msg)) return -1;
-      tilt_margin = std::max(
-          tilt_margin, (L.base_radius[0] + L.base_radius[1]) *
-                               (std::fabs(val(S.gamma) - val(mid.gamma)) +
-                                std::fabs(val(S.alpha_w) - val(mid.alpha_w))) +
-                           std::fabs(val(S.T1T2) - val(mid.T1T2)));
+      Section<T>& S = F.sections[k];
+      if (!make_section<T>(L, ax, T(F.zlo + (k + 0.5) * F.width), S, msg)) return -1;
+      F.tilt_margin = std::max(
+          F.tilt_margin, (L.base_radius[0] + L.base_radius[1]) *
+                               (std::fabs(val(S.gamma) - val(F.mid.gamma)) +
+                                std::fabs(val(S.alpha_w) - val(F.mid.alpha_w))) +
+                           std::fabs(val(S.T1T2) - val(F.mid.T1T2)));
     }
   }
+  return 1;
+}
 
+// The contact of one slice of a tooth pair (aligned spur slices differ only in z: computed once
+// per pair). dz1, dz2: the tilted helical gears' body heights off the slice plane.
+template <class T>
+struct SliceContact {
+  Vec2<T> n_t, point;
+  T roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0, path = 0, gain = 0;
+  int kind = kFlankContact;
+  bool contact = false;
+};
+
+// Tip (corner) contact outside the path: the tip edge of one gear against the mate's flank,
+// with the mate's involute normal (paper 2.1; docs/physics.md §3). A tip edge penetrates at most
+// as far as the flanks overlap on the line of action (conjugate action makes its penetration
+// fall off the line): no overlap, no candidate. t: the flank contact position from T1.
+template <class T>
+void tip_contact(const MeshLayout& L, const Section<T>& S, int sigma, const T& rho1, const T& rho2,
+                 const T& t, SliceContact<T>& G) {
+  GM_AD_USING;
+  const int s = L.sign;
+  const double rb2 = L.base_radius[1];
+  const int g = t > S.t_hi ? 0 : 1, h = 1 - g;
+  const T theta_rel1 = sigma * (rho1 / L.base_radius[0] - L.eta[0] - S.alpha_w);
+  const T theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
+  const T theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1, S.gamma + L.zeta[1] + theta_rel2};
+  const Vec2<T> corner =
+      S.c[g] + L.tip_radius[g] * unit<T>(theta_c[g] + sigma * (L.eta[g] - L.inv_tip[g]));
+  T pen, roll_h;
+  Vec2<T> tangency;
+  G.contact = involute_penetration<T>(L, h, sigma, theta_c[h], S.c[h], corner, pen, tangency,
+                                      roll_h) &&
+              pen > 0;  // an open tip edge carries nothing: not a candidate
+  if (!G.contact) return;
+  G.rigid = pen;
+  G.kind = g == 0 ? kTipOfGear1 : kTipOfGear2;
+  G.roll1 = g == 0 ? T(L.rho_tip[0]) : roll_h;
+  G.roll2 = g == 0 ? roll_h : T(L.rho_tip[1]);
+  // outward normal of the mate's material; the force on gear 2 follows from it
+  const bool ring_h = h == 1 && s < 0;
+  const Vec2<T> out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
+  G.n_t = g == 0 ? Vec2<T>(-out_h) : out_h;
+  G.point = corner;
+  G.path = g == 0 ? 1.0 : 0.0;
+  // d(pen)/d(TE): gear 2 turns by dTE/(s r_b2). Against gear 2's flank the involute moves by
+  // r_b2 per radian; gear 2's own edge moves along its tip circle.
+  G.gain = g == 0 ? T(sigma)
+                  : T(-out_h.dot(Vec2<T>(-(corner - S.c[1]).y(), (corner - S.c[1]).x())) /
+                      (s * rb2));
+}
+
+// The contact of the slice at height z in section S, of the pair whose roll distances in the
+// middle section are rho1_mid, rho2_mid, on flank sigma (fl its index).
+template <class T>
+GM_STAGE void slice_contact(const MeshLayout& L, const SliceFrame<T>& F, const Section<T>& S, int sigma,
+                   int fl, const T& rho1_mid, const T& rho2_mid, const T& z, SliceContact<T>& G) {
+  const int s = L.sign;
+  const double rb1 = L.base_radius[0], rb2 = L.base_radius[1];
+  const double tb = L.tan_beta_b;
+  const Section<T>& mid = F.mid;
+  const T dz = z - F.z_mid;
+  // Roll distances in this slice's section: helical turn and the section's own frame.
+  T rho1 = rho1_mid + (sigma * L.hand[0] * tb) * dz;
+  T rho2 = rho2_mid + (sigma * L.hand[1] * tb) * dz;
+  const Vec2<T>& n_line = S.n_line[fl];
+  const Vec2<T>& T1 = S.T1[fl];
+  if (!F.aligned) {
+    rho1 += rb1 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
+    rho2 += rb2 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
+    if (tb != 0) {
+      // A tilted helical gear meets the slice plane at body height z + r x (X - c):
+      // the contact point X sits a pitch radius off the axis, so this is first order.
+      const T t0 = rho1 - 0.5 * (rho1 + s * rho2 - s * S.T1T2);
+      const Vec2<T> X = T1 + t0 * n_line;
+      G.dz1 = F.ax[0].slope.dot(X - F.ax[0].c.template head<2>());
+      G.dz2 = F.ax[1].slope.dot(X - F.ax[1].c.template head<2>());
+      rho1 += (sigma * L.hand[0] * tb) * G.dz1;
+      rho2 += (sigma * L.hand[1] * tb) * G.dz2;
+    }
+  }
+  G.rigid = rho1 + s * rho2 - s * S.T1T2;
+  const T t = rho1 - 0.5 * G.rigid;  // contact midway between the two flanks
+  G.contact = true;
+  G.kind = kFlankContact;
+  if (t >= S.t_lo && t <= S.t_hi) {
+    G.roll1 = t;
+    G.roll2 = S.T1T2 - s * t;
+    G.n_t = n_line;
+    G.point = T1 + t * n_line;
+    G.path = (t - S.t_lo) / (S.t_hi - S.t_lo);
+    G.gain = T(sigma);  // d(Delta_t)/d(TE): rho_2 moves with phi_2 (docs/physics.md §3)
+  } else if (G.rigid > 0 && ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts))) {
+    tip_contact(L, S, sigma, rho1, rho2, t, G);
+  } else {
+    G.contact = false;
+  }
+}
+
+// The input velocities: each gear's angular velocity and centre velocity.
+template <class T>
+struct Motion {
+  Vec3<T> omega[2], vc[2];
+};
+
+// One candidate slice from its contact: its approach along the normal, point, normal, contact
+// velocities and profile tangent.
+template <class T>
+GM_STAGE void fill_slice(const MeshLayout& L, const SliceFrame<T>& F, const Section<T>& S,
+                const Motion<T>& mo, const SliceContact<T>& G, int sigma, int fl, const T& z,
+                const T& approach_t, ContactSliceT<T>& c) {
+  c.flank = sigma;
+  c.kind = G.kind;
+  c.approach = approach_t * L.cos_beta_b;
+  c.width = F.width;
+  c.roll[0] = G.roll1;
+  c.roll[1] = G.roll2;
+  c.point = Vec3<T>(G.point.x(), G.point.y(), z);
+  // The flank normal lies in the plane of action, inclined by beta_b to the transverse
+  // plane; its axial part follows the helix hand of gear 1.
+  c.normal = Vec3<T>(L.cos_beta_b * G.n_t.x(), L.cos_beta_b * G.n_t.y(),
+                     T(-sigma * L.hand[0] * L.sin_beta_b));
+  // Contact velocities from the input velocities (rigid bodies, small tilts).
+  const Vec3<T> v1 = mo.vc[0] + mo.omega[0].cross(c.point - F.ax[0].c);
+  const Vec3<T> v2 = mo.vc[1] + mo.omega[1].cross(c.point - F.ax[1].c);
+  c.approach_rate = (v1 - v2).dot(c.normal);
+  // profile tangent: perpendicular to the transverse normal, towards gear 1's root
+  Vec2<T> tan2(-G.n_t.y(), G.n_t.x());
+  if (tan2.dot(S.to_root1[fl]) < 0) tan2 = -tan2;
+  c.tangent = Vec3<T>(tan2.x(), tan2.y(), T(0));
+  c.sliding_velocity = (v1 - v2).dot(c.tangent);
+  c.te_gain = G.gain * L.cos_beta_b;
+  c.path_position = G.path;
+}
+
+// The approach beyond the detection range (a quarter base pitch): msg set.
+template <class T>
+void approach_too_large(const MeshLayout& L, int sigma, const T& approach_t, std::string& msg) {
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "flank %c approach %.6g m exceeds the detection range (a quarter base "
+                "pitch, %.6g m): the gear poses (phi, u, r inputs) are not physical",
+                sigma > 0 ? 'A' : 'B', val(approach_t), 0.25 * L.base_pitch);
+  msg = buf;
+}
+
+template <class T, class K>
+int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int capacity,
+                std::string& msg) {
+  GM_AD_USING;
+  if (!spins_in_range(kin, msg)) return -1;
+  SliceFrame<T> F;
+  const int framed = make_frame(L, kin, F, msg);
+  if (framed <= 0) return framed;
+  const Section<T>& mid = F.mid;
+  const int s = L.sign;
   const double pb = L.base_pitch;
   const double rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   const double tau1 = 2 * kPi / L.teeth[0], tau2 = 2 * kPi / L.teeth[1];
   const double tb = L.tan_beta_b;
-  const double margin = pb + 0.5 * tb * val(zhi - zlo) + tilt_margin;
-  const bool uniform = aligned && tb == 0;  // every slice has the same section and roll distances
-  const Vec3<T> omega1(kin.w[0][0], kin.w[0][1], kin.omega[0]);
-  const Vec3<T> omega2(kin.w[1][0], kin.w[1][1], kin.omega[1]);
-  const Vec3<T> vc1(kin.v[0][0], kin.v[0][1], kin.v[0][2]);
-  const Vec3<T> vc2(kin.v[1][0], kin.v[1][1], kin.v[1][2]);
+  const double margin = pb + 0.5 * tb * val(F.zhi - F.zlo) + F.tilt_margin;
+  const bool uniform = F.aligned && tb == 0;  // every slice has the same section and roll distances
+  Motion<T> mo;
+  mo.omega[0] = Vec3<T>(kin.w[0][0], kin.w[0][1], kin.omega[0]);
+  mo.omega[1] = Vec3<T>(kin.w[1][0], kin.w[1][1], kin.omega[1]);
+  mo.vc[0] = Vec3<T>(kin.v[0][0], kin.v[0][1], kin.v[0][2]);
+  mo.vc[1] = Vec3<T>(kin.v[1][0], kin.v[1][1], kin.v[1][2]);
 
   int count = 0, pair = 0;
   for (int sigma = 1; sigma >= -1; sigma -= 2) {
@@ -291,10 +467,10 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
     double n1, n2;
     T f1, f2;
     split_periods(sigma * (L.theta0[0] + kin.phi[0] +
-                           L.hand[0] * (z_mid - ax[0].c.z()) * tb / rb1 - mid.gamma - L.zeta[0]),
+                           L.hand[0] * (F.z_mid - F.ax[0].c.z()) * tb / rb1 - mid.gamma - L.zeta[0]),
                   tau1, n1, f1);
     split_periods(sigma * (L.theta0[1] + kin.phi[1] +
-                           L.hand[1] * (z_mid - ax[1].c.z()) * tb / rb2 - mid.gamma - L.zeta[1]),
+                           L.hand[1] * (F.z_mid - F.ax[1].c.z()) * tb / rb2 - mid.gamma - L.zeta[1]),
                   tau2, n2, f2);
     const T base1 = rb1 * (f1 + L.eta[0] + mid.alpha_w);  // rho_1 = base1 + m1 p_bt
     const T base2 = rb2 * (f2 + L.eta[1] + mid.alpha_w);  // rho_2 = base2 + m2 p_bt
@@ -306,106 +482,28 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
       const T rho2_mid = base2 + m2 * pb;
       int tooth1 = -1, tooth2 = -1;  // found when the pair has a slice
       bool emitted = false;
-      // Aligned spur slices differ only in z: their contact geometry is computed once per pair.
-      Vec2<T> n_t, point;
-      T roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0, path = 0, gain = 0;
-      int kind = kFlankContact;
-      bool contact = false;
+      SliceContact<T> G;
       for (int k = 0; k < L.slices; ++k) {
-        const Section<T>& S = aligned ? mid : sections[k];
-        const T z = zlo + (k + 0.5) * width;
-        if (!uniform || k == 0) {
-          const T dz = z - z_mid;
-          // Roll distances in this slice's section: helical turn and the section's own frame.
-          T rho1 = rho1_mid + (sigma * L.hand[0] * tb) * dz;
-          T rho2 = rho2_mid + (sigma * L.hand[1] * tb) * dz;
-          const Vec2<T>& n_line = S.n_line[fl];
-          const Vec2<T>& T1 = S.T1[fl];
-          if (!aligned) {
-            rho1 += rb1 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
-            rho2 += rb2 * (-sigma * (S.gamma - mid.gamma) + (S.alpha_w - mid.alpha_w));
-            if (tb != 0) {
-              // A tilted helical gear meets the slice plane at body height z + r x (X - c):
-              // the contact point X sits a pitch radius off the axis, so this is first order.
-              const T t0 = rho1 - 0.5 * (rho1 + s * rho2 - s * S.T1T2);
-              const Vec2<T> X = T1 + t0 * n_line;
-              dz1 = ax[0].slope.dot(X - ax[0].c.template head<2>());
-              dz2 = ax[1].slope.dot(X - ax[1].c.template head<2>());
-              rho1 += (sigma * L.hand[0] * tb) * dz1;
-              rho2 += (sigma * L.hand[1] * tb) * dz2;
-            }
-          }
-          rigid = rho1 + s * rho2 - s * S.T1T2;
-          const T t = rho1 - 0.5 * rigid;  // contact midway between the two flanks
-          contact = true;
-          kind = kFlankContact;
-          if (t >= S.t_lo && t <= S.t_hi) {
-            roll1 = t;
-            roll2 = S.T1T2 - s * t;
-            n_t = n_line;
-            point = T1 + t * n_line;
-            path = (t - S.t_lo) / (S.t_hi - S.t_lo);
-            gain = T(sigma);  // d(Delta_t)/d(TE): rho_2 moves with phi_2 (docs/physics.md §3)
-          } else if (rigid > 0 && ((t > S.t_hi && S.tip1_ends) || (t < S.t_lo && S.tip2_starts))) {
-            // Tip (corner) contact outside the path: the tip edge of one gear against the
-            // mate's flank, with the mate's involute normal (paper 2.1; docs/physics.md §3). A tip edge
-            // penetrates at most as far as the flanks overlap on the line of action (conjugate
-            // action makes its penetration fall off the line): no overlap, no candidate.
-            const int g = t > S.t_hi ? 0 : 1, h = 1 - g;
-            const T theta_rel1 = sigma * (rho1 / rb1 - L.eta[0] - S.alpha_w);
-            const T theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
-            const T theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1,
-                                  S.gamma + L.zeta[1] + theta_rel2};
-            const Vec2<T> corner =
-                S.c[g] + L.tip_radius[g] * unit<T>(theta_c[g] + sigma * (L.eta[g] - L.inv_tip[g]));
-            T pen, roll_h;
-            Vec2<T> tangency;
-            contact = involute_penetration<T>(L, h, sigma, theta_c[h], S.c[h], corner, pen,
-                                              tangency, roll_h) &&
-                      pen > 0;  // an open tip edge carries nothing: not a candidate
-            if (contact) {
-              rigid = pen;
-              kind = g == 0 ? kTipOfGear1 : kTipOfGear2;
-              roll1 = g == 0 ? T(L.rho_tip[0]) : roll_h;
-              roll2 = g == 0 ? roll_h : T(L.rho_tip[1]);
-              // outward normal of the mate's material; the force on gear 2 follows from it
-              const bool ring_h = h == 1 && s < 0;
-              const Vec2<T> out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
-              n_t = g == 0 ? Vec2<T>(-out_h) : out_h;
-              point = corner;
-              path = g == 0 ? 1.0 : 0.0;
-              // d(pen)/d(TE): gear 2 turns by dTE/(s r_b2). Against gear 2's flank the involute
-              // moves by r_b2 per radian; gear 2's own edge moves along its tip circle.
-              gain = g == 0 ? T(sigma)
-                            : T(-out_h.dot(Vec2<T>(-(corner - S.c[1]).y(), (corner - S.c[1]).x())) /
-                                (s * rb2));
-            }
-          } else {
-            contact = false;
-          }
-        }
-        if (!contact) {
+        const Section<T>& S = F.aligned ? mid : F.sections[k];
+        const T z = F.zlo + (k + 0.5) * F.width;
+        if (!uniform || k == 0) slice_contact(L, F, S, sigma, fl, rho1_mid, rho2_mid, z, G);
+        if (!G.contact) {
           if (uniform) break;
           continue;
         }
-        T approach_t = rigid;
+        T approach_t = G.rigid;
         // face coordinates from each gear's mid-face
-        const T y1 = z - ax[0].c.z() + dz1 - L.axial_offset[0];
-        const T y2 = z - ax[1].c.z() + dz2 - L.axial_offset[1];
+        const T y1 = z - F.ax[0].c.z() + G.dz1 - L.axial_offset[0];
+        const T y2 = z - F.ax[1].c.z() + G.dz2 - L.axial_offset[1];
         if (!emitted) {
           tooth1 = tooth_index(n1, m1, sigma, L.teeth[0]);
           tooth2 = tooth_index(n2, m2, sigma, L.teeth[1]);
         }
         // micro-geometry gaps are along the flank normal (docs/physics.md §2): Delta_n = Delta_t cos(beta_b) - gap
-        if (L.micro[0].any) approach_t -= micro_gap(L.micro[0], fl, tooth1, roll1, y1) / L.cos_beta_b;
-        if (L.micro[1].any) approach_t -= micro_gap(L.micro[1], fl, tooth2, roll2, y2) / L.cos_beta_b;
+        if (L.micro[0].any) approach_t -= micro_gap(L.micro[0], fl, tooth1, G.roll1, y1) / L.cos_beta_b;
+        if (L.micro[1].any) approach_t -= micro_gap(L.micro[1], fl, tooth2, G.roll2, y2) / L.cos_beta_b;
         if (approach_t > 0.25 * pb) {
-          char buf[240];
-          std::snprintf(buf, sizeof buf,
-                        "flank %c approach %.6g m exceeds the detection range (a quarter base "
-                        "pitch, %.6g m): the gear poses (phi, u, r inputs) are not physical",
-                        sigma > 0 ? 'A' : 'B', val(approach_t), 0.25 * pb);
-          msg = buf;
+          approach_too_large(L, sigma, approach_t, msg);
           return -1;
         }
         if (count >= capacity) {
@@ -414,31 +512,10 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
           return -1;
         }
         ContactSliceT<T>& c = out[count++];
-        c.flank = sigma;
-        c.kind = kind;
+        fill_slice(L, F, S, mo, G, sigma, fl, z, approach_t, c);
         c.tooth[0] = tooth1;
         c.tooth[1] = tooth2;
         c.pair = pair;
-        c.approach = approach_t * L.cos_beta_b;
-        c.width = width;
-        c.roll[0] = roll1;
-        c.roll[1] = roll2;
-        c.point = Vec3<T>(point.x(), point.y(), z);
-        // The flank normal lies in the plane of action, inclined by beta_b to the transverse
-        // plane; its axial part follows the helix hand of gear 1.
-        c.normal = Vec3<T>(L.cos_beta_b * n_t.x(), L.cos_beta_b * n_t.y(),
-                           T(-sigma * L.hand[0] * L.sin_beta_b));
-        // Contact velocities from the input velocities (rigid bodies, small tilts).
-        const Vec3<T> v1 = vc1 + omega1.cross(c.point - ax[0].c);
-        const Vec3<T> v2 = vc2 + omega2.cross(c.point - ax[1].c);
-        c.approach_rate = (v1 - v2).dot(c.normal);
-        // profile tangent: perpendicular to the transverse normal, towards gear 1's root
-        Vec2<T> tan2(-n_t.y(), n_t.x());
-        if (tan2.dot(S.to_root1[fl]) < 0) tan2 = -tan2;
-        c.tangent = Vec3<T>(tan2.x(), tan2.y(), T(0));
-        c.sliding_velocity = (v1 - v2).dot(c.tangent);
-        c.te_gain = gain * L.cos_beta_b;
-        c.path_position = path;
         emitted = true;
       }
       pair += emitted;

@@ -7,6 +7,14 @@
 
 #include "gearmesh/internal/compliance_db.hpp"
 
+// The stages of FeAssembly::assemble are inlined into it (hot path of level 5: out of line,
+// the members they share would be reloaded through `this` after every call).
+#if defined(__GNUC__)
+#define GM_FE_STAGE inline __attribute__((always_inline))
+#else
+#define GM_FE_STAGE inline
+#endif
+
 namespace gm {
 namespace {
 
@@ -375,9 +383,8 @@ int FeAssembly::slot_of(const FeView& m, int g, const ContactSlice& si, const Sp
   return free_slot;
 }
 
-void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int* index, int n,
-                          const double uz[2], Eigen::MatrixXd& C) {
-  // groups: consecutive candidates of the same tooth pair and flank share their blocks
+// Groups: consecutive candidates of the same tooth pair and flank share their blocks.
+GM_FE_STAGE void FeAssembly::group_candidates(const ContactSlice* slices, const int* index, int n) {
   group_first_.clear();
   for (int a = 0; a < n; ++a) {
     const ContactSlice& s = slices[index[a]];
@@ -386,7 +393,12 @@ void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int
         prev->flank != s.flank)
       group_first_.push_back(a);
   }
-  const int ng = int(group_first_.size());
+}
+
+// Each candidate's roll node and weight, face strip and database tooth on both gears; a face
+// interval that changed (axial motion) makes new strips and this call direct.
+GM_FE_STAGE void FeAssembly::locate_spots(const FeView& m, const ContactSlice* slices, const int* index,
+                                          int n, const double uz[2]) {
   for (int g = 0; g < 2; ++g) {
     Gear& G = gear_[g];
     const ComplianceDb& db = m.compliance[g];
@@ -405,37 +417,178 @@ void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int
         full = p.strip < 0;
       }
       if (!full) break;
-      // a face interval changed (axial motion): new strips, this call direct
       G.strips.clear();
       G.shares.clear();
       clear_chunks(G);
       G.direct = true;
     }
   }
-  // a group is uniform on gear g when its candidates share the roll node and weight there (an
-  // aligned spur pair): its entries then share four chunk values' positions and weights
-  group_first_.push_back(n);
+}
+
+// A group is uniform on gear g when its candidates share the roll node and weight there (an
+// aligned spur pair): its entries then share four chunk values' positions and weights. Its
+// strips are consecutive when they follow the candidates one by one.
+GM_FE_STAGE void FeAssembly::classify_groups(int ng) {
   uniform_.assign(std::size_t(2 * ng), 1);
-  for (int g = 0; g < 2; ++g)
-    for (int q = 0; q < ng; ++q)
-      for (int a = group_first_[std::size_t(q)] + 1; a < group_first_[std::size_t(q) + 1]; ++a) {
-        const Spot& p0 = gear_[g].spots[std::size_t(group_first_[std::size_t(q)])];
-        const Spot& p = gear_[g].spots[std::size_t(a)];
-        if (p.roll_node != p0.roll_node || p.roll_weight != p0.roll_weight)
-          uniform_[std::size_t(g * ng + q)] = 0;
-      }
   consecutive_.assign(std::size_t(2 * ng), 1);
   for (int g = 0; g < 2; ++g)
     for (int q = 0; q < ng; ++q) {
       const int a0 = group_first_[std::size_t(q)];
-      for (int a = a0 + 1; a < group_first_[std::size_t(q) + 1]; ++a)
-        if (gear_[g].spots[std::size_t(a)].strip != gear_[g].spots[std::size_t(a0)].strip + a - a0)
-          consecutive_[std::size_t(g * ng + q)] = 0;
+      const Spot& p0 = gear_[g].spots[std::size_t(a0)];
+      for (int a = a0 + 1; a < group_first_[std::size_t(q) + 1]; ++a) {
+        const Spot& p = gear_[g].spots[std::size_t(a)];
+        if (p.roll_node != p0.roll_node || p.roll_weight != p0.roll_weight)
+          uniform_[std::size_t(g * ng + q)] = 0;
+        if (p.strip != p0.strip + a - a0) consecutive_[std::size_t(g * ng + q)] = 0;
+      }
     }
+}
+
+// Gear g's part of the entries of a group pair (columns a0..a1, rows b0..b1, upper triangle)
+// for a uniform group pair from the cache: the same terms for every entry, in the
+// general order of add_cached.
+GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const GroupPair& q,
+                                         Eigen::MatrixXd& C) {
+  Gear& G = gear_[g];
+  const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
+  const int S = int(G.strips.size());
+  const int nr = std::min(2, int(m.compliance[g].roll.size()));
+  const Spot& pa = G.spots[std::size_t(a0)];
+  const Spot& pb = G.spots[std::size_t(b0)];
+  double w[4];
+  int at[4];
+  const double* v[4];
+  int nt = 0;
+  for (int al = 0; al < nr; ++al) {
+    const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
+    if (ra == 0) continue;
+    for (int be = 0; be < nr; ++be) {
+      const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
+      if (rb == 0) continue;
+      w[nt] = ra * rb;
+      at[nt++] = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
+    }
+  }
+  for (int t = 0; t < nt; ++t) v[t] = B.pool.data() + at[t];  // pool no longer grows
+  if (nt == 4 && q.b_consecutive[g]) {
+    // group b's strips are consecutive: each column segment C(b0.., a) reads a contiguous run
+    // of every chunk (the same terms in the same order)
+    const int s0 = G.spots[std::size_t(b0)].strip;
+    for (int a = a0; a < a1; ++a) {
+      const int base = G.spots[std::size_t(a)].strip * S + s0;
+      const int len = std::min(b1, a + 1) - b0;
+      double* col = &C(b0, a);
+      const double *v0 = v[0] + base, *v1 = v[1] + base, *v2 = v[2] + base, *v3 = v[3] + base;
+      for (int k = 0; k < len; ++k) {
+        double e = 0;
+        e += w[0] * v0[k];
+        e += w[1] * v1[k];
+        e += w[2] * v2[k];
+        e += w[3] * v3[k];
+        col[k] += e;
+      }
+    }
+    return;
+  }
+  for (int a = a0; a < a1; ++a) {
+    const int sa = G.spots[std::size_t(a)].strip * S;
+    for (int b = b0; b < std::min(b1, a + 1); ++b) {
+      const int at_ab = sa + G.spots[std::size_t(b)].strip;
+      double e = 0;
+      for (int t = 0; t < nt; ++t) e += w[t] * v[t][at_ab];
+      C(b, a) += e;
+    }
+  }
+}
+
+// The same for a cached, non-uniform group pair (helical, tilted): the chunk offsets read
+// inline (a chunk is computed only when new; the pool may then grow, so no pointer into it is
+// kept across that call).
+GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const GroupPair& q,
+                                        Eigen::MatrixXd& C) {
+  Gear& G = gear_[g];
+  const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
+  const int S = int(G.strips.size());
+  const int nrr = int(m.compliance[g].roll.size());
+  const int nr = std::min(2, nrr);
+  for (int a = a0; a < a1; ++a) {
+    const Spot& pa = G.spots[std::size_t(a)];
+    const double ras[2] = {pa.roll_weight, 1 - pa.roll_weight};
+    for (int b = b0; b < std::min(b1, a + 1); ++b) {
+      const Spot& pb = G.spots[std::size_t(b)];
+      const double rbs[2] = {pb.roll_weight, 1 - pb.roll_weight};
+      const int off = pa.strip * S + pb.strip;
+      double e = 0;
+      for (int al = 0; al < nr; ++al) {
+        const double ra = ras[al];
+        if (ra == 0) continue;
+        const int* row = B.chunk.data() + std::size_t(pa.roll_node + al) * std::size_t(nrr);
+        for (int be = 0; be < nr; ++be) {
+          const double rb = rbs[be];
+          if (rb == 0) continue;
+          int at = row[pb.roll_node + be];
+          if (at < 0) at = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
+          e += ra * rb * B.pool[std::size_t(at + off)];
+        }
+      }
+      C(b, a) += e;
+    }
+  }
+}
+
+// The same directly from the database (this call's face intervals are new).
+GM_FE_STAGE void FeAssembly::add_direct(const FeView& m, int g, const Block& B, const GroupPair& q,
+                                        Eigen::MatrixXd& C) const {
+  const Gear& G = gear_[g];
+  const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
+  const int nr = std::min(2, int(m.compliance[g].roll.size()));
+  for (int a = a0; a < a1; ++a) {
+    const Spot& pa = G.spots[std::size_t(a)];
+    for (int b = b0; b < std::min(b1, a + 1); ++b) {
+      const Spot& pb = G.spots[std::size_t(b)];
+      double e = 0;
+      for (int al = 0; al < nr; ++al) {
+        const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
+        if (ra == 0) continue;
+        for (int be = 0; be < nr; ++be) {
+          const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
+          if (rb == 0) continue;
+          e += ra * rb * strip_value(m, g, B.index, pa.roll_node + al, pb.roll_node + be,
+                                     pa.strip, pb.strip);
+        }
+      }
+      C(b, a) += e;
+    }
+  }
+}
+
+// Blocks of teeth that left the candidates: dropped (a cyclic database has few blocks, kept).
+GM_FE_STAGE void FeAssembly::drop_unused_blocks(const FeView& m) {
+  for (int g = 0; g < 2; ++g)
+    for (Block& B : gear_[g].blocks)
+      if (!m.compliance[g].cyclic && !B.used && B.index >= 0) {
+        B.index = -1;
+        B.pool.clear();
+      }
+}
+
+void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int* index, int n,
+                          const double uz[2], Eigen::MatrixXd& C) {
+  group_candidates(slices, index, n);
+  const int ng = int(group_first_.size());
+  locate_spots(m, slices, index, n, uz);
+  group_first_.push_back(n);
+  classify_groups(ng);
   for (int ga = 0; ga < ng; ++ga) {
-    const int a0 = group_first_[std::size_t(ga)], a1 = group_first_[std::size_t(ga) + 1];
     for (int gb = 0; gb <= ga; ++gb) {
-      const int b0 = group_first_[std::size_t(gb)], b1 = group_first_[std::size_t(gb) + 1];
+      GroupPair q;
+      q.a0 = group_first_[std::size_t(ga)], q.a1 = group_first_[std::size_t(ga) + 1];
+      q.b0 = group_first_[std::size_t(gb)], q.b1 = group_first_[std::size_t(gb) + 1];
+      for (int g = 0; g < 2; ++g) {
+        q.uniform[g] = uniform_[std::size_t(g * ng + ga)] && uniform_[std::size_t(g * ng + gb)];
+        q.b_consecutive[g] = consecutive_[std::size_t(g * ng + gb)];
+      }
+      const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
       for (int a = a0; a < a1; ++a)
         for (int b = b0; b < std::min(b1, a + 1); ++b) C(b, a) = 0;
       for (int g = 0; g < 2; ++g) {
@@ -444,120 +597,18 @@ void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int
                                  slices[index[b0]], G.spots[std::size_t(b0)]);
         if (slot < 0) continue;
         Block& B = G.blocks[std::size_t(slot)];
-        const int S = int(G.strips.size());
-        const int nr = std::min(2, int(m.compliance[g].roll.size()));
-        if (!G.direct && uniform_[std::size_t(g * ng + ga)] && uniform_[std::size_t(g * ng + gb)]) {
-          // the same terms for every entry of the group pair, in the general order below
-          const Spot& pa = G.spots[std::size_t(a0)];
-          const Spot& pb = G.spots[std::size_t(b0)];
-          double w[4];
-          int at[4];
-          const double* v[4];
-          int nt = 0;
-          for (int al = 0; al < nr; ++al) {
-            const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
-            if (ra == 0) continue;
-            for (int be = 0; be < nr; ++be) {
-              const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
-              if (rb == 0) continue;
-              w[nt] = ra * rb;
-              at[nt++] = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
-            }
-          }
-          for (int t = 0; t < nt; ++t) v[t] = B.pool.data() + at[t];  // pool no longer grows
-          if (nt == 4 && consecutive_[std::size_t(g * ng + gb)]) {
-            // group b's strips are consecutive: each column segment C(b0.., a) reads a
-            // contiguous run of every chunk (the same terms in the same order)
-            const int s0 = G.spots[std::size_t(b0)].strip;
-            for (int a = a0; a < a1; ++a) {
-              const int base = G.spots[std::size_t(a)].strip * S + s0;
-              const int len = std::min(b1, a + 1) - b0;
-              double* col = &C(b0, a);
-              const double *v0 = v[0] + base, *v1 = v[1] + base, *v2 = v[2] + base,
-                           *v3 = v[3] + base;
-              for (int k = 0; k < len; ++k) {
-                double e = 0;
-                e += w[0] * v0[k];
-                e += w[1] * v1[k];
-                e += w[2] * v2[k];
-                e += w[3] * v3[k];
-                col[k] += e;
-              }
-            }
-            continue;
-          }
-          for (int a = a0; a < a1; ++a) {
-            const int sa = G.spots[std::size_t(a)].strip * S;
-            for (int b = b0; b < std::min(b1, a + 1); ++b) {
-              const int at = sa + G.spots[std::size_t(b)].strip;
-              double e = 0;
-              for (int t = 0; t < nt; ++t) e += w[t] * v[t][at];
-              C(b, a) += e;
-            }
-          }
-          continue;
-        }
-        if (!G.direct) {
-          // cached, non-uniform (helical, tilted): the terms below with the chunk offsets read
-          // inline (a chunk is computed only when new; the pool may then grow, so no pointer
-          // into it is kept across that call)
-          const int nrr = int(m.compliance[g].roll.size());
-          for (int a = a0; a < a1; ++a) {
-            const Spot& pa = G.spots[std::size_t(a)];
-            const double ras[2] = {pa.roll_weight, 1 - pa.roll_weight};
-            for (int b = b0; b < std::min(b1, a + 1); ++b) {
-              const Spot& pb = G.spots[std::size_t(b)];
-              const double rbs[2] = {pb.roll_weight, 1 - pb.roll_weight};
-              const int off = pa.strip * S + pb.strip;
-              double e = 0;
-              for (int al = 0; al < nr; ++al) {
-                const double ra = ras[al];
-                if (ra == 0) continue;
-                const int* row = B.chunk.data() + std::size_t(pa.roll_node + al) * std::size_t(nrr);
-                for (int be = 0; be < nr; ++be) {
-                  const double rb = rbs[be];
-                  if (rb == 0) continue;
-                  int at = row[pb.roll_node + be];
-                  if (at < 0) at = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
-                  e += ra * rb * B.pool[std::size_t(at + off)];
-                }
-              }
-              C(b, a) += e;
-            }
-          }
-          continue;
-        }
-        // direct (this call's face intervals are new): the same terms from the database
-        for (int a = a0; a < a1; ++a) {
-          const Spot& pa = G.spots[std::size_t(a)];
-          for (int b = b0; b < std::min(b1, a + 1); ++b) {
-            const Spot& pb = G.spots[std::size_t(b)];
-            double e = 0;
-            for (int al = 0; al < nr; ++al) {
-              const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
-              if (ra == 0) continue;
-              for (int be = 0; be < nr; ++be) {
-                const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
-                if (rb == 0) continue;
-                e += ra * rb * strip_value(m, g, B.index, pa.roll_node + al, pb.roll_node + be,
-                                           pa.strip, pb.strip);
-              }
-            }
-            C(b, a) += e;
-          }
-        }
+        if (G.direct)
+          add_direct(m, g, B, q, C);
+        else if (q.uniform[g])
+          add_uniform(m, g, B, q, C);
+        else
+          add_cached(m, g, B, q, C);
       }
       for (int a = a0; a < a1; ++a)
         for (int b = b0; b < std::min(b1, a + 1); ++b) C(a, b) = C(b, a);
     }
   }
-  // blocks of teeth that left the candidates: dropped (a cyclic database has few blocks, kept)
-  for (int g = 0; g < 2; ++g)
-    for (Block& B : gear_[g].blocks)
-      if (!m.compliance[g].cyclic && !B.used && B.index >= 0) {
-        B.index = -1;
-        B.pool.clear();
-      }
+  drop_unused_blocks(m);
 }
 
 }  // namespace gm

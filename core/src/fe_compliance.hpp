@@ -124,6 +124,21 @@ class FeAssembly {
   // offset of chunk (a, b) in B.pool, computed if new (the pool may grow: no pointers kept)
   int chunk_at(const FeView& m, int g, Block& B, int a, int b);
   double strip_value(const FeView& m, int g, int block, int a, int b, int si, int sj) const;
+  // the stages of assemble (fe_compliance.cpp)
+  void group_candidates(const ContactSlice* slices, const int* index, int n);
+  void locate_spots(const FeView& m, const ContactSlice* slices, const int* index, int n,
+                    const double uz[2]);
+  void classify_groups(int ng);
+  // two groups' candidates a0..a1 and b0..b1 (b's group not after a's) and, per gear, whether
+  // both are uniform and whether b's strips are consecutive
+  struct GroupPair {
+    int a0 = 0, a1 = 0, b0 = 0, b1 = 0;
+    bool uniform[2] = {false, false}, b_consecutive[2] = {false, false};
+  };
+  void add_uniform(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
+  void add_cached(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
+  void add_direct(const FeView& m, int g, const Block& B, const GroupPair& q, Eigen::MatrixXd& C) const;
+  void drop_unused_blocks(const FeView& m);
 
   Gear gear_[2];
   std::vector<int> group_first_;  // groups (consecutive candidates of one tooth pair and

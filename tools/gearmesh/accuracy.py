@@ -1,18 +1,22 @@
-"""`gearmesh accuracy`: the error of every setting (stiffness level, slices, coupled teeth) against
-the FE references of scenarios/reference/ (reference_fe/README.md: the 2-D band of whole gears
-and the 3-D sectors), with its cost per evaluation measured in the same run. Writes accuracy.md, accuracy.csv and accuracy_pareto.png to the output
-folder (docs/validation.md)."""
+"""`gearmesh accuracy`: the error of every setting (stiffness level, slices, coupled teeth, level
+5's FE variants) against the FE references of scenarios/reference/ (reference_fe/README.md: the
+2-D band of whole gears and the 3-D sectors), with its cost per evaluation measured in the same
+run and, at level 5, what its databases cost to build. Writes accuracy.md, accuracy.csv and
+accuracy_pareto.png to the output folder (docs/validation.md)."""
 from __future__ import annotations
 
 import pathlib
 import sys
+from dataclasses import dataclass
 
 from tqdm import tqdm
 
-from gearmesh import accuracy_iso, accuracy_ledger, accuracy_report, accuracy_settings
+from gearmesh import (accuracy_iso, accuracy_ledger, accuracy_report, accuracy_settings,
+                      compliance)
 from gearmesh.accuracy_reference import (KINDS, Reference, ReferenceError, curve_error, errors,
-                                         pair_errors, pairs_path, positions_path, read_pairs,
-                                         read_positions, read_summary, summary_path)
+                                         lineload_path, pair_errors, pairs_path,
+                                         peak_line_load_error, positions_path, read_lineload,
+                                         read_pairs, read_positions, read_summary, summary_path)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.accuracy_timing import round_trip
 from gearmesh.scene import Scene
@@ -30,10 +34,47 @@ def default_reference_dir(scene: Scene) -> pathlib.Path:
     return scene.path.parent / "reference"
 
 
+@dataclass(frozen=True)
+class Planned:
+    """One setting of a scene's plan: its start values, and at level 5 its databases' cost."""
+    setting: accuracy_settings.Setting
+    values: dict
+    database: accuracy_settings.DatabaseCost | None = None
+
+
+def level5_databases(scene: Scene, generic_fmu: pathlib.Path, notes: list[str],
+                     build: bool, progress: bool) -> dict[tuple, dict[int, pathlib.Path]]:
+    """(coupled teeth, FE variant or None) -> both gears' cached databases: every coupled-teeth
+    value at the scene's [fe], and every FE variant at the scene's coupled teeth. build: make
+    what is missing first (compliance_tool through gearmesh.compliance; a database for 3
+    coupled teeth serves 0-3)."""
+    own = accuracy_settings.scene_coupled(scene)
+    wanted = [(c, None) for c in accuracy_settings.COUPLED]
+    wanted += [(own, v) for v in accuracy_settings.FE_VARIANTS]
+    if build:
+        for fe in (None, *accuracy_settings.FE_VARIANTS):
+            coupled = max(accuracy_settings.COUPLED) if fe is None else own
+            compliance.build_databases(accuracy_settings.level5_scene(scene, coupled, fe),
+                                       progress=progress)
+    found = {}
+    for c, fe in wanted:
+        dbs = accuracy_settings.cached_databases(scene, c, generic_fmu, fe=fe)
+        if dbs:
+            found[(c, fe)] = dbs
+    missing = [f"coupled teeth {c}" if fe is None else f"{fe}" for c, fe in wanted
+               if (c, fe) not in found]
+    if missing:
+        notes.append(f"{scene.name}: level 5 skipped for {', '.join(missing)}: no cached "
+                     f"compliance databases (`gearmesh accuracy --build-databases` builds them: "
+                     f"about 40 s and 3 GiB per gear at the default mesh, 4 min and 8.5 GiB "
+                     f"for mesh-fine)")
+    return found
+
+
 def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, preset: str,
-              notes: list[str]):
+              notes: list[str], build: bool = False, progress: bool = False):
     """The scene's FMU with level 1's table and the cached level-5 databases as resources, and
-    per setting the start values that select it. Returns (fmu path, [(Setting, values)])."""
+    its plan: per setting the start values that select it. Returns (fmu path, [Planned])."""
     base = {k: v for k, v in scene.parameters.items() if k not in _PER_SETTING}
     resources = dict(scene.resources)
     try:
@@ -48,35 +89,30 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
                      f"N/(mm µm) (L0(c_ga)) or c' (L0(c')), level 1 with the level-2 curve "
                      f"({table.name}; c' = {iso.c_prime / 1e9:.4g} N/(mm µm), eps_alpha = "
                      f"{iso.contact_ratio:.4g})")
-    coupled_dbs = {}
-    if preset == "full":
-        for c in accuracy_settings.COUPLED:
-            dbs = accuracy_settings.cached_databases(scene, c, generic_fmu)
-            if dbs:
-                coupled_dbs[c] = dbs
-                for i, path in dbs.items():
-                    resources[f"accuracy_{path.stem[:16]}.gcdb"] = path
-        missing = [c for c in accuracy_settings.COUPLED if c not in coupled_dbs]
-        if missing:
-            notes.append(f"{scene.name}: level 5 skipped for coupled teeth "
-                         f"{', '.join(map(str, missing))}: no cached compliance databases "
-                         f"(build them with `python -m gearmesh compliance` on the scene at "
-                         f"stiffness_level = 5, coupled_teeth = 3)")
+    dbs = level5_databases(scene, generic_fmu, notes, build, progress) if preset == "full" else {}
+    for paths in dbs.values():
+        for path in paths.values():
+            resources[f"accuracy_{path.stem[:16]}.gcdb"] = path
     fmu = build_scene_fmu(generic_fmu, base, resources, folder / f"{scene.name}.accuracy.fmu")
+    coupled = tuple(c for c, fe in dbs if fe is None)
+    variants = tuple(fe for c, fe in dbs if fe is not None)
     plan = []
-    for s in accuracy_settings.settings(preset, tuple(coupled_dbs)):
+    for s in accuracy_settings.settings(preset, coupled, variants,
+                                        accuracy_settings.scene_coupled(scene)):
         if iso is None and s.level in (0, 1):
             continue
-        values = s.parameters()
+        values, cost = s.parameters(), None
         if s.level == 0:
             values["model.user_stiffness"] = (iso.c_gamma_alpha if s.constant == "c_ga"
                                               else iso.c_prime)
         elif s.level == 1:
             values["model.stiffness_table"] = TABLE
         elif s.level == 5:
-            for i, path in coupled_dbs[s.coupled].items():
+            paths = dbs[(s.coupled, s.fe)]
+            for i, path in paths.items():
                 values[f"gear{i}.compliance"] = f"accuracy_{path.stem[:16]}.gcdb"
-        plan.append((s, values))
+            cost = accuracy_settings.database_cost(paths)
+        plan.append(Planned(s, values, cost))
     return fmu, plan
 
 
@@ -103,20 +139,26 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
                             reference.n_positions)
     shares, loads = (read_pairs(pairs_path(reference.path.parent, scene.name),
                                 reference.n_positions) if reference.kind == "2d" else ({}, {}))
+    peaks = (read_lineload(lineload_path(reference.path.parent, scene.name), reference.n_positions)
+             if reference.kind == "3d" else {})
     rows = []
-    for setting, values in tqdm(plan, desc=f"{scene.name} ({reference.kind})",
-                                disable=not progress, leave=False):
-        result = sweep(fmu, values, torques, reference.n_positions, repeats)
+    for planned in tqdm(plan, desc=f"{scene.name} ({reference.kind})", disable=not progress,
+                        leave=False):
+        setting, db = planned.setting, planned.database
+        result = sweep(fmu, planned.values, torques, reference.n_positions, repeats)
         cost = {"plain_us": (result.plain_step - round_trip_s) * 1e6,
                 "plain_raw_us": result.plain_step * 1e6,
                 "quasi_static_us": (result.qs_step - round_trip_s) * 1e6,
-                "quasi_static_raw_us": result.qs_step * 1e6, "round_trip_us": round_trip_s * 1e6}
+                "quasi_static_raw_us": result.qs_step * 1e6, "round_trip_us": round_trip_s * 1e6,
+                "fe_variant": setting.fe or "",
+                "db_build_s": db.build_s if db else "", "db_peak_MiB": db.peak_MiB if db else ""}
         for torque in torques:
             curve = curve_error(curves, torque, result.te[torque], reference.models)
             pairs = pair_errors(shares, loads, torque, result.load_share[torque],
                                 result.pair_line_load[torque], reference.models)
+            peak = peak_line_load_error(peaks, torque, setting.slices, result.max_line_load[torque])
             for e in (errors(reference, torque, result.summary[torque])
-                      + ([curve] if curve else []) + pairs):
+                      + ([curve] if curve else []) + pairs + ([peak] if peak else [])):
                 rows.append({"scene": scene.name, "reference": reference.kind,
                              "setting": setting.label, "level": setting.level,
                              "slices": setting.slices,
@@ -127,9 +169,9 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
 
 def run(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
         reference_dir: pathlib.Path | None, preset: str, repeats: int = 2,
-        progress: bool = True) -> tuple[list[dict], list[str]]:
+        progress: bool = True, build: bool = False) -> tuple[list[dict], list[str]]:
     """The tidy rows (accuracy_report.COLUMNS) of every scene with a reference (2-D, 3-D or
-    both), and the notes."""
+    both), and the notes. build: make level 5's missing databases first (full preset)."""
     notes: list[str] = []
     rows: list[dict] = []
     base = round_trip(generic_fmu)
@@ -144,16 +186,17 @@ def run(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
             continue
         folder = out / scene.name
         folder.mkdir(parents=True, exist_ok=True)
-        fmu, plan = scene_fmu(scene, generic_fmu, folder, preset, notes)
+        fmu, plan = scene_fmu(scene, generic_fmu, folder, preset, notes, build, progress)
         for reference in found:
             rows += compare(scene, reference, fmu, plan, preset, base, repeats, progress)
     return rows, notes
 
 
 def main(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
-         reference_dir: pathlib.Path | None, preset: str, tolerance: float) -> int:
+         reference_dir: pathlib.Path | None, preset: str, tolerance: float,
+         build: bool = False) -> int:
     out.mkdir(parents=True, exist_ok=True)
-    rows, notes = run(scenes, generic_fmu, out, reference_dir, preset)
+    rows, notes = run(scenes, generic_fmu, out, reference_dir, preset, build=build)
     for n in notes:
         print(f"gearmesh accuracy: {n}", file=sys.stderr)
     if not rows:

@@ -9,20 +9,24 @@ import math
 import pathlib
 from collections import defaultdict
 
-from gearmesh.accuracy_reference import CURVE, LOAD_SHARE, PAIR_LINE_LOAD, QUANTITIES, SCORED
+from gearmesh.accuracy_reference import (CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD,
+                                         QUANTITIES, SCORED)
 
 # reference: "2d" (plane_* columns filled) or "3d" (fe3d columns filled); the others are empty.
 # product, plane_stress, plane_strain, fe3d: the quantity's values in its unit (SI; "1" for a share)
 COLUMNS = ["scene", "reference", "setting", "level", "slices", "coupled_teeth", "torque_Nm",
            "quantity", "unit", "product", "plane_stress", "plane_strain", "fe3d", "band_error",
            "error_plane_stress", "error_plane_strain", "error_fe3d", "plain_us", "plain_raw_us",
-           "quasi_static_us", "quasi_static_raw_us", "round_trip_us"]
+           "quasi_static_us", "quasi_static_raw_us", "round_trip_us", "fe_variant", "db_build_s",
+           "db_peak_MiB"]
 ERROR_COLUMNS = ("band_error", "error_plane_stress", "error_plane_strain", "error_fe3d")
 TIME_COLUMNS = ("plain_us", "plain_raw_us", "quasi_static_us", "quasi_static_raw_us",
                 "round_trip_us")
+DATABASE_COLUMNS = ("db_build_s", "db_peak_MiB")  # level 5: the databases' build (NaN elsewhere)
 # A setting's score: the largest |band error| over the torques and its reference's SCORED.
-# CURVE, LOAD_SHARE, PAIR_LINE_LOAD: n/a where the reference has no per-position or per-tooth file
-SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PAIR_LINE_LOAD)
+# CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD: n/a where the reference has no per-position,
+# per-tooth or line-load file (or, for PEAK_LINE_LOAD, not the setting's slice count)
+SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD)
 _REFERENCE_TITLE = {"2d": "2-D band [plane stress, plane strain], whole gears",
                     "3d": "3-D sectors (ripple scored; the mean is biased low by the sectors)"}
 
@@ -47,7 +51,7 @@ def read_csv(path: pathlib.Path) -> list[dict]:
     for row in rows:
         row["reference"] = row.get("reference") or "2d"
         for key in ("torque_Nm", "product", "plane_stress", "plane_strain", "fe3d",
-                    *ERROR_COLUMNS, *TIME_COLUMNS):
+                    *ERROR_COLUMNS, *TIME_COLUMNS, *DATABASE_COLUMNS):
             row[key] = float(row.get(key) or "nan")
     return rows
 
@@ -69,13 +73,25 @@ def per_setting(rows: list[dict]) -> list[dict]:
     out = []
     for (scene, reference, setting), group in by_setting.items():
         entry = {"scene": scene, "reference": reference, "setting": setting,
-                 "level": group[0]["level"], **{k: group[0][k] for k in TIME_COLUMNS}}
+                 "level": group[0]["level"], **{k: group[0][k] for k in TIME_COLUMNS},
+                 **{k: _number(group[0].get(k)) for k in DATABASE_COLUMNS}}
         for q in SHOWN:
             errors = [r["band_error"] for r in group if r["quantity"] == q]
             entry[q] = max(errors, key=abs) if errors else math.nan
         entry["score"] = max(abs(entry[q]) for q in SCORED[reference] if not math.isnan(entry[q]))
         out.append(entry)
     return out
+
+
+def _number(value) -> float:
+    return math.nan if value in (None, "") else float(value)
+
+
+def database(entry: dict) -> str:
+    """A level-5 entry's database build (time over both gears, peak memory) as text."""
+    if math.isnan(entry["db_build_s"]):
+        return ""
+    return f"{entry['db_build_s']:.0f} s, {entry['db_peak_MiB'] / 1024:.1f} GiB"
 
 
 SCORE_RESOLUTION = 1e-6  # scores closer than this are equal (settings that differ in cost only)
@@ -113,27 +129,33 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
              f"largest |error| over {', '.join(SCORED['2d'])} (2-D) or "
              f"{', '.join(SCORED['3d'])} (3-D). Cost: median time per fmi2DoStep "
              "through fmpy minus the bare fmpy round trip (raw: without the subtraction), plain "
-             "mode (prescribed spins) and quasi-static mode. TE curve: the worst distance of the "
+             "mode (prescribed spins) and quasi-static mode. Database build (level 5): compliance_tool's "
+             "wall time over the distinct gear databases and its largest peak memory, from the "
+             "build cache. TE curve: the worst distance of the "
              "TE to the band of the two models position by position (a p-p or an order outside "
              "the band of p-p values can come from a curve inside the band everywhere). Load "
              "share: the most loaded tooth pair's share of the force (mesh.max_load_share) "
              "against the band of the models' position by position; pair line load: that pair's "
              "force over the face width, the largest over the positions, against the band of "
              "the models' largest "
-             "(2-D references with per-tooth forces). The error against each model is in "
+             "(2-D references with per-tooth forces). Peak line load (3-D references with the "
+             "line load across the face, shown, not scored): mesh.max_line_load, the largest "
+             "over the positions, against the reference's largest bin line load at as many bins "
+             "as the setting's slices. The error against each model is in "
              "accuracy.csv.", ""]
     lines += [f"* {n}" for n in notes]
     for (scene, kind), group in groups(entries).items():
         front = {id(e) for e in pareto_front(group)}
         lines += ["", f"## {scene}: {_REFERENCE_TITLE[kind]}", "",
                   "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | TE curve | "
-                  "load share | pair line load | score | plain µs (raw) | quasi-static µs (raw) | "
-                  "front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "load share | pair line load | peak line load | score | plain µs (raw) | "
+                  "quasi-static µs (raw) | database build | front |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for e in group:
             lines.append(
                 f"| {e['setting']} | " + " | ".join(pct(e[q]) for q in SHOWN)
                 + f" | {100 * e['score']:.1f} % | {e['plain_us']:.1f} ({e['plain_raw_us']:.1f})"
-                f" | {e['quasi_static_us']:.1f} ({e['quasi_static_raw_us']:.1f}) | "
+                f" | {e['quasi_static_us']:.1f} ({e['quasi_static_raw_us']:.1f}) | {database(e)} | "
                 + ("yes" if id(e) in front else "") + " |")
         best = cheapest_within(group, tolerance)
         lines += ["", f"Cheapest setting within {100 * tolerance:g} %: "
