@@ -58,6 +58,17 @@ def main(argv: list[str] | None = None) -> int:
     p_stab.add_argument("--quick", action="store_true", help="the CI subset")
     sub.add_parser("platforms", add_help=False,
                    help="build the multi-platform FMU (linux64, win64, darwin64) into build-platforms/")
+    p_fmu = sub.add_parser("fmu", help="write a scene's FMU listing only what the scene uses "
+                           "(interfaces torsional, planar, full; docs/fmi.md)")
+    p_fmu.add_argument("scenes", nargs=1, type=pathlib.Path, metavar="SCENE", help="scene file (TOML)")
+    p_fmu.add_argument("--interface", choices=("torsional", "planar", "full"),
+                       help="default: the scene's [fmu] interface, else torsional unless it is "
+                       "misaligned (full) or its bearings move (planar)")
+    p_fmu.add_argument("--tunable", action="append", default=[], metavar="PARAMETER",
+                       help="a parameter the scene sets that stays listed and tunable (repeatable)")
+    p_fmu.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu",
+                       help="the generic FMU (default build/GearMesh.fmu)")
+    p_fmu.add_argument("--out", type=pathlib.Path, help="default: output/SCENE_NAME.fmu")
     sub.add_parser("fmu-docs", help="regenerate the FMU's documentation/index.html from README.md "
                    "and docs/fmi.md")
     p_acc = sub.add_parser("accuracy", help="error of every stiffness setting against the FE "
@@ -120,6 +131,8 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as exc:
             print(f"gearmesh: {exc}", file=sys.stderr)
             return 2
+    if args.command == "fmu":
+        return _scene_fmu(scenes[0], args)
     if args.command == "batch":
         from gearmesh import batch
 
@@ -151,6 +164,21 @@ def main(argv: list[str] | None = None) -> int:
 
     report = run_main(scenes, args.fmu, args.out)
     print(f"gearmesh: report written to {report}")
+    return 0
+
+
+def _scene_fmu(scene, args) -> int:
+    from gearmesh import fmu_command
+    from gearmesh.compliance import ComplianceError
+    from gearmesh.scene_interface import InterfaceError
+
+    out = args.out or REPO / "output" / f"{scene.name}.fmu"
+    try:
+        interface, listed = fmu_command.write_scene_fmu(scene, args.fmu, out, args.interface, args.tunable)
+    except (InterfaceError, ComplianceError, ValueError, OSError) as exc:
+        print(f"gearmesh: {exc}", file=sys.stderr)
+        return 2
+    print(fmu_command.summary(interface, listed, args.fmu, out))
     return 0
 
 

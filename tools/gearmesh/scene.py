@@ -121,9 +121,25 @@ FE_SCHEMA: dict[str, Key] = {
     "load_fraction": Key("--load-fraction", 1.0, 0.01, 1.0),
 }
 GEOMETRY_BODY_KEYS = [k for k in BODY_SCHEMA if k not in ("mesh_file", "compliance_file")]
+# [gear<i>.mounting]: the centre's static pose in the housing frame (start values of the FMU's
+# inputs; a tilt or axial offset is a misalignment) and whether the bearings let it move in the
+# plane (the system model then drives gear<i>.ux, .uy: the planar interface).
+# The tilt's range is the detection's (core/src/inputs.cpp, kMaxTilt); a centre more than 10 mm
+# off is a different pair, not a mounting error.
+MOUNTING_SCHEMA: dict[str, Key] = {
+    "center_x_um": Key("gear{i}.ux", 1e-6, -1e4, 1e4, unit="um"),
+    "center_y_um": Key("gear{i}.uy", 1e-6, -1e4, 1e4, unit="um"),
+    "center_z_um": Key("gear{i}.uz", 1e-6, -1e4, 1e4, unit="um"),
+    "tilt_x_mrad": Key("gear{i}.rx", 1e-3, -20, 20, unit="mrad"),
+    "tilt_y_mrad": Key("gear{i}.ry", 1e-3, -20, 20, unit="mrad"),
+    "bearing_motion": Key("", kind=bool),
+}
+# [fmu]: what `gearmesh fmu` writes (gearmesh.scene_interface; docs/fmi.md, "Scene interfaces")
+FMU_INTERFACES = ("torsional", "planar", "full")
+FMU_MODES = ("prescribed", "quasi_static", "large_step")
 
 # Sections that describe the scene or its runs rather than FMU parameters.
-META_SECTIONS = {"scene", "run", "fe"}
+META_SECTIONS = {"scene", "run", "fe", "fmu"}
 RUN_SCHEMA: dict[str, Key] = {
     "approach_um": Key("", 1e-6, 0.0, 1000, unit="um"),
     "points_per_pitch": Key("", 1, 4, 1000, kind=int),
@@ -149,6 +165,8 @@ class Scene:
     # FE level: gear number -> body key -> value (scene units; files as resolved paths)
     bodies: dict[int, dict[str, float | int | pathlib.Path]] = field(default_factory=dict)
     fe: dict[str, float | int] = field(default_factory=dict)                 # [fe] key -> value
+    bearing_motion: tuple[int, ...] = ()  # gears whose centres move in the plane ([gear<i>.mounting])
+    fmu: dict[str, str | list[str]] = field(default_factory=dict)  # [fmu]: interface, mode, tunable
 
 
 def _convert(where: str, key: Key, value, fmu_range: Range | None = None):
@@ -269,11 +287,14 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
             if section in ("gear1", "gear2") and key == "body":
                 scene.bodies[int(section[-1])] = _parse_body(section, value, path, root)
                 continue
+            if section in ("gear1", "gear2") and key == "mounting":
+                _parse_mounting(scene, int(section[-1]), value)
+                continue
             spec = SCHEMA[section].get(key)
             if spec is None:
                 allowed = ", ".join(sorted(SCHEMA[section]))
                 if section in ("gear1", "gear2"):
-                    allowed += f"; and the table [{section}.body] (FE level)"
+                    allowed += f"; and the tables [{section}.body] (FE level), [{section}.mounting]"
                 raise SceneError(f"{section}.{key}: unknown key; allowed: {allowed}")
             numeric = spec.kind in (int, float)
             value = _convert(f"{section}.{key}", spec, value,
@@ -299,6 +320,7 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
             raise SceneError(f"fe.{key}: unknown key; allowed: {', '.join(sorted(FE_SCHEMA))}")
         scene.fe[key] = _convert(f"fe.{key}", spec, value)
     _check_fe_level(scene, level)
+    scene.fmu = _parse_fmu(_table("fmu", raw.get("fmu", {})))
     for key, value in _table("run", raw.get("run", {})).items():
         spec = RUN_SCHEMA.get(key)
         if spec is None:
@@ -425,6 +447,41 @@ def _parse_body(section: str, body, path: pathlib.Path, root: pathlib.Path) -> d
                              f"{d_circle:g} mm circle overlap; allowed: hole diameter < hole "
                              f"circle x sin(180 deg / holes) = "
                              f"{d_circle * math.sin(math.pi / holes):.4g} mm")
+    return out
+
+
+def _parse_mounting(scene: Scene, gear: int, mounting) -> None:
+    """[gear<i>.mounting]: the centre's pose as input start values, and bearing_motion."""
+    where = f"gear{gear}.mounting"
+    _table(where, mounting)
+    for key, value in mounting.items():
+        spec = MOUNTING_SCHEMA.get(key)
+        if spec is None:
+            raise SceneError(f"{where}.{key}: unknown key; allowed: {', '.join(sorted(MOUNTING_SCHEMA))}")
+        if key == "bearing_motion":
+            if _convert(f"{where}.{key}", spec, value):
+                scene.bearing_motion = tuple(sorted({*scene.bearing_motion, gear}))
+            continue
+        scene.parameters[spec.variable.format(i=gear)] = _convert(f"{where}.{key}", spec, value)
+
+
+def _parse_fmu(table: dict) -> dict:
+    """[fmu]: interface (torsional, planar, full), mode (prescribed, quasi_static, large_step)
+    and tunable (parameters the scene sets that its FMU keeps listed)."""
+    choices = {"interface": FMU_INTERFACES, "mode": FMU_MODES}
+    out: dict = {}
+    for key, value in table.items():
+        if key in choices:
+            if value not in choices[key]:
+                raise SceneError(f"fmu.{key} = {_short(value)}: allowed: {', '.join(choices[key])}")
+            out[key] = value
+        elif key == "tunable":
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise SceneError(f"fmu.tunable = {_short(value)}: expected a list of FMU parameter "
+                                 "names")
+            out[key] = list(value)
+        else:
+            raise SceneError(f"fmu.{key}: unknown key; allowed: interface, mode, tunable")
     return out
 
 

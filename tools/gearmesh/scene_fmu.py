@@ -19,6 +19,8 @@ import zipfile
 from collections.abc import Mapping
 from xml.sax.saxutils import escape
 
+from gearmesh.scene_interface import restrict_model_description
+
 START_VALUES = "gearmesh-start-values.txt"  # under resources/, read by the binary
 _MAGIC = "gearmesh-start-values 1"
 # String parameters whose value is the name of a file inside resources/.
@@ -28,7 +30,8 @@ Value = float | int | bool | str
 
 
 def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
-                    resources: Mapping[str, pathlib.Path], out: pathlib.Path) -> pathlib.Path:
+                    resources: Mapping[str, pathlib.Path], out: pathlib.Path,
+                    listed: set[str] | None = None) -> pathlib.Path:
     """Write `out`: `generic_fmu` with `resources` (name inside resources/ -> local file) added
     and the start values of `parameters` (FMU variable name -> value, SI units as in the FMU)
     replaced. Raises ValueError naming the bad parameter or resource; `out` is then untouched.
@@ -37,7 +40,8 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
     parameter that names a resource (gear<i>.deviations, gear<i>.compliance, model.stiffness_table,
     model.te_table)
     must name one of the scene FMU's resources. Building from a scene FMU adds to its resources
-    and start values."""
+    and start values. `listed` (default: all) names the variables modelDescription.xml keeps
+    (gearmesh.scene_interface); the others keep their start values, from the start values file."""
     generic_fmu, out = pathlib.Path(generic_fmu), pathlib.Path(out)
     with zipfile.ZipFile(generic_fmu) as z:
         entries = {info.filename: (info, z.read(info)) for info in z.infolist()}
@@ -63,6 +67,8 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
 
     for name, text in starts.items():
         xml = _replace_start(xml, name, text, variables[name][0])
+    if listed is not None:
+        xml = restrict_model_description(xml, listed)
     _check_starts(xml, starts)
 
     lines = [_MAGIC, "# written by gearmesh.scene_fmu; modelDescription.xml states the same start values"]
@@ -155,7 +161,7 @@ def _replace_start(xml: str, name: str, text: str, typ: str) -> str:
 def _check_starts(xml: str, starts: dict[str, str]) -> None:
     variables = _variables(xml)
     for name, text in starts.items():
-        if variables[name][2] != _xml_value(text):
+        if name in variables and variables[name][2] != _xml_value(text):
             raise ValueError(f"{name}: the start value did not reach modelDescription.xml")
 
 

@@ -1,0 +1,44 @@
+"""`gearmesh fmu SCENE.toml`: the scene's FMU, listing only what the scene uses
+(gearmesh.scene_interface; docs/fmi.md, "Scene interfaces")."""
+from __future__ import annotations
+
+import pathlib
+import zipfile
+from collections import Counter
+from collections.abc import Iterable
+
+from gearmesh import main_levels
+from gearmesh.scene import Scene
+from gearmesh.scene_fmu import _variables, build_scene_fmu
+from gearmesh.scene_interface import MODE_PARAMETERS, default_interface, listed_variables
+
+
+def write_scene_fmu(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path,
+                    interface: str | None = None, tunable: Iterable[str] = ()) -> tuple[str, set[str]]:
+    """Write the scene FMU at `out` with `interface` (default: the scene's [fmu] interface, else
+    the one its mounting calls for); returns the interface and the names it lists. At level 5
+    the compliance databases are built (cached) and shipped; at other levels no database is."""
+    level = scene.parameters.get("model.stiffness", 0)
+    if level == 5:
+        scene = main_levels.scene_at_level(scene, 5)
+    mode = scene.fmu.get("mode")
+    fixed = {**scene.parameters, **(MODE_PARAMETERS[mode] if mode else {})}
+    interface = interface or scene.fmu.get("interface") or default_interface(fixed, scene.bearing_motion)
+    listed = listed_variables(causalities(generic_fmu), fixed, interface, [*scene.fmu.get("tunable", []), *tunable])
+    build_scene_fmu(generic_fmu, fixed, scene.resources, out,
+                    None if interface == "full" else listed)
+    return interface, listed
+
+
+def causalities(fmu: pathlib.Path) -> dict[str, str]:
+    """name -> causality of every variable the FMU lists."""
+    with zipfile.ZipFile(fmu) as z:
+        return {name: v[1] for name, v in _variables(z.read("modelDescription.xml").decode()).items()}
+
+
+def summary(interface: str, listed: set[str], generic_fmu: pathlib.Path, out: pathlib.Path) -> str:
+    """One line: where, which interface, how many variables of each causality."""
+    variables = causalities(generic_fmu)
+    counts = Counter(variables[n] for n in listed)
+    parts = ", ".join(f"{counts[c]} {c}s" for c in ("input", "output", "parameter", "calculatedParameter"))
+    return f"{out}: {interface} interface, {parts}"

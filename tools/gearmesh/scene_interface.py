@@ -1,0 +1,165 @@
+"""The interface of a scene FMU: which of the generic FMU's variables it lists
+(docs/fmi.md, "Scene interfaces").
+
+* torsional: the spins in (angles and speeds, and what the scene's modes add: gear 2's load in
+  the quasi-static mode, torques and shaft ends in the large-step mode); the gear torques, TE,
+  mesh force, flank in contact and the losses out;
+* planar: torsional plus the gear centres' in-plane motion in (ux, uy, vx, vy) and the in-plane
+  contact forces out (fx, fy);
+* full: every variable of the generic FMU.
+
+Parameters the scene sets are not listed (the binary reads them from the scene's start values
+file in resources/) unless named tunable; those it leaves at the FMU's defaults stay parameters
+where the scene's level and modes read them. Calculated parameters stay listed. A hidden input
+keeps its start value (the scene's mounting, else 0). The binary and its value references are
+the generic FMU's, so a listed variable behaves exactly as in the full FMU.
+"""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Mapping
+
+INTERFACES = ("torsional", "planar", "full")
+MODES = ("prescribed", "quasi_static", "large_step")  # scene [fmu] mode -> the FMU's switches
+MODE_PARAMETERS = {"prescribed": {"model.quasi_static": False, "model.dynamics": 0},
+                   "quasi_static": {"model.quasi_static": True, "model.dynamics": 0},
+                   "large_step": {"model.quasi_static": False, "model.dynamics": 1}}
+
+GEARS = (1, 2)
+# inputs each mode reads (the large-step mode: the spins are its initial state)
+MODE_INPUTS = {
+    "prescribed": [f"gear{i}.{x}" for i in GEARS for x in ("phi", "omega")],
+    "quasi_static": ["gear1.phi", "gear1.omega", "gear2.omega", "mesh.load_torque"],
+    "large_step": [f"gear{i}.{x}" for i in GEARS
+                   for x in ("phi", "omega", "torque", "shaft_phi", "shaft_omega")],
+}
+MODE_OUTPUTS = {"prescribed": [], "quasi_static": [],
+                "large_step": [f"gear{i}.{x}" for i in GEARS for x in ("angle", "speed", "shaft_torque")]}
+TORSIONAL_OUTPUTS = ["gear1.mz", "gear2.mz", "mesh.te", "mesh.te_angle", "mesh.normal_force",
+                     "mesh.flank", "mesh.friction_power", "mesh.damping_power"]
+PLANAR_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("ux", "uy", "vx", "vy")]
+PLANAR_OUTPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("fx", "fy")]
+OUT_OF_PLANE_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("uz", "rx", "ry")]  # misalignment
+
+# parameters read at some stiffness levels only (model.stiffness)
+LEVEL_PARAMETERS = {"model.user_stiffness": {0}, "model.stiffness_table": {1},
+                    "model.rated_line_load": {2}, "model.coupled_teeth": {5},
+                    "gear1.compliance": {5}, "gear2.compliance": {5}}
+# parameters of the large-step mode only
+LARGE_STEP_PARAMETERS = {f"gear{i}.{x}" for i in GEARS for x in ("inertia", "shaft_stiffness", "shaft_damping")} \
+    | {"dynamics.tolerance", "dynamics.max_step", "dynamics.min_step"}
+
+
+class InterfaceError(ValueError):
+    """An interface, mode or tunable name that the scene FMU cannot have; the message names it."""
+
+
+def default_interface(fixed: Mapping[str, object], bearing_motion: Iterable[int] = ()) -> str:
+    """full when the scene is misaligned (a tilt or axial offset of a centre), planar when a
+    gear's bearings move, else torsional."""
+    if any(fixed.get(name, 0) for name in OUT_OF_PLANE_INPUTS):
+        return "full"
+    return "planar" if tuple(bearing_motion) else "torsional"
+
+
+def scene_modes(fixed: Mapping[str, object]) -> list[str]:
+    """The modes the scene FMU can run in: the one its parameters fix, else all three."""
+    quasi, dynamics = fixed.get("model.quasi_static"), fixed.get("model.dynamics")
+    return [m for m, p in MODE_PARAMETERS.items()
+            if (quasi is None or quasi == p["model.quasi_static"])
+            and (dynamics is None or dynamics == p["model.dynamics"])]
+
+
+def listed_variables(variables: Mapping[str, str], fixed: Mapping[str, object], interface: str,
+                     tunable: Iterable[str] = ()) -> set[str]:
+    """The names the scene FMU lists. `variables`: name -> causality of the generic FMU;
+    `fixed`: what the scene sets (name -> value); `tunable`: set parameters kept listed."""
+    if interface not in INTERFACES:
+        raise InterfaceError(f"interface {interface!r}: allowed: {', '.join(INTERFACES)}")
+    tunable = set(tunable)
+    for name in sorted(tunable):
+        if variables.get(name) != "parameter":
+            raise InterfaceError(f"tunable {name!r}: not a parameter of the FMU; allowed: a "
+                                 "parameter name such as model.friction_coefficient")
+    if interface == "full":
+        return set(variables)
+    modes = scene_modes(fixed)
+    if not modes:
+        raise InterfaceError("model.quasi_static = true with model.dynamics = 1: no such mode; "
+                             f"allowed modes: {', '.join(MODES)}")
+    inputs = {n for m in modes for n in MODE_INPUTS[m]}
+    outputs = set(TORSIONAL_OUTPUTS) | {n for m in modes for n in MODE_OUTPUTS[m]}
+    if interface == "planar":
+        inputs |= set(PLANAR_INPUTS)
+        outputs |= set(PLANAR_OUTPUTS)
+    wanted = {"input": inputs, "output": outputs}
+    listed = set()
+    for name, causality in variables.items():
+        if causality in wanted:
+            keep = name in wanted[causality]
+        elif causality == "parameter":
+            keep = name in tunable or (name not in fixed and _read(name, fixed, modes))
+        else:  # calculated parameters: the pair's geometry, always shown
+            keep = True
+        if keep:
+            listed.add(name)
+    missing = (inputs | outputs) - set(variables)
+    if missing:
+        raise InterfaceError(f"{sorted(missing)[0]}: no such variable in the generic FMU (a "
+                             "scene_interface table out of step with modelDescription/variables.h)")
+    return listed
+
+
+def _read(name: str, fixed: Mapping[str, object], modes: list[str]) -> bool:
+    """Whether the scene's level and modes read the parameter."""
+    level = fixed.get("model.stiffness")
+    if name in LEVEL_PARAMETERS and level is not None and level not in LEVEL_PARAMETERS[name]:
+        return False
+    if name in LARGE_STEP_PARAMETERS and "large_step" not in modes:
+        return False
+    return True
+
+
+def restrict_model_description(xml: str, listed: set[str]) -> str:
+    """modelDescription.xml with only the `listed` ScalarVariables, the ModelStructure indices
+    renumbered and dependencies on variables no longer listed dropped (their values are now
+    constants of the scene)."""
+    root = ET.fromstring(xml)
+    variables = root.find("ModelVariables")
+    new_index, kept = {}, []
+    for old, sv in enumerate(variables.findall("ScalarVariable"), start=1):
+        if sv.get("name") in listed:
+            kept.append(sv)
+            new_index[old] = len(kept)
+    unknown = listed - {sv.get("name") for sv in kept}
+    if unknown:
+        raise InterfaceError(f"{sorted(unknown)[0]}: no such variable in modelDescription.xml")
+    variables.clear()
+    for n, sv in enumerate(kept, start=1):
+        variables.append(ET.Comment(f" index {n} "))
+        variables.append(sv)
+    structure = root.find("ModelStructure")
+    for section in list(structure):
+        for unknown_el in list(section):
+            index = new_index.get(int(unknown_el.get("index")))
+            if index is None:
+                section.remove(unknown_el)
+                continue
+            unknown_el.set("index", str(index))
+            _renumber_dependencies(unknown_el, new_index)
+        if len(section) == 0:
+            structure.remove(section)
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _renumber_dependencies(unknown: ET.Element, new_index: Mapping[int, int]) -> None:
+    deps = unknown.get("dependencies")
+    if deps is None:  # absent: depends on every known; stays so
+        return
+    kinds = (unknown.get("dependenciesKind") or "").split()
+    pairs = [(new_index[int(d)], k) for d, k in zip(deps.split(), kinds or [None] * len(deps.split()))
+             if int(d) in new_index]
+    unknown.set("dependencies", " ".join(str(d) for d, _ in pairs))
+    if kinds:
+        unknown.set("dependenciesKind", " ".join(k for _, k in pairs))
