@@ -119,6 +119,49 @@ void fe_level(gm_model_params& p) {
   }
 }
 
+// Issue 16's sweep: one quasi-static revolution of the 57/57 pair at level 5 (the synthetic
+// databases) at 7 load torques, 40 poses per pitch, each torque's revolution started cold from a
+// new gm_data as a sweep of the tooling does: seconds for the whole sweep (57 x 40 x 7 = 15,960
+// evaluations), median and range over `repeats`.
+void time_revolution(int repeats) {
+  gm_model_params p;
+  gm_default_params(&p);
+  fe_level(p);
+  p.quasi_static = 1;
+  char msg[512];
+  gm_model* m = nullptr;
+  if (gm_model_create(&p, &m, msg, sizeof msg) != GM_OK) {
+    std::printf("revolution: %s\n", msg);
+    return;
+  }
+  const double torques[7] = {50, 100, 150, 200, 250, 300, 350};
+  std::vector<double> seconds;
+  double sink = 0;
+  for (int rep = 0; rep < repeats; ++rep) {
+    const auto t0 = Clock::now();
+    for (double torque : torques) {
+      gm_data* d = nullptr;
+      gm_data_create(m, &d);
+      gm_kinematics k{};
+      k.load_torque = torque;
+      gm_result r{};
+      for (int i = 0; i < 57 * 40; ++i) {
+        k.phi[0] = 2 * kPi / 57 / 40 * i;
+        gm_evaluate(m, d, &k, &r);
+        sink += r.te;
+      }
+      gm_data_free(d);
+    }
+    seconds.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  gm_model_free(m);
+  if (sink == 42) std::printf(" ");
+  std::sort(seconds.begin(), seconds.end());
+  std::printf("%-52s %10.3f s (%.3f..%.3f over %d runs; %.1f us per evaluation)\n",
+              "level 5 quasi-static revolution x 7 torques", seconds[seconds.size() / 2], seconds.front(),
+              seconds.back(), repeats, seconds[seconds.size() / 2] / (57 * 40 * 7) * 1e6);
+}
+
 }  // namespace
 
 // Optional arguments: a case-name filter (cases whose name contains it, plus the baseline and
@@ -185,5 +228,7 @@ int main(int argc, char** argv) {
       std::printf("   %.2f x level 4", m / level4);
     std::printf("\n");
   }
+  if (filter.empty() || std::string("level 5 quasi-static revolution").find(filter) != std::string::npos)
+    time_revolution(std::max(3, rounds));
   return 0;
 }
