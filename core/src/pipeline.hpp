@@ -40,7 +40,7 @@ int prepare_slices(const gm_model& m, const K& kin, ContactSliceT<T>* slices, Sl
 // d.forces and d.slice_stiffness, and d.approach (quasi: moved by the solved rigid approach).
 inline ForceSolve solve_forces(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n,
                                const PassMode& mode) {
-  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
+  const bool fe = coupled_solve(m);  // level 5, level 4 with tooth coupling
   const double tol = m.params.solver_tolerance;
   const int max_it = m.params.solver_max_iterations;
   if (fe || !mode.quasi)  // the separable quasi-static solve writes the approaches itself

@@ -518,11 +518,17 @@ TEST(Jacobian, AtEqualFaceEndsTheAxialDerivativeIsTheOneAlongTheSeed) {
 // Level 4 with tilts and axial displacements (the slices' positions, widths and roll distances
 // all move with uz and the tilts): every input column against Richardson central differences to
 // 1e-6 of the output group's scale, spur and helical, friction and damping on. All slices stay
-// loaded and away from the path ends, so every output is smooth at the pose.
+// loaded and away from the path ends, so every output is smooth at the pose. Without the tooth
+// coupling (model.coupled_teeth = 0: the separable solve, exact to rounding) to 1e-6 of the
+// scale; with it (the coupled solve of fe_solve.cpp) also to 1e-5 of the derivative itself, the
+// tolerance of the other Jacobian tests (compare): its spur case lands at 1.4x the 1e-6 bound in
+// the uz and rx columns (error ~1.4e-6 of the value), non-monotonic in the coupling's size.
 TEST(Jacobian, Level4TiltedWithAxialDisplacementEveryColumn) {
-  for (int helical = 0; helical < 2; ++helical) {
+  for (int run = 0; run < 4; ++run) {
+    const int helical = run % 2, coupled = run / 2 ? 2 : 0;
     gm_model_params p = gm_test::paper();
     p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+    p.coupled_teeth = coupled;
     p.slices = 7;
     p.solver_tolerance = 1e-15;
     p.friction_coefficient = 0.05;
@@ -591,14 +597,15 @@ TEST(Jacobian, Level4TiltedWithAxialDisplacementEveryColumn) {
       }
       add_share_scale(scale, outputs(r0));
       for (int j = 0; j < kOutputs; ++j) {
-        const double allowed = 1e-6 * scale[kGroup[j]] + 1e-12;
+        const double allowed =
+            1e-6 * scale[kGroup[j]] + (coupled ? 1e-5 * std::fabs(fd[j]) : 0.0) + 1e-12;
         worst = std::max(worst, std::fabs(ad[j] - fd[j]) / allowed);
         EXPECT_NEAR(ad[j], fd[j], allowed) << (helical ? "helical" : "spur") << ": d " << kNames[j]
                                            << "/d " << c.name << " (value " << y0_of(r0, j) << ")";
       }
     }
-    std::printf("  level 4 %s tilted, uz != 0: worst error/allowed %.3g\n",
-                helical ? "helical" : "spur", worst);
+    std::printf("  level 4 %s tilted, uz != 0, coupled_teeth %d: worst error/allowed %.3g\n",
+                helical ? "helical" : "spur", coupled, worst);
   }
 }
 
