@@ -290,6 +290,7 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
       d->fe_laws.resize(c);
       d->fe_index.resize(c);
       d->fe_height.resize(2 * std::size_t(c));
+      d->coupled.reserve(c);
       d->fe_key.resize(c);
       d->fe_prev_key.resize(c);
       d->fe_dual_c.resize(c, c);

@@ -16,6 +16,7 @@
 #include "stiffness_iso.hpp"
 #include "gearmesh/internal/tooth_compliance.hpp"
 #include "tooth_coupling.hpp"
+#include "coupled_forces.hpp"
 #include "user_tables.hpp"
 #include "gearmesh/gearmesh.h"
 
@@ -59,6 +60,7 @@ struct gm_data {
   std::vector<gm::LocalLaw> fe_laws;     // local Hertz laws of the solved slices
   std::vector<int> fe_index;             // candidate index of each solved slice
   std::vector<double> fe_height;         // level 4 coupled: heights of the solved slices (gear 1, 2)
+  gm::CoupledWorkspace coupled;          // level 4 coupled: the low-rank solve (coupled_forces.hpp)
   std::vector<long long> fe_key, fe_prev_key;  // slice identities (warm start if unchanged)
   int fe_prev_n = -1;                    // solved slices of the previous call (-1: none)
   gm::FeAssembly fe_assembly;            // cached face sums of the databases (derived data)

@@ -45,6 +45,15 @@ inline ForceSolve solve_forces(const gm_model& m, gm_data& d, const gm_kinematic
   const int max_it = m.params.solver_max_iterations;
   if (fe || !mode.quasi)  // the separable quasi-static solve writes the approaches itself
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+  if (fe && m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL) {
+    // level 4 with tooth coupling: the low-rank solve; the dense one where it cannot
+    const CoupledSolveResult r =
+        solve_coupled(m.coupling, d.laws.data(), d.slices.data(), d.balance.data(), n,
+                      mode.quasi, mode.load, 0.0, tol, max_it, d.approach.data(),
+                      d.forces.data(), d.slice_stiffness.data(), d.coupled);
+    if (!r.fallback) return r.solve;
+    for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+  }
   if (fe) return fe_solve(m, d, kin, n, mode.all, mode.quasi, mode.load);
   if (mode.quasi)
     return solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(), n, mode.load,
