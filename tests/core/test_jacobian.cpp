@@ -519,10 +519,11 @@ TEST(Jacobian, AtEqualFaceEndsTheAxialDerivativeIsTheOneAlongTheSeed) {
 // all move with uz and the tilts): every input column against Richardson central differences to
 // 1e-6 of the output group's scale, spur and helical, friction and damping on. All slices stay
 // loaded and away from the path ends, so every output is smooth at the pose. Without the tooth
-// coupling (model.coupled_teeth = 0: the separable solve, exact to rounding) to 1e-6 of the
-// scale; with it (the coupled solve of fe_solve.cpp) also to 1e-5 of the derivative itself, the
-// tolerance of the other Jacobian tests (compare): its spur case lands at 1.4x the 1e-6 bound in
-// the uz and rx columns (error ~1.4e-6 of the value), non-monotonic in the coupling's size.
+// coupling (model.coupled_teeth = 0) to 1e-6 of the scale; with it also to 1e-5 of the
+// derivative itself, the tolerance of the other Jacobian tests (compare): its spur case lands at
+// 1.4x the 1e-6 bound in the uz and rx columns (~1.4e-6 of the value; 0.13x the bound used).
+// Not solver noise (the low-rank and the dense coupled solves agree to 1e-13 and give the same
+// difference); not traced further: the cause is open (docs/model.md, "Tooth coupling").
 TEST(Jacobian, Level4TiltedWithAxialDisplacementEveryColumn) {
   for (int run = 0; run < 4; ++run) {
     const int helical = run % 2, coupled = run / 2 ? 2 : 0;
