@@ -63,7 +63,9 @@ CouplingCoefficients coupling_coefficients(double teeth, double width_over_modul
   int iz = 0, iw = 0;
   double wz = 1, ww = 1;
   bracket(-1.0 / teeth, gz, std::min(nz, 64), iz, wz, out.extrapolated);
-  bracket(width_over_module, gw, std::min(nw, 64), iw, ww, out.extrapolated);
+  // b/m_n beyond the table's widths: the edge's coefficients, not flagged (tooth_coupling.hpp)
+  bool width_outside = false;
+  bracket(width_over_module, gw, std::min(nw, 64), iw, ww, width_outside);
   const int z1 = nz > 1 ? iz + 1 : iz, w1 = nw > 1 ? iw + 1 : iw;
   for (int d = 0; d < kCouplingMaxOffset; ++d) {
     for (int q = 0; q < 4; ++q) {
@@ -115,9 +117,9 @@ gm_status build_tooth_coupling(const gm_model_params& p, const gm_pair_geometry&
       coupling_table_range(z0, z1, w0, w1);
       char text[256];
       std::snprintf(text, sizeof text,
-                    "gear%d: z = %d, b/m_n = %.3g outside level 4's tooth-coupling table "
-                    "(z %g..%g, b/m_n %g..%g; coefficients of its edge)",
-                    i + 1, c.teeth, p.gear[i].face_width / mn, z0, z1, w0, w1);
+                    "gear%d.teeth = %d outside level 4's tooth-coupling table (z %g..%g; "
+                    "coefficients of its edge)",
+                    i + 1, c.teeth, z0, z1);
       if (!warning.empty()) warning += "; ";
       warning += text;
     }

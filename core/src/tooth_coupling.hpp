@@ -10,8 +10,10 @@
 // coefficients are a surrogate of compliance_tool's FE databases, fitted offline
 // (tools/gearmesh/coupling_fit.py) over a family of solid-disc gears clamped at a bore of 0.4
 // root radius (the body Sainsot's term of level 4 assumes), tabulated over the tooth count and
-// b/m_n and interpolated here (linear in 1/z and in b/m_n, clamped at the table's ends, which
-// flags the gear as extrapolated).
+// b/m_n and interpolated here (linear in 1/z and in b/m_n, clamped at the table's ends; a tooth
+// count outside the table flags the gear as extrapolated, a b/m_n outside it does not: the
+// kernel moves by < 1 % between the table's widths, and held-out gears beyond them measure the
+// clamping, docs/model.md "Tooth coupling at level 4").
 //
 // Between slices i (receiver) and j (load) of different tooth pairs on the same flank the
 // coupled compliance is, per gear g with the offset d_g of their teeth on g,
@@ -37,13 +39,13 @@ constexpr int kCouplingMaxOffset = 3;  // tooth offsets the table holds, each si
 // The table's coefficients at one gear: c[d - 1] = {c00, c10, c01, c11} (dimensionless E k_d).
 struct CouplingCoefficients {
   double c[kCouplingMaxOffset][4] = {};
-  bool extrapolated = false;  // teeth or b/m_n outside the table (clamped to its edge)
+  bool extrapolated = false;  // teeth outside the table (clamped to its edge)
 };
 
 // The table interpolated at `teeth` and b/m_n = width_over_module.
 CouplingCoefficients coupling_coefficients(double teeth, double width_over_module);
 
-// The table's range (the validity range of the surrogate): teeth and b/m_n.
+// The table's range: teeth and b/m_n.
 void coupling_table_range(double& teeth_min, double& teeth_max, double& width_min,
                           double& width_max);
 
