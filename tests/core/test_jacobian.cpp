@@ -523,7 +523,7 @@ TEST(Jacobian, AtEqualFaceEndsTheAxialDerivativeIsTheOneAlongTheSeed) {
 // derivative itself, the tolerance of the other Jacobian tests (compare): its spur case lands at
 // 1.4x the 1e-6 bound in the uz and rx columns (~1.4e-6 of the value; 0.13x the bound used).
 // Not solver noise (the low-rank and the dense coupled solves agree to 1e-13 and give the same
-// difference); not traced further: the cause is open (docs/model.md, "Tooth coupling").
+// difference); not traced further: the cause is open (docs/model.md, "Tooth coupling at level 4").
 TEST(Jacobian, Level4TiltedWithAxialDisplacementEveryColumn) {
   for (int run = 0; run < 4; ++run) {
     const int helical = run % 2, coupled = run / 2 ? 2 : 0;
