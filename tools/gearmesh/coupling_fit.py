@@ -41,11 +41,20 @@ FAMILY_WIDTHS = (4.0, 8.0)   # b / m_n (the kernel changes by < 1 % between them
 def family_shift(z: int) -> float:
     """Profile shift of a family member: 0, but 0.2 below 20 teeth (x = 0 undercuts z = 17)."""
     return 0.2 if z < 20 else 0.0
+
+
 OFFSETS = (1, 2, 3)
 # held out (not in the fit): (teeth, b/m_n, profile shift); b/m_n 10 and 16 lie beyond the
 # table's widths (the core uses the edge's coefficients there)
 CHECK_GEARS = ((30, 10.0, 0.3), (80, 6.0, 0.0), (17, 16.0, 0.2), (25, 16.0, 0.0), (40, 16.0, 0.0))
 
+_GEAR = """[gear{i}]
+teeth = {{z}}
+profile_shift = {{x:g}}
+face_width_mm = {{b:g}}
+youngs_modulus_GPa = 210.0
+poisson_ratio = 0.3
+"""
 _SCENE = """[scene]
 name = "coupling_family_z{z}_b{bw:g}_x{x:g}"
 description = "tooth-coupling family member (gearmesh.coupling_fit)"
@@ -58,19 +67,7 @@ internal = false
 rack_addendum = 1.0
 rack_dedendum = 1.25
 rack_tip_radius = 0.38
-[gear1]
-teeth = {z}
-profile_shift = {x:g}
-face_width_mm = {b:g}
-youngs_modulus_GPa = 210.0
-poisson_ratio = 0.3
-[gear2]
-teeth = {z}
-profile_shift = {x:g}
-face_width_mm = {b:g}
-youngs_modulus_GPa = 210.0
-poisson_ratio = 0.3
-[model]
+""" + _GEAR.format(i=1) + _GEAR.format(i=2) + """[model]
 stiffness_level = 5
 coupled_teeth = 3
 slices = 10
