@@ -1,5 +1,6 @@
 """python -m reference_fe run SCENE [SCENE ...] --out DIR: the 2-D FE reference of each scene
-(python -m reference_fe run3d ...: the 3-D cases, run3d.py).
+(python -m reference_fe run3d ...: the 3-D cases, run3d.py; lineload3d ...: the 3-D contact line
+load across the face, lineload3d.py).
 
 Per scene it writes DIR/<scene>.reference_fe.te.csv (TE per case, torque and position),
 DIR/<scene>.reference_fe.summary.csv (mean, peak-to-peak, mesh orders 1-3 per case and torque)
@@ -16,7 +17,7 @@ import time
 
 import numpy as np
 
-from . import analysis, pairs, run3d, scene
+from . import analysis, lineload3d, pairs, run3d, scene
 from .report import THREADS, _changes, _cost, _g, provenance, write_provenance
 
 
@@ -175,6 +176,7 @@ def main(argv=None):
     r.add_argument("--friction", type=float, default=0.0, help="Coulomb mu (0: frictionless)")
     r.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
     run3d.add_parser(sub)
+    lineload3d.add_parser(sub)
     pairs.add_parser(sub)
     c = sub.add_parser("compare", help="a product TE curve against the FE band")
     c.add_argument("summary_csv", help="<scene>.reference_fe.summary.csv")
@@ -186,6 +188,9 @@ def main(argv=None):
         print(time.strftime("%H:%M:%S"), msg, flush=True)
     if a.cmd == "run3d":
         run3d.main(a, log)
+        return
+    if a.cmd == "lineload3d":
+        lineload3d.main(a, log)
         return
     if a.cmd == "pairs":
         pairs.main(a, log)

@@ -56,6 +56,10 @@ class PositionResult:
     # about gear 1's axis (N m; the moments add up to the torque)
     pair_force_N: list = field(default_factory=list)
     pair_moment_Nm: list = field(default_factory=list)
+    # 3-D with per-layer slave surfaces (lineload3d.py), per torque: gear 1's contact tooth ->
+    # element layer -> [fx, fy, fz] (N) of the contact force on that layer's faces and its
+    # moment about gear 1's axis (N m) as a fourth entry (JSON keys are text)
+    layer_force_N: list = field(default_factory=list)
 
 
 def fine_teeth(pair: Pair, spread: float = 0.0) -> tuple[list[int], list[int]]:
@@ -146,11 +150,13 @@ class Model:
             raise RuntimeError(f"ccx failed at position {k} (exit {res.returncode}, "
                                f"{len(ends)}/{len(torques) + pre} steps):\n{res.log_tail}")
         te = [float(pr.g1.rb * (theta0 + ends[s + 1 + pre])) for s in range(len(torques))]
-        forces, moments = pair_totals(res.contact, [s + 1 + pre for s in range(len(torques))])
+        step_ends = [s + 1 + pre for s in range(len(torques))]
+        forces, moments = pair_totals(res.contact, step_ends)
         return PositionResult(position=k, n_positions=n, dphi1=float(dphi), te=te,
                               torques=list(torques), wall_s=res.wall_s,
                               max_rss_MiB=res.max_rss_MiB, pair_force_N=forces,
-                              pair_moment_Nm=moments)
+                              pair_moment_Nm=moments,
+                              layer_force_N=layer_totals(res.contact_layers, step_ends))
 
 
 def pair_totals(contact, step_ends: list[int]) -> tuple[list[dict], list[dict]]:
@@ -163,6 +169,20 @@ def pair_totals(contact, step_ends: list[int]) -> tuple[list[dict], list[dict]]:
         forces.append({str(t): f for t, (f, _) in sorted(last.items())})
         moments.append({str(t): mz for t, (_, mz) in sorted(last.items())})
     return forces, moments
+
+
+def layer_totals(contact_layers, step_ends: list[int]) -> list[dict]:
+    """Per step end: tooth -> layer -> [fx, fy, fz, mz] from the last print of each step
+    (ccx.parse_contact_layers); [] per step without per-layer surfaces."""
+    out = []
+    for s in step_ends:
+        last: dict = {}
+        for t, tooth, layer, f, mz in contact_layers:
+            if abs(t - s) < 1e-6:
+                last.setdefault(str(tooth), {})[str(layer)] = [*f, mz]
+        out.append({t: dict(sorted(v.items(), key=lambda kv: int(kv[0])))
+                    for t, v in sorted(last.items(), key=lambda kv: int(kv[0]))})
+    return out
 
 
 def orders(te: np.ndarray, count: int = 3) -> list[float]:

@@ -64,11 +64,20 @@ def pre_steps(bodies) -> int:
 
 def _contact_surfaces(body, gear_index):
     """[(surface name, faces)]: gear 1's contact faces one surface per tooth (FLANK1_T<k>, the
-    slave surfaces whose total contact forces the deck prints), gear 2's one surface FLANK2."""
+    slave surfaces whose total contact forces the deck prints), gear 2's one surface FLANK2.
+    A 3-D body with `split_layers` set: one surface per tooth and element layer
+    (FLANK1_T<k>_Z<j>, layer j from z = -b/2), the contact force per layer (lineload3d.py)."""
     if gear_index == 1:
         return [("FLANK2", body.contact_faces)]
-    return [(f"FLANK1_T{k}", body.contact_faces[body.contact_tooth == k])
-            for k in sorted(set(body.contact_tooth.tolist()))]
+    out = []
+    for k in sorted(set(body.contact_tooth.tolist())):
+        on = body.contact_tooth == k
+        if not getattr(body, "split_layers", False):
+            out.append((f"FLANK1_T{k}", body.contact_faces[on]))
+            continue
+        out += [(f"FLANK1_T{k}_Z{j}", body.contact_faces[on & (body.contact_layer == j)])
+                for j in sorted(set(body.contact_layer[on].tolist()))]
+    return out
 
 
 def _blocks(body, element):
@@ -170,6 +179,7 @@ def write_deck(path, bodies, thickness, materials, torques, penalty,
 class RunResult:
     rotations: list[float]   # rotation of gear 1 (rad) at the end of each step
     contact: list            # (time, gear-1 tooth, |total force| N, moment about z N m)
+    contact_layers: list     # (time, tooth, layer, (fx, fy, fz) N, moment about z N m): split
     wall_s: float
     max_rss_MiB: float
     returncode: int
@@ -216,13 +226,17 @@ def run(workdir, job="gears", timeout=3600) -> RunResult:
         tail = f.read()[-3000:]
     rot = parse_rotations(os.path.join(workdir, job + ".dat"))
     contact = parse_contact_totals(os.path.join(workdir, job + ".dat"))
-    return RunResult(rotations=rot, contact=contact, wall_s=wall, max_rss_MiB=rusage.ru_maxrss / 1024.0,
-                     returncode=proc.returncode, log_tail=tail)
+    layers = parse_contact_layers(os.path.join(workdir, job + ".dat"))
+    return RunResult(rotations=rot, contact=contact, contact_layers=layers, wall_s=wall,
+                     max_rss_MiB=rusage.ru_maxrss / 1024.0, returncode=proc.returncode,
+                     log_tail=tail)
 
 
 _BLOCK = re.compile(r"displacements \(vx,vy,vz\) for set ROT and time\s+([0-9.Ee+-]+)")
 _TOTALS = re.compile(r"statistics for slave set FLANK1_T(\d+), master set FLANK2 and time\s+"
                      r"([0-9.Ee+-]+)")
+_LAYERS = re.compile(r"statistics for slave set FLANK1_T(\d+)_Z(\d+), master set FLANK2 and "
+                     r"time\s+([0-9.Ee+-]+)")
 
 
 def _dat_blocks(dat_path, heading: re.Pattern, lookahead: int, columns: int):
@@ -259,4 +273,16 @@ def parse_contact_totals(dat_path) -> list[tuple[float, int, float, float]]:
         fx, fy, fz, _mx, _my, mz = (float(v) for v in parts)
         out.append((float(hit.group(2)), int(hit.group(1)),
                     float(np.sqrt(fx * fx + fy * fy + fz * fz)), mz / MM))
+    return out
+
+
+def parse_contact_layers(dat_path) -> list[tuple[float, int, int, tuple, float]]:
+    """(time, gear-1 tooth, element layer, total contact force (fx, fy, fz) in N, moment about
+    the z axis through the origin in N m) of every *CONTACT PRINT CF block of the per-layer
+    slave surfaces FLANK1_T<k>_Z<j> (a deck of a body with `split_layers`), in order."""
+    out = []
+    for hit, parts in _dat_blocks(dat_path, _LAYERS, 4, 6):
+        fx, fy, fz, _mx, _my, mz = (float(v) for v in parts)
+        out.append((float(hit.group(3)), int(hit.group(1)), int(hit.group(2)),
+                    (fx, fy, fz), mz / MM))
     return out

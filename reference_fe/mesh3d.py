@@ -83,6 +83,7 @@ class SolidMesh:
     contact_faces: np.ndarray  # (f, 2): element index, face number 3..6
     contact_teeth: list[int]
     contact_tooth: np.ndarray  # (f,): the tooth (index mod z) of each contact face
+    contact_layer: np.ndarray  # (f,): the element layer (0 at z = -b/2) of each contact face
     sector_teeth: list[int]
     section_nodes: int
     section_quads: int
@@ -225,16 +226,17 @@ def build(g: Gear, size: Size3D, fine: list[int], hand: int, beta_b: float,
     # section element e of block i -> 3-D element (block offset) + layer * count + e
     counts = [len(c) for c in blocks2]
     offs = np.concatenate([[0], np.cumsum([len(c) for c in blocks])])
-    faces, tooth = [], []
+    faces, tooth, layer = [], [], []
     for (e, j), t in zip(faces2, tooth2):
         i = 0 if e < counts[0] else 1
         local = e - (0 if i == 0 else counts[0])
         faces += [(offs[i] + k * counts[i] + local, j + 2) for k in range(size.layers)]
         tooth += [t] * size.layers
+        layer += list(range(size.layers))
     return SolidMesh(nodes=nodes, blocks=[(t, c) for t, c in zip(("C3D20R", "C3D15"), blocks)
                                           if len(c)],
                      bore=bore, contact_faces=np.array(faces), contact_teeth=fine,
-                     contact_tooth=np.array(tooth),
+                     contact_tooth=np.array(tooth), contact_layer=np.array(layer),
                      sector_teeth=teeth, section_nodes=len(xy), section_quads=counts[0],
                      section_triangles=counts[1])
 

@@ -51,7 +51,8 @@ class Model3D(analysis.Model):
     engage = 2.0e-6
 
     def __init__(self, spec: PairSpec, level: int = 0, sector_deg: float = 120.0,
-                 size: mesh3d.Size3D | None = None, hold_cuts: bool = True):
+                 size: mesh3d.Size3D | None = None, hold_cuts: bool = True,
+                 split_layers: bool = False):
         if spec.gear1.face_width != spec.gear2.face_width:
             raise SceneError("the 3-D reference needs equal face widths (aligned mid-faces)")
         if spec.helix_angle and (spec.gear1.mod.any() or spec.gear2.mod.any()):
@@ -68,7 +69,11 @@ class Model3D(analysis.Model):
         f1, f2 = analysis.fine_teeth(pr, self.spread)
         self.m1 = mesh3d.build(pr.g1, self.size, f1, +1, self.beta_b, hold_cuts)
         self.m2 = mesh3d.build(pr.g2, self.size, f2, -1, self.beta_b, hold_cuts)
-        self.cache_tag = f"3d-v{CODE_VERSION}" + ("" if hold_cuts else "-free-cuts")
+        # split_layers: gear 1's slave surfaces per tooth and element layer, the contact force
+        # per layer printed (lineload3d.py); the deck's contact pairs differ, so its own runs
+        self.m1.split_layers = split_layers
+        self.cache_tag = (f"3d-v{CODE_VERSION}" + ("" if hold_cuts else "-free-cuts")
+                          + ("-layers" if split_layers else ""))
         self.variant = ("helical" if spec.helix_angle else "spur") + (
             "_lead_crowned" if (spec.gear1.mod.lead_crowning or spec.gear2.mod.lead_crowning)
             else "")

@@ -140,16 +140,22 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log):
     log(f"wrote {out_dir / stem}.te.csv, .summary.csv, .json")
 
 
+def add_scene_arguments(p):
+    """The arguments of the 3-D commands (run3d, lineload3d): scenes with torques, --out,
+    --positions, --torques, --cache."""
+    p.add_argument("scenes", nargs="+", help="SCENE or SCENE:T1,T2 (torques, N m)")
+    p.add_argument("--out", required=True)
+    p.add_argument("--positions", type=int, default=8, help="positions per base pitch")
+    p.add_argument("--torques", default="150,350", help="N m, for scenes without :T1,T2")
+    p.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
+
+
 def add_parser(sub):
     r = sub.add_parser("run3d", help="3-D TE of scene(s) by CalculiX, with the studies")
-    r.add_argument("scenes", nargs="+", help="SCENE or SCENE:T1,T2 (torques, N m)")
-    r.add_argument("--out", required=True)
-    r.add_argument("--positions", type=int, default=8, help="positions per base pitch")
-    r.add_argument("--torques", default="150,350", help="N m, for scenes without :T1,T2")
+    add_scene_arguments(r)
     r.add_argument("--study-positions", default="0",
                    help="positions of the studies (comma separated; empty: none)")
     r.add_argument("--studies", default=",".join(s for s, _ in STUDIES))
-    r.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
     return r
 
 

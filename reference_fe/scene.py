@@ -63,6 +63,7 @@ class PairSpec:
     friction: float          # scene's mu (used only when friction is switched on)
     torques: tuple[float, ...]  # N m, from [run] torques_Nm
     helix_angle: float = 0.0    # beta, rad (3-D only; 2-D: spur)
+    slices: int = 0             # the product's slices across the face ([model] slices; 0: unset)
 
     def gear(self, i: int) -> GearSpec:
         return self.gear1 if i == 1 else self.gear2
@@ -192,4 +193,5 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
         module=p["normal_module_mm"], pressure_angle=p.get("pressure_angle_deg", math.radians(20)),
         rack_addendum=p.get("rack_addendum", 1.0), rack_dedendum=p.get("rack_dedendum", 1.25),
         rack_tip_radius=p.get("rack_tip_radius", 0.38), gear1=gears[0], gear2=gears[1],
-        friction=mu, torques=torques, helix_angle=p.get("helix_angle_deg", 0.0))
+        friction=mu, torques=torques, helix_angle=p.get("helix_angle_deg", 0.0),
+        slices=int(raw.get("model", {}).get("slices", 0)))

@@ -157,10 +157,9 @@ namespace {
 // What build_gear_body decides before gmsh runs: the axial stages, the fine sector and the
 // element sizes of the size field (gear_mesh.hpp, "Size field").
 struct BodyPlan {
-  int z = 0, hand = 0;
-  bool ring = false, has_web = false, all_fine = false;
-  double b = 0, twist_rate = 0, r_f = 0;
-  double bore = 0;                 // the clamped radius (external: bore; ring: outer rim)
+  BodyGeometry g;                  // teeth, hand, ring, face width, twist, clamped radius
+  bool has_web = false, all_fine = false;
+  double r_f = 0;
   std::vector<double> zs;          // axial stage boundaries, -b/2 .. b/2
   int web_stage = -1;              // the stage that holds the web (-1: every stage)
   int fine_teeth = 0, elements_on_tip = 0;
@@ -168,7 +167,7 @@ struct BodyPlan {
   double tip_land = 0, root_land = 0;  // arc lengths of the tip and root lands, m
   double rot0 = 0;                 // turn of the meshed section (at z = -b/2)
   int stages() const { return static_cast<int>(zs.size()) - 1; }
-  bool is_fine(int k) const { return all_fine || std::min(k, z - k) <= fine_teeth; }
+  bool is_fine(int k) const { return all_fine || std::min(k, g.z - k) <= fine_teeth; }
   int n_tip(double h) const {
     return elements_on_tip > 0 ? elements_on_tip
                                : std::max(1, static_cast<int>(std::lround(tip_land / h)));
@@ -205,13 +204,13 @@ gm_status check_options(int gear, const GearBodyOptions& o, std::string& msg) {
 // Rim, web and holes: checked against each other and the root circle; the axial stages split at
 // the web's faces when the web is narrower than the face.
 gm_status plan_stages(const GearBodyOptions& o, BodyPlan& pl, std::string& msg) {
-  const double b = pl.b, r_f = pl.r_f;
-  pl.has_web = !pl.ring && o.rim_inner_radius > 0;
-  if (pl.has_web && !(pl.bore < o.hub_radius && o.hub_radius < o.rim_inner_radius && o.rim_inner_radius < r_f))
+  const double b = pl.g.b, r_f = pl.r_f;
+  pl.has_web = !pl.g.ring && o.rim_inner_radius > 0;
+  if (pl.has_web && !(pl.g.clamped < o.hub_radius && o.hub_radius < o.rim_inner_radius && o.rim_inner_radius < r_f))
     return fail_with(msg, fmt("rim and web need bore_radius < hub_radius < rim_inner_radius < root radius "
                               "(%g, %g, root %g m)",
                               o.hub_radius, o.rim_inner_radius, r_f));
-  const double ann_in = pl.has_web ? o.hub_radius : pl.bore;
+  const double ann_in = pl.has_web ? o.hub_radius : pl.g.clamped;
   const double ann_out = pl.has_web ? o.rim_inner_radius : r_f;
   if (o.holes > 0) {
     if (!(o.hole_radius > 0) || o.hole_circle_radius - o.hole_radius <= ann_in ||
@@ -244,31 +243,26 @@ gm_status plan_sizes(const GearBodyOptions& o, const ToothOutline& to, double m_
                      std::string& msg) {
   if (o.far_elements_along_profile < 1 || o.far_elements_in_fillet < 1)
     return fail_with(msg, "far_elements_along_profile and far_elements_in_fillet must be >= 1");
-  const int z = pl.z;
+  const int z = pl.g.z;
   pl.fine_teeth = o.fine_teeth;
   pl.elements_on_tip = o.elements_on_tip;
   pl.all_fine = o.fine_teeth < 0 || 2 * o.fine_teeth + 1 >= z;
   pl.h_t = polyline_length(to.involute) / o.elements_along_profile;
   pl.h_c = pl.all_fine ? pl.h_t : polyline_length(to.involute) / o.far_elements_along_profile;
   pl.sector = pl.all_fine ? kPi : (o.fine_teeth + 0.5) * 2.0 * kPi / z;
-  pl.h_b = o.body_size > 0 ? o.body_size : 2.0 * m_n;
+  pl.h_b = o.body_size > 0 ? o.body_size : 4.0 * m_n;
   pl.fine = o.fine_depth > 0 ? o.fine_depth : 1.0 * m_n;
   pl.growth = o.size_growth;
-  pl.tip_land = 2.0 * (pl.ring ? kPi / z - to.tip_half_angle : to.tip_half_angle) * to.tip_radius;
-  pl.root_land = 2.0 * (pl.ring ? to.root_half_angle : kPi / z - to.root_half_angle) * pl.r_f;
-  pl.rot0 = -pl.hand * pl.twist_rate * 0.5 * pl.b;
+  pl.tip_land = 2.0 * (pl.g.ring ? kPi / z - to.tip_half_angle : to.tip_half_angle) * to.tip_radius;
+  pl.root_land = 2.0 * (pl.g.ring ? to.root_half_angle : kPi / z - to.root_half_angle) * pl.r_f;
+  pl.rot0 = -pl.g.hand * pl.g.twist_rate * 0.5 * pl.g.b;
   return GM_OK;
 }
 
 gm_status plan_body(const GearBodyOptions& o, const BodyGeometry& bg, const ToothOutline& to,
                     BodyPlan& pl, std::string& msg) {
-  pl.z = bg.z;
-  pl.hand = bg.hand;
-  pl.ring = bg.ring;
-  pl.b = bg.b;
-  pl.twist_rate = bg.twist_rate;
+  pl.g = bg;
   pl.r_f = to.root_radius;
-  pl.bore = bg.clamped;
   if (plan_stages(o, pl, msg) != GM_OK) return GM_ERR_PARAMETER;
   return plan_sizes(o, to, bg.m_n, pl, msg);
 }
@@ -290,7 +284,7 @@ void set_mesh_options(int threads) {
 
 // The size field of gear_mesh.hpp: radial, fine on the teeth and a band below the root circle.
 void set_size_field(const BodyPlan& pl) {
-  const bool ring = pl.ring;
+  const bool ring = pl.g.ring;
   const double r_f = pl.r_f, fine = pl.fine, sector = pl.sector, rot_sec = pl.rot0;
   const double h_t = pl.h_t, h_c = pl.h_c, h_b = pl.h_b, growth = pl.growth;
   gmsh::model::mesh::setSizeCallback(
@@ -346,13 +340,13 @@ void set_flank_counts(int fillet_a, int fillet_b, int involute_a, int involute_b
 std::array<int, 2> draw_tooth(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to,
                               int k, BodyModel& m) {
   namespace geo = gmsh::model::geo;
-  const double a = pl.rot0 + 2.0 * kPi * k / pl.z;
+  const double a = pl.rot0 + 2.0 * kPi * k / pl.g.z;
   const bool fk = pl.is_fine(k);
   const int n_prof = fk ? o.elements_along_profile : o.far_elements_along_profile;
   const int n_fil = fk ? o.elements_in_fillet : o.far_elements_in_fillet;
   const double hk = fk ? pl.h_t : pl.h_c, h_t = pl.h_t;
   Builder& B = m.B;
-  if (!pl.ring) {
+  if (!pl.g.ring) {
     auto fb = add_spline(B, to.fillet, a, true, false, 0, h_t);                   // root -> form
     auto ib = add_spline(B, to.involute, a, true, false, fb.second.back(), h_t);  // form -> tip
     auto ia = add_spline(B, to.involute, a, false, true, 0, h_t);                 // tip -> form
@@ -379,7 +373,7 @@ std::array<int, 2> draw_tooth(const BodyPlan& pl, const GearBodyOptions& o, cons
 // The whole toothed outline, counter-clockwise; the ring's is reversed (it is a hole).
 void draw_outline(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to, BodyModel& m) {
   namespace geo = gmsh::model::geo;
-  const int z = pl.z;
+  const int z = pl.g.z;
   m.involute_curve.resize(z);
   std::vector<int> first_pt(z), last_pt(z);
   for (int k = 0; k < z; ++k) {
@@ -391,12 +385,12 @@ void draw_outline(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutli
   for (int k = 0; k < z; ++k) {
     const int arc = geo::addCircleArc(last_pt[k], m.B.centre, first_pt[(k + 1) % z]);
     const double h = pl.is_fine(k) || pl.is_fine((k + 1) % z) ? pl.h_t : pl.h_c;
-    geo::mesh::setTransfiniteCurve(arc, (pl.ring ? pl.n_tip(h) : pl.n_root(h)) + 1);
+    geo::mesh::setTransfiniteCurve(arc, (pl.g.ring ? pl.n_tip(h) : pl.n_root(h)) + 1);
     m.loop[6 * k + 5] = arc;
   }
   // A hole's loop runs clockwise: reversed as given, gmsh would reverse it itself and the
   // lateral surfaces of the extrusion would then come in the reversed curve order.
-  if (pl.ring) {
+  if (pl.g.ring) {
     std::reverse(m.loop.begin(), m.loop.end());
     for (int& c : m.loop) c = -c;
   }
@@ -408,14 +402,14 @@ void add_regions(const BodyPlan& pl, const GearBodyOptions& o, BodyModel& m) {
   namespace geo = gmsh::model::geo;
   Builder& B = m.B;
   const double h_b = pl.h_b;
-  m.clamp_c = B.circle(pl.bore, std::min(h_b, 2.0 * kPi * pl.bore / 24.0));
+  m.clamp_c = B.circle(pl.g.clamped, std::min(h_b, 2.0 * kPi * pl.g.clamped / 24.0));
   std::vector<std::vector<int>> holes;
   for (int h = 0; h < o.holes; ++h) {
     const double ah = pl.rot0 + 2.0 * kPi * h / o.holes;
     holes.push_back(B.circle_at({o.hole_circle_radius * std::cos(ah), o.hole_circle_radius * std::sin(ah)},
                                 o.hole_radius, std::min(h_b, 2.0 * kPi * o.hole_radius / 12.0)));
   }
-  if (pl.ring) {
+  if (pl.g.ring) {
     m.regions.push_back({{m.clamp_c, m.loop}, 0});
   } else if (pl.has_web) {
     const std::vector<int> rim_c = B.circle(o.rim_inner_radius, std::min(h_b, 2.0 * kPi * o.rim_inner_radius / 24.0));
@@ -447,7 +441,7 @@ void extrude_stages(const BodyPlan& pl, const GearBodyOptions& o, BodyModel& m) 
   const std::vector<double>& zs = pl.zs;
   std::vector<int> layers(stages);
   for (int st = 0; st < stages; ++st)
-    layers[st] = std::max(1, static_cast<int>(std::lround(o.elements_across_width * (zs[st + 1] - zs[st]) / pl.b)));
+    layers[st] = std::max(1, static_cast<int>(std::lround(o.elements_across_width * (zs[st + 1] - zs[st]) / pl.g.b)));
   m.laterals.assign(m.regions.size(), {});
   for (size_t r = 0; r < m.regions.size(); ++r) m.laterals[r].resize(m.regions[r].curves().size());
   std::vector<int> dropped;
@@ -455,8 +449,8 @@ void extrude_stages(const BodyPlan& pl, const GearBodyOptions& o, BodyModel& m) 
     gmsh::vectorpair in, res;
     for (const Region& r : m.regions) in.push_back({2, r.surface});
     const double dz = zs[st + 1] - zs[st];
-    const double angle = pl.hand * pl.twist_rate * dz;
-    if (pl.hand != 0)
+    const double angle = pl.g.hand * pl.g.twist_rate * dz;
+    if (pl.g.hand != 0)
       geo::twist(in, 0, 0, 0, 0, 0, dz, 0, 0, 1, angle, res, {layers[st]}, {1.0}, false);
     else
       geo::extrude(in, 0, 0, dz, res, {layers[st]}, {1.0}, false);
@@ -599,7 +593,7 @@ void mesh_body(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline&
   gmsh::model::mesh::setOrder(2);
   const std::unordered_map<std::size_t, int> index = collect_tet10(m.volumes, out);
   if (out.tets.empty()) throw std::runtime_error("gmsh produced no TET10 elements");
-  collect_node_sets(m, to, pl.z, index, out);
+  collect_node_sets(m, to, pl.g.z, index, out);
 }
 
 }  // namespace

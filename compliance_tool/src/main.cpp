@@ -55,9 +55,9 @@ void usage(FILE* f) {
       "                            not cyclic: every tooth is loaded)\n"
       "  mesh and FE:\n"
       "  --profile-elements N      along the involute, 1..200 (default 8)\n"
-      "  --width-elements N        layers across the face width, 1..200 (default 6)\n"
+      "  --width-elements N        layers across the face width, 1..200 (default 4)\n"
       "  --fillet-elements N       along each fillet, 1..200 (default 3)\n"
-      "  --body-size-mm S          target element size in the body, > 0 (default 2 m_n)\n"
+      "  --body-size-mm S          target element size in the body, > 0 (default 4 m_n)\n"
       "  --depth-mm H              depth of the responses below the flank, > 0 (default 0.5)\n"
       "  --coupled N               neighbour teeth each side, 0..20 (default model.coupled_teeth, else 1)\n"
       "  --every-tooth             load every distinct tooth even on a cyclic body (cyclic = 0)\n"
@@ -160,7 +160,7 @@ struct Cli {
   Cli() {
     gm_default_params(&p);
     o.mesh.elements_along_profile = 8;
-    o.mesh.elements_across_width = 6;
+    o.mesh.elements_across_width = 4;
   }
 };
 

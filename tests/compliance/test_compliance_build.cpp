@@ -257,7 +257,7 @@ double mean_line_load(const gm::ComplianceDb& db) {
 // Mesh convergence of the tooth compliance: the face-averaged line-load compliance at
 // mid-profile over three uniformly refined meshes (profile x width elements 2 x 1, 3 x 2, 4 x 3,
 // and the whole body, every tooth included, at the profile element size h_t: the default size
-// field keeps the body at 2 m_n whatever the profile count, so its meshes are no refinement
+// field keeps the body at 4 m_n whatever the profile count, so its meshes are no refinement
 // sequence), each change below 1 % of the finest value, the default graded mesh within 1 % of
 // it; Richardson extrapolation with the observed order when the sequence is monotone; the
 // finest (or extrapolated) value against Weber + Sainsot.
@@ -318,7 +318,7 @@ TEST(ComplianceBuild, LineLoadComplianceConvergesWithTheMesh) {
   // +0.28 %), so the successive changes are at the level of the depth readings' interpolation
   // noise and need not shrink monotonically; bounded instead: each change < 1 % of the finest
   // value. The default graded mesh (the shared 3 x 2 build: teeth at the profile size, the body
-  // coarsening to 2 m_n) gives the same within 1 %.
+  // coarsening to 4 m_n) gives the same within 1 %.
   EXPECT_LT(std::fabs(d12), 0.01 * w3);
   EXPECT_LT(std::fabs(d23), 0.01 * w3);
   const double graded = mean_line_load(built().db);

@@ -33,7 +33,7 @@ def test_variant_keys_go_over_the_scenes_fe():
     grid = accuracy_settings.level5_scene(helical, 2, "grid-70%")
     assert grid.fe == {**helical.fe, "load_fraction": 0.7}
     fine = accuracy_settings.level5_scene(helical, 2, "mesh-fine")
-    assert fine.fe["profile_elements"] == 12 and fine.fe["width_elements"] == 8
+    assert fine.fe["profile_elements"] == 12 and fine.fe["width_elements"] == 6
     assert accuracy_settings.level5_scene(helical, 2).fe == helical.fe
     with pytest.raises(ValueError, match="mesh-huge.*allowed: mesh-coarse"):
         accuracy_settings.level5_scene(helical, 2, "mesh-huge")

@@ -14,8 +14,9 @@ from tqdm import tqdm
 from gearmesh import (accuracy_iso, accuracy_ledger, accuracy_report, accuracy_settings,
                       compliance)
 from gearmesh.accuracy_reference import (KINDS, Reference, ReferenceError, curve_error, errors,
-                                         pair_errors, pairs_path, positions_path, read_pairs,
-                                         read_positions, read_summary, summary_path)
+                                         lineload_path, pair_errors, pairs_path,
+                                         peak_line_load_error, positions_path, read_lineload,
+                                         read_pairs, read_positions, read_summary, summary_path)
 from gearmesh.accuracy_sweep import sweep
 from gearmesh.accuracy_timing import round_trip
 from gearmesh.scene import Scene
@@ -138,6 +139,8 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
                             reference.n_positions)
     shares, loads = (read_pairs(pairs_path(reference.path.parent, scene.name),
                                 reference.n_positions) if reference.kind == "2d" else ({}, {}))
+    peaks = (read_lineload(lineload_path(reference.path.parent, scene.name), reference.n_positions)
+             if reference.kind == "3d" else {})
     rows = []
     for planned in tqdm(plan, desc=f"{scene.name} ({reference.kind})", disable=not progress,
                         leave=False):
@@ -153,8 +156,9 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
             curve = curve_error(curves, torque, result.te[torque], reference.models)
             pairs = pair_errors(shares, loads, torque, result.load_share[torque],
                                 result.pair_line_load[torque], reference.models)
+            peak = peak_line_load_error(peaks, torque, setting.slices, result.max_line_load[torque])
             for e in (errors(reference, torque, result.summary[torque])
-                      + ([curve] if curve else []) + pairs):
+                      + ([curve] if curve else []) + pairs + ([peak] if peak else [])):
                 rows.append({"scene": scene.name, "reference": reference.kind,
                              "setting": setting.label, "level": setting.level,
                              "slices": setting.slices,

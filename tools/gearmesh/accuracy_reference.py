@@ -21,6 +21,15 @@ is mesh.max_load_share x mesh.normal_force / face width, not mesh.max_line_load 
 slice's, which at level 5 with several slices resolves the load across the face that the 2-D
 reference cannot: docs/validation.md, "Load share and line load").
 
+3-D line load: `<scene>.reference_fe3d.lineload.csv` (reference_fe/README.md, "3-D line load")
+holds the contact force of each loaded tooth in bins across the face, at several bin counts.
+"peak_line_load" compares the product's mesh.max_line_load (its largest slice's force over the
+slice width), the largest over the positions, with the reference's largest bin line load over
+the teeth and positions at the same bin count as the setting's slices (like with like: a slice
+is a bin of the same width); no row where the reference has no such bin count. Shown, not
+scored: the sectors that bias the 3-D TE's level (held cut faces, stiffer) also shape the load
+distribution across the face, and the line load has a layer study at one position only.
+
 3-D: `<scene>.reference_fe3d.summary.csv` holds one model (3-D sectors of both gears, a name
 starting with "3d_"); its "band" is that one value, so the band error is the relative error. Its
 mean TE is biased low by the sectors' held cut faces (reference_fe/README.md, "3-D cases"), so a
@@ -42,6 +51,7 @@ QUANTITIES = ("mean", "pp", "order1", "order2", "order3")  # the summary's <q>_t
 CURVE = "curve"  # the TE position by position against the per-position band (te.csv)
 LOAD_SHARE = "load_share"  # the most loaded pair's share, position by position (pairs.csv)
 PAIR_LINE_LOAD = "pair_line_load"  # the most loaded pair's force / face width, largest (pairs.csv)
+PEAK_LINE_LOAD = "peak_line_load"  # the largest bin / slice line load, largest (lineload.csv)
 MIN_POSITIONS = 8  # per pitch: mesh order 3 below the Nyquist order (n/2)
 # The quantities a reference of each kind scores (a setting's score: the largest |band error|).
 SCORED = {"2d": (*QUANTITIES, LOAD_SHARE, PAIR_LINE_LOAD), "3d": ("pp", "order1", "order2")}
@@ -134,6 +144,27 @@ def read_summary(path: pathlib.Path) -> Reference:
     return Reference(scenes.pop(), path, counts.pop(), values, kind, models)
 
 
+def _rows(path: pathlib.Path, n_positions: int, parse):
+    """parse(row) of the rows of a reference CSV with n_positions = n ('#' lines are comments),
+    None results left out; a KeyError or ValueError of a row is a ReferenceError naming file and
+    row."""
+    with path.open(newline="") as fh:
+        reader = csv.DictReader(l for l in fh if not l.lstrip().startswith("#"))
+        for line, row in enumerate(reader, start=2):
+            try:
+                value = parse(row) if int(row["n_positions"]) == n_positions else None
+            except (KeyError, ValueError) as exc:
+                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+            if value is not None:
+                yield value
+
+
+def _require_positions(path: pathlib.Path, what: str, by_position: dict, n_positions: int):
+    if sorted(by_position) != list(range(n_positions)):
+        raise ReferenceError(f"{path}: {what} has positions {sorted(by_position)}; required: "
+                             f"0..{n_positions - 1}")
+
+
 def positions_path(reference_dir: pathlib.Path, scene_name: str, kind: str = "2d") -> pathlib.Path:
     return pathlib.Path(reference_dir) / f"{scene_name}.{_FILE_STEM[kind]}.te.csv"
 
@@ -146,22 +177,16 @@ def read_positions(path: pathlib.Path, n_positions: int) -> dict[tuple[str, floa
     if not path.is_file():
         return {}
     curves: dict[tuple[str, float], dict[int, float]] = {}
-    with path.open(newline="") as fh:
-        for line, row in enumerate(csv.DictReader(l for l in fh if not l.lstrip().startswith("#")),
-                                   start=2):
-            try:
-                if (int(row["n_positions"]) != n_positions or row.get("mesh_level", "0") != "0"
-                        or row.get("case", "base") != "base"):
-                    continue
-                key = (row["model"], float(row["torque_Nm"]))
-                curves.setdefault(key, {})[int(row["position"])] = float(row["te_m"])
-            except (KeyError, ValueError) as exc:
-                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+    def parse(row):
+        if row.get("mesh_level", "0") != "0" or row.get("case", "base") != "base":
+            return None
+        return (row["model"], float(row["torque_Nm"])), int(row["position"]), float(row["te_m"])
+
+    for key, k, te in _rows(path, n_positions, parse):
+        curves.setdefault(key, {})[k] = te
     out = {}
     for key, by_position in curves.items():
-        if sorted(by_position) != list(range(n_positions)):
-            raise ReferenceError(f"{path}: {key[0]} at {key[1]:g} N m has positions "
-                                 f"{sorted(by_position)}; required: 0..{n_positions - 1}")
+        _require_positions(path, f"{key[0]} at {key[1]:g} N m", by_position, n_positions)
         out[key] = [by_position[k] for k in range(n_positions)]
     return out
 
@@ -208,17 +233,12 @@ def read_pairs(path: pathlib.Path, n_positions: int) -> tuple[dict, dict]:
     if not path.is_file():
         return {}, {}
     teeth: dict[tuple[str, float, int], list[tuple[float, float]]] = {}
-    with path.open(newline="") as fh:
-        for line, row in enumerate(csv.DictReader(l for l in fh if not l.lstrip().startswith("#")),
-                                   start=2):
-            try:
-                if int(row["n_positions"]) != n_positions:
-                    continue
-                key = (row["model"], float(row["torque_Nm"]), int(row["position"]))
-                teeth.setdefault(key, []).append((float(row["force_N"]),
-                                                  float(row["line_load_N_per_m"])))
-            except (KeyError, ValueError) as exc:
-                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+    def parse(row):
+        return ((row["model"], float(row["torque_Nm"]), int(row["position"])),
+                (float(row["force_N"]), float(row["line_load_N_per_m"])))
+
+    for key, force_and_load in _rows(path, n_positions, parse):
+        teeth.setdefault(key, []).append(force_and_load)
     shares: dict[tuple[str, float], dict[int, float]] = {}
     loads: dict[tuple[str, float], dict[int, float]] = {}
     for (model, torque, k), forces in teeth.items():
@@ -231,9 +251,7 @@ def read_pairs(path: pathlib.Path, n_positions: int) -> tuple[dict, dict]:
         loads.setdefault((model, torque), {})[k] = top[1]
     for by_position in (shares, loads):
         for key, values in by_position.items():
-            if sorted(values) != list(range(n_positions)):
-                raise ReferenceError(f"{path}: {key[0]} at {key[1]:g} N m has positions "
-                                     f"{sorted(values)}; required: 0..{n_positions - 1}")
+            _require_positions(path, f"{key[0]} at {key[1]:g} N m", values, n_positions)
     return ({key: [v[k] for k in range(n_positions)] for key, v in shares.items()},
             {key: [v[k] for k in range(n_positions)] for key, v in loads.items()})
 
@@ -289,3 +307,46 @@ def errors(reference: Reference, torque: float, product: dict[str, float]) -> li
             row[f"error_{column(m)}"] = relative_error(product[q], reference.values[(m, torque)][q])
         rows.append(row)
     return rows
+
+
+def lineload_path(reference_dir: pathlib.Path, scene_name: str) -> pathlib.Path:
+    return pathlib.Path(reference_dir) / f"{scene_name}.reference_fe3d.lineload.csv"
+
+
+def read_lineload(path: pathlib.Path, n_positions: int) -> dict[tuple[int, float], list[float]]:
+    """From the 3-D line load across the face: (bin count, torque) -> per position 0..n-1 the
+    largest line load (N/m) over the teeth and bins; {} when the file does not exist."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        return {}
+    peaks: dict[tuple[int, float], dict[int, float]] = {}
+    def parse(row):
+        q = float(row["line_load_N_per_m"])
+        if not (math.isfinite(q) and q >= 0):
+            raise ValueError(f"line_load_N_per_m = {q}; allowed: finite, >= 0")
+        return (int(row["bins"]), float(row["torque_Nm"])), int(row["position"]), q
+
+    for key, k, q in _rows(path, n_positions, parse):
+        by_position = peaks.setdefault(key, {})
+        by_position[k] = max(by_position.get(k, 0.0), q)
+    for (bins, torque), by_position in peaks.items():
+        _require_positions(path, f"{bins} bins at {torque:g} N m", by_position, n_positions)
+        unloaded = [k for k, q in by_position.items() if not q > 0]
+        if unloaded:
+            raise ReferenceError(f"{path}: {bins} bins at {torque:g} N m, position(s) {unloaded}: "
+                                 "no contact force; allowed: a loaded position")
+    return {key: [v[k] for k in range(n_positions)] for key, v in peaks.items()}
+
+
+def peak_line_load_error(peaks: dict[tuple[int, float], list[float]], torque: float, slices: int,
+                         product_loads) -> dict | None:
+    """The "peak_line_load" row: the product's largest slice line load over the positions
+    (mesh.max_line_load) against the 3-D reference's largest bin line load over the positions at
+    `slices` bins; None without that bin count and torque in the reference."""
+    if (slices, torque) not in peaks:
+        return None
+    reference = max(peaks[(slices, torque)])
+    product = float(max(product_loads))
+    error = relative_error(product, reference)
+    return {"quantity": PEAK_LINE_LOAD, "unit": "N/m", "product": product, "band_error": error,
+            "fe3d": reference, "error_fe3d": error}

@@ -9,7 +9,8 @@ import math
 import pathlib
 from collections import defaultdict
 
-from gearmesh.accuracy_reference import CURVE, LOAD_SHARE, PAIR_LINE_LOAD, QUANTITIES, SCORED
+from gearmesh.accuracy_reference import (CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD,
+                                         QUANTITIES, SCORED)
 
 # reference: "2d" (plane_* columns filled) or "3d" (fe3d columns filled); the others are empty.
 # product, plane_stress, plane_strain, fe3d: the quantity's values in its unit (SI; "1" for a share)
@@ -23,8 +24,9 @@ TIME_COLUMNS = ("plain_us", "plain_raw_us", "quasi_static_us", "quasi_static_raw
                 "round_trip_us")
 DATABASE_COLUMNS = ("db_build_s", "db_peak_MiB")  # level 5: the databases' build (NaN elsewhere)
 # A setting's score: the largest |band error| over the torques and its reference's SCORED.
-# CURVE, LOAD_SHARE, PAIR_LINE_LOAD: n/a where the reference has no per-position or per-tooth file
-SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PAIR_LINE_LOAD)
+# CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD: n/a where the reference has no per-position,
+# per-tooth or line-load file (or, for PEAK_LINE_LOAD, not the setting's slice count)
+SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD)
 _REFERENCE_TITLE = {"2d": "2-D band [plane stress, plane strain], whole gears",
                     "3d": "3-D sectors (ripple scored; the mean is biased low by the sectors)"}
 
@@ -136,15 +138,19 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
              "against the band of the models' position by position; pair line load: that pair's "
              "force over the face width, the largest over the positions, against the band of "
              "the models' largest "
-             "(2-D references with per-tooth forces). The error against each model is in "
+             "(2-D references with per-tooth forces). Peak line load (3-D references with the "
+             "line load across the face, shown, not scored): mesh.max_line_load, the largest "
+             "over the positions, against the reference's largest bin line load at as many bins "
+             "as the setting's slices. The error against each model is in "
              "accuracy.csv.", ""]
     lines += [f"* {n}" for n in notes]
     for (scene, kind), group in groups(entries).items():
         front = {id(e) for e in pareto_front(group)}
         lines += ["", f"## {scene}: {_REFERENCE_TITLE[kind]}", "",
                   "| setting | mean TE | p-p TE | order 1 | order 2 | order 3 | TE curve | "
-                  "load share | pair line load | score | plain µs (raw) | quasi-static µs (raw) | "
-                  "database build | front |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "load share | pair line load | peak line load | score | plain µs (raw) | "
+                  "quasi-static µs (raw) | database build | front |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for e in group:
             lines.append(
                 f"| {e['setting']} | " + " | ".join(pct(e[q]) for q in SHOWN)

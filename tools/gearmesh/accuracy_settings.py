@@ -25,13 +25,13 @@ PRESETS = ("quick", "full")
 # docs/model.md ("Contact detection", slices) names as the parameter's meaning.
 LEVEL0_CONSTANTS = ("c_ga", "c'")
 # Level 5's FE variants, as [fe] keys over the scene's own (docs/validation.md, "FE variants"):
-# the mesh one step coarser and finer than compliance_tool's default 8 x 6 x 3 (profile x width
+# the mesh one step coarser and finer than compliance_tool's default 8 x 4 x 3 (profile x width
 # x fillet elements; the flank grid is the flank's nodes, (2 p + 1) x (2 w + 1), so it follows),
 # and the flank grid loaded at 70 % and 50 % (the paper's reduced grid: the other columns from
 # the reduction space of the loaded ones). Each at 10 slices and the scene's coupled teeth.
 FE_VARIANTS: dict[str, dict] = {
-    "mesh-coarse": {"profile_elements": 6, "width_elements": 4, "fillet_elements": 2},
-    "mesh-fine": {"profile_elements": 12, "width_elements": 8, "fillet_elements": 4},
+    "mesh-coarse": {"profile_elements": 6, "width_elements": 3, "fillet_elements": 2},
+    "mesh-fine": {"profile_elements": 12, "width_elements": 6, "fillet_elements": 4},
     "grid-70%": {"load_fraction": 0.7},
     "grid-50%": {"load_fraction": 0.5},
 }

@@ -20,7 +20,7 @@ from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import mesh_order_amplitudes, pair_kinematics
 
 OMEGA1 = 10 * 2 * math.pi / 60  # rad/s: only the friction direction, and there is no friction
-_READ = ["mesh.te", "gear1.mz", "mesh.max_load_share", "mesh.normal_force"]
+_READ = ["mesh.te", "gear1.mz", "mesh.max_load_share", "mesh.normal_force", "mesh.max_line_load"]
 _FACES = [f"gear{i}.{n}" for i in (1, 2) for n in ("face_width", "axial_offset")]
 
 
@@ -37,6 +37,9 @@ class SweepResult:
     # torque -> the most loaded pair's force over the face width at the positions (N/m):
     # mesh.max_load_share x mesh.normal_force / the face widths' overlap
     pair_line_load: dict[float, np.ndarray]
+    # torque -> mesh.max_line_load at the positions (N/m): the largest slice's force over the
+    # slice width
+    max_line_load: dict[float, np.ndarray]
 
 
 def summarize(te: np.ndarray) -> dict[str, float]:
@@ -59,6 +62,7 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
     gear1_torque: dict[float, float] = {}
     load_share: dict[float, np.ndarray] = {}
     pair_line_load: dict[float, np.ndarray] = {}
+    max_line_load: dict[float, np.ndarray] = {}
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": True},
                      instance_name="accuracy_qs") as fmu:
         kin = pair_kinematics(fmu)
@@ -81,6 +85,7 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
                     load_share[torque] = np.array([r["mesh.max_load_share"] for r in rows])
                     pair_line_load[torque] = np.array(
                         [r["mesh.max_load_share"] * r["mesh.normal_force"] / width for r in rows])
+                    max_line_load[torque] = np.array([r["mesh.max_line_load"] for r in rows])
         qs_step, qs_calls = timer.median(), len(timer.seconds)
     with GearMeshFMU(fmu_path, {**common, "model.quasi_static": False},
                      instance_name="accuracy_plain") as fmu:
@@ -91,4 +96,5 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
                     fmu.step({"gear1.phi": phi1, "gear2.phi": kin.phi2(value, phi1)})
         plain_step, plain_calls = timer.median(), len(timer.seconds)
     return SweepResult(te, {t: summarize(v) for t, v in te.items()}, qs_step, plain_step,
-                       qs_calls, plain_calls, gear1_torque, load_share, pair_line_load)
+                       qs_calls, plain_calls, gear1_torque, load_share, pair_line_load,
+                       max_line_load)
