@@ -65,7 +65,8 @@ struct ToothCoupling {
 
 // The coupling of pair p at level 4 (offsets = min(p.coupled_teeth, 3)); GM_ERR_PARAMETER with
 // msg naming the parameter for what it cannot model (an internal ring: level 4 refuses it anyway).
-// `warning`: non-empty when a gear lies outside the table's range (extrapolated).
+// `warning`: non-empty when a gear lies outside the table's range (extrapolated), or for a
+// helical pair (the coupling is face-uniform: validated for spur gears, docs/model.md).
 gm_status build_tooth_coupling(const gm_model_params& p, const gm_pair_geometry& g,
                                ToothCoupling& out, std::string& warning, std::string& msg);
 

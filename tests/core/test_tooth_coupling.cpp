@@ -87,6 +87,36 @@ TEST(ToothCoupling, TableReproducesHeldOutDatabases) {
 }
 
 // C_ij = C_ji (Maxwell-Betti) for slices of random teeth, flanks and rolls on both gears.
+// Outside the validated range the model says so (gm_model_warnings): a helical pair with the
+// coupling on (face-uniform kernel: the ripple is not corrected), a tooth count beyond the
+// table; spur pairs inside it, and a helical pair without the coupling, carry no such warning.
+TEST(ToothCoupling, WarnsOutsideItsValidatedRange) {
+  const auto warnings = [](int coupled, double helix_deg, int teeth) {
+    gm_model_params p = gm_test::paper();
+    p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+    p.coupled_teeth = coupled;
+    if (helix_deg != 0) {
+      p.pair.helix_angle = helix_deg * gm_test::kPi / 180;
+      p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
+      p.pair.center_distance = 0.0026 / std::cos(p.pair.helix_angle) * 57 + 50e-6;
+    }
+    if (teeth != 57) {
+      p = gm_test::spur_pair(teeth, teeth, 0.002, 0.002 * teeth + 40e-6, 0, 0, 0.02);
+      p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+      p.coupled_teeth = coupled;
+    }
+    gm_test::Instance I(p);
+    return std::string(gm_model_warnings(I.m));
+  };
+  EXPECT_EQ(warnings(2, 0, 57).find("level 4's tooth coupling"), std::string::npos);
+  const std::string helical = warnings(2, 15, 57);
+  EXPECT_NE(helical.find("pair.helix_angle = 15 deg"), std::string::npos) << helical;
+  EXPECT_NE(helical.find("not the TE ripple"), std::string::npos) << helical;
+  EXPECT_EQ(warnings(0, 15, 57).find("helix_angle"), std::string::npos);
+  const std::string large = warnings(2, 0, 200);
+  EXPECT_NE(large.find("gear1.teeth = 200 outside"), std::string::npos) << large;
+}
+
 TEST(ToothCoupling, CompliancesAreReciprocal) {
   gm_model_params p = paper();
   p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
