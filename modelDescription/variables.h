@@ -293,7 +293,7 @@ typedef enum {
   X("model.slices", Integer, parameter, fixed, exact, "", "", p.slices, D_SET,                                     \
     "slices across the axial overlap")                                                                             \
   X("model.coupled_teeth", Integer, parameter, fixed, exact, "", "", p.coupled_teeth, D_SET,                       \
-    "FE level: neighbouring teeth coupled on each side")                                                           \
+    "levels 4 and 5: neighbouring teeth coupled on each side (level 4: at most 3, 0 = uncoupled)")                 \
   X("model.friction_coefficient", Real, parameter, fixed, exact, "", "", p.friction_coefficient, D_SET,            \
     "friction coefficient mu")                                                                                     \
   X("model.friction_velocity", Real, parameter, fixed, exact, "m/s", "mm/s", p.friction_velocity, D_SET,           \

@@ -196,12 +196,15 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     // Stiffness data of the level (docs/physics.md §5).
     gm::IsoStiffness iso{};
     gm::ToothSection tooth[2];
+    gm::ToothCoupling coupling;
+    std::string coupling_warning;
     if (p->stiffness_level == GM_STIFFNESS_ISO6336 || p->stiffness_level == GM_STIFFNESS_TIME_VARYING) {
       st = gm::iso_stiffness(*p, g, gm::IsoGearBlank{}, iso, text);
     } else if (p->stiffness_level == GM_STIFFNESS_ANALYTICAL) {
       for (int i = 0; i < 2 && st == GM_OK; ++i)
         st = gm::build_tooth_section(*p, g, i, gm::ToothSectionOptions{}, tooth[i], text);
       if (st != GM_OK) text = "model.stiffness = 4 (analytical): " + text;
+      if (st == GM_OK) st = gm::build_tooth_coupling(*p, g, coupling, coupling_warning, text);
     }
     gm::ComplianceDb compliance[2];
     if (p->stiffness_level == GM_STIFFNESS_FE) {
@@ -226,6 +229,7 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     m->iso_shape = 0.75 * (1 - 1 / g.eps_alpha);
     m->tooth[0] = std::move(tooth[0]);
     m->tooth[1] = std::move(tooth[1]);
+    m->coupling = coupling;
     m->stiffness_table = std::move(stiffness_table);
     m->te_table = std::move(te_table);
     m->compliance[0] = std::move(compliance[0]);
@@ -237,6 +241,8 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     m->layout = gm::make_mesh_layout(*p, g, std::move(micro[0]), std::move(micro[1]));
     m->slice_capacity = gm::slice_capacity(m->layout);
     m->warnings = design_warnings(g);
+    if (!coupling_warning.empty())
+      m->warnings += (m->warnings.empty() ? "" : "; ") + coupling_warning;
     *out = m;
     copy_message("", msg, msg_size);
     return GM_OK;
@@ -273,7 +279,7 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
     d->dual_forces.resize(m->slice_capacity);
     d->dual_stiffness.resize(m->slice_capacity);
     d->dual_balance.resize(m->slice_capacity);
-    if (m->params.stiffness_level == GM_STIFFNESS_FE) {
+    if (gm::coupled_solve(*m)) {
       const int c = m->slice_capacity;
       d->nlcp = std::make_unique<gm::NlcpSolver>(c);
       d->fe_compliance.resize(c, c);
@@ -284,12 +290,15 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
       d->fe_work.resize(c);
       d->fe_laws.resize(c);
       d->fe_index.resize(c);
+      d->fe_height.resize(2 * std::size_t(c));
+      d->coupled.reserve(c);
       d->fe_key.resize(c);
       d->fe_prev_key.resize(c);
       d->fe_dual_c.resize(c, c);
       d->fe_saved_force.resize(c);
       d->fe_saved_key.resize(c);
-      d->fe_assembly.reserve(gm::fe_view(*m), c);  // gm_evaluate then allocates nothing
+      if (m->params.stiffness_level == GM_STIFFNESS_FE)
+        d->fe_assembly.reserve(gm::fe_view(*m), c);  // gm_evaluate then allocates nothing
     }
     d->message.reserve(256);
     *out = d;

@@ -146,9 +146,23 @@ void fe_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
   const Dual uz[2] = {kin.u[0][2], kin.u[1][2]};
   auto H = d.fe_tangent.topLeftCorner(na, na);
   auto dC = d.fe_dual_c.topLeftCorner(na, na);
+  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
   for (int p = 0; p < na; ++p) {
+    const ContactSliceT<Dual>& sp = S[d.fe_index[p]];
+    Dual hp[2];
+    if (!fe) for (int g = 0; g < 2; ++g) hp[g] = coupling_height(m.coupling.gear[g], sp.roll[g]);
     for (int q = 0; q <= p; ++q) {
-      const Dual c = fe_pair_compliance(fe_view(m), S[d.fe_index[p]], S[d.fe_index[q]], uz);
+      const ContactSliceT<Dual>& sq = S[d.fe_index[q]];
+      Dual c;
+      if (fe) {
+        c = fe_pair_compliance(fe_view(m), sp, sq, uz);
+      } else if (p == q) {  // level 4 coupled: the slice's own law, no self-coupling
+        c = d.dual_laws[d.fe_index[p]].compliance;
+      } else {
+        Dual hq[2];
+        for (int g = 0; g < 2; ++g) hq[g] = coupling_height(m.coupling.gear[g], sq.roll[g]);
+        c = coupling_compliance(m.coupling, sp, hp, sq, hq);
+      }
       H(p, q) = H(q, p) = c.v;
       dC(p, q) = dC(q, p) = c.d;
     }
@@ -232,7 +246,7 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
   const int n = prepare_slices(m, kin, d.dual_slices.data(), d.dual_laws.data(), all, d.message);
   if (n < 0) return GM_ERR_INPUT;
   ContactSliceT<Dual>* slices = d.dual_slices.data();
-  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
+  if (coupled_solve(m)) {
     const gm_status st = fe_dual_forces(m, d, kin, n, all);
     if (st != GM_OK) return st;
   } else {
@@ -371,7 +385,7 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
     return GM_ERR_INPUT;
   }
   // level 5: the coupled solve's warm start is the evaluation's, left as it was
-  const FeWarmStartGuard guard(d, m.params.stiffness_level == GM_STIFFNESS_FE);
+  const FeWarmStartGuard guard(d, coupled_solve(m));
   const MeshLayout& L = m.layout;
   double phi2_offset = 0;
   const gm_kinematics at = reduced_pose(L, at_in, &phi2_offset);  // as gm_evaluate detects

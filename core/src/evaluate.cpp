@@ -33,7 +33,7 @@ gm_status plain_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, i
 gm_status quasi_static_solve(const gm_model& m, gm_data& d, double phi1_in, double phi2_offset,
                              gm_kinematics& kin, int& n, gm_result& r, double& te) {
   const MeshLayout& L = m.layout;
-  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
+  const bool fe = coupled_solve(m);
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   const PassMode mode{true, true, kin.load_torque / rb2};  // load: the TE coordinate's force, N
   te = fe ? predicted_te(d, phi1_in, kin.load_torque) : d.te_estimate;

@@ -24,6 +24,22 @@ int fe_select(gm_data& d, int n, bool all) {
   return na;
 }
 
+// Level 4 with tooth coupling: C between the solved slices, each slice's own law on the diagonal
+// (Weber/Sainsot of both teeth) and the tooth coupling between slices of different tooth pairs.
+void coupled_assemble(const gm_model& m, gm_data& d, int na) {
+  const ContactSlice* S = d.slices.data();
+  double* h = d.fe_height.data();
+  for (int a = 0; a < na; ++a)
+    for (int g = 0; g < 2; ++g) h[2 * a + g] = coupling_height(m.coupling.gear[g], S[d.fe_index[a]].roll[g]);
+  auto& C = d.fe_compliance;
+  for (int a = 0; a < na; ++a) {
+    const ContactSlice& sa = S[d.fe_index[a]];
+    C(a, a) = d.laws[d.fe_index[a]].compliance;
+    for (int b = 0; b < a; ++b)
+      C(a, b) = C(b, a) = coupling_compliance(m.coupling, sa, h + 2 * a, S[d.fe_index[b]], h + 2 * b);
+  }
+}
+
 // The solved set's identities, local laws, approaches and TE gains, its compliance C (cached
 // assembly), and the warm start: the previous call's forces when the candidates are the same.
 void fe_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na) {
@@ -36,11 +52,29 @@ void fe_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na) 
     d.fe_delta[a] = d.approach[d.fe_index[a]];
     d.fe_weights[a] = sa.te_gain;
   }
-  const double uz[2] = {kin.u[0][2], kin.u[1][2]};
-  d.fe_assembly.assemble(fe_view(m), S, d.fe_index.data(), na, uz, d.fe_compliance);
+  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
+    const double uz[2] = {kin.u[0][2], kin.u[1][2]};
+    d.fe_assembly.assemble(fe_view(m), S, d.fe_index.data(), na, uz, d.fe_compliance);
+  } else {
+    coupled_assemble(m, d, na);
+  }
   bool same = d.fe_prev_n == na;
   for (int a = 0; same && a < na; ++a) same = d.fe_key[a] == d.fe_prev_key[a];
-  if (!same) d.fe_force.head(na).setZero();
+  if (m.params.stiffness_level != GM_STIFFNESS_FE) {
+    // Level 4: start from the uncoupled answer (each slice alone under its own law), not from
+    // the previous call's forces, so that a result does not depend on the call history (FMU
+    // get/set state, dynamics state copies stay bit for bit, as the separable levels' do)
+    for (int a = 0; a < na; ++a) {
+      const int i = d.fe_index[a];
+      const double delta = std::max(d.fe_delta[a], 0.0);
+      const ForceSolve one = solve_separable(&d.laws[i], &delta, 1, m.params.solver_tolerance,
+                                             m.params.solver_max_iterations,
+                                             d.fe_force.data() + a, d.fe_work.data() + a);
+      if (!one.converged) d.fe_force[a] = 0;
+    }
+  } else if (!same) {
+    d.fe_force.head(na).setZero();
+  }
   for (int a = 0; a < na; ++a) d.fe_prev_key[a] = d.fe_key[a];
   d.fe_prev_n = na;
 }
@@ -59,9 +93,18 @@ void fe_set_options(const gm_model& m, gm_data& d, int na) {
     closing = std::max(closing, d.fe_delta[a]);
     all_max = std::max(all_max, std::fabs(d.fe_delta[a]));
   }
-  const double rel = kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-15);
+  double rel = kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-15);
+  // Level 4 (tooth coupling): model.solver_tolerance as the separable solve of the uncoupled
+  // levels reads it, relative to its default 1e-10 m, down to the rounding floor of the gap
+  // (directional derivatives are compared with finite differences at a 1e-15 m tolerance)
+  if (m.params.stiffness_level != GM_STIFFNESS_FE) {
+    rel = std::max(1e-14, kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-10));
+    opt.tolerance = std::min(1e-15, 1e-3 * m.params.solver_tolerance);
+  }
   opt.relative_tolerance = all_max > 0 && closing > 0 ? rel * closing / all_max : rel;
   opt.max_iterations = m.params.solver_max_iterations;
+  // level 4: no factorization carried over from the previous call (history independence)
+  opt.reuse_tangent = m.params.stiffness_level == GM_STIFFNESS_FE;
   d.nlcp->set_options(opt);
 }
 
@@ -101,6 +144,51 @@ NlcpResult fe_solve_balanced(gm_data& d, int na, double load, ForceSolve& out) {
   return res;
 }
 
+// Level 4 quasi-static at zero load on a wedged mesh (a flank overlaps at the touch position
+// lambda_0 of fe_touch_lambda, so no free position exists): the preloaded balance
+// sum_i b_i F_i(Delta + lambda w) = 0 (w = te_gain), increasing in lambda, bracketed by lambda_0
+// (no flank-A force: the sum is < 0) and the lambda where every flank-B slice opens (>= 0);
+// Illinois regula falsi over plain coupled solves. d.fe_delta holds Delta + lambda w on return;
+// out.lambda is lambda.
+NlcpResult fe_solve_wedged(gm_data& d, int na, double lambda0, ForceSolve& out) {
+  const auto Cn = d.fe_compliance.topLeftCorner(na, na);
+  auto base = d.fe_work.head(na);
+  base = d.fe_delta.head(na);
+  double hi = lambda0;
+  for (int a = 0; a < na; ++a)
+    if (d.fe_weights[a] < 0) hi = std::max(hi, -base[a] / d.fe_weights[a]);
+  NlcpResult res;
+  const auto balance_at = [&](double lambda) {
+    for (int a = 0; a < na; ++a) d.fe_delta[a] = base[a] + lambda * d.fe_weights[a];
+    res = d.nlcp->solve(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_force.head(na));
+    out.iterations += res.iterations;
+    double bal = 0;
+    for (int a = 0; a < na; ++a) bal += d.balance[d.fe_index[a]] * d.fe_force[a];
+    return bal;
+  };
+  double lo = lambda0, f_lo = balance_at(lo), f_hi = balance_at(hi), lambda = hi, f = f_hi;
+  double scale = std::fabs(f_lo);
+  int side = 0;
+  for (int it = 0; it < 100 && res.status == NlcpStatus::converged; ++it) {
+    if (std::fabs(f) <= 1e-12 * scale || hi - lo <= 1e-15 * (std::fabs(lo) + 1e-6)) break;
+    lambda = f_hi != f_lo ? (lo * f_hi - hi * f_lo) / (f_hi - f_lo) : 0.5 * (lo + hi);
+    f = balance_at(lambda);
+    if (f < 0) {
+      lo = lambda;
+      f_lo = f;
+      if (side == -1) f_hi *= 0.5;
+      side = -1;
+    } else {
+      hi = lambda;
+      f_hi = f;
+      if (side == 1) f_lo *= 0.5;
+      side = 1;
+    }
+  }
+  out.lambda = lambda;
+  return res;
+}
+
 // Forces, and each loaded slice's tangent stiffness: row sums of (C_AA + diag f'_A)^-1, so
 // that their sum is the mesh stiffness under a uniform approach.
 void fe_store(gm_data& d, int na) {
@@ -136,8 +224,15 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
     out.iterations = res.iterations;
   } else if (load == 0) {
     out.lambda = fe_touch_lambda(d, na);
+    bool wedged = false;  // level 4: a flank overlaps at the touch position
+    for (int a = 0; a < na && m.params.stiffness_level != GM_STIFFNESS_FE; ++a)
+      wedged = wedged || d.fe_delta[a] + out.lambda * d.fe_weights[a] > 0;
+    if (!wedged) {
+      for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
+      return out;
+    }
+    res = fe_solve_wedged(d, na, out.lambda, out);
     for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
-    return out;
   } else {
     res = fe_solve_balanced(d, na, load, out);
     for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;

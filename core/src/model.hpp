@@ -15,6 +15,8 @@
 #include "fe_compliance.hpp"
 #include "stiffness_iso.hpp"
 #include "gearmesh/internal/tooth_compliance.hpp"
+#include "tooth_coupling.hpp"
+#include "coupled_forces.hpp"
 #include "user_tables.hpp"
 #include "gearmesh/gearmesh.h"
 
@@ -28,6 +30,7 @@ struct gm_model {
   double iso_c_gamma = 0;      // levels 2, 3: mesh stiffness c_gamma_alpha, N/m^2
   double iso_shape = 0;        // level 2: parabola depth of the pair stiffness over the path
   gm::ToothSection tooth[2];   // level 4: Weber/Sainsot compliance of each gear's tooth
+  gm::ToothCoupling coupling;  // level 4: coupling between the teeth of each gear (offsets 0: none)
   gm::StiffnessTable stiffness_table;  // level 1: pair stiffness over gear 1's roll angle
   gm::TeTable te_table;        // any level: TE excitation over gear 1's angle (empty = none)
   gm::ComplianceDb compliance[2];  // level 5: each gear's compliance database (checked to match)
@@ -56,6 +59,8 @@ struct gm_data {
   Eigen::VectorXd fe_delta, fe_force, fe_weights, fe_work;
   std::vector<gm::LocalLaw> fe_laws;     // local Hertz laws of the solved slices
   std::vector<int> fe_index;             // candidate index of each solved slice
+  std::vector<double> fe_height;         // level 4 coupled: heights of the solved slices (gear 1, 2)
+  gm::CoupledWorkspace coupled;          // level 4 coupled: the low-rank solve (coupled_forces.hpp)
   std::vector<long long> fe_key, fe_prev_key;  // slice identities (warm start if unchanged)
   int fe_prev_n = -1;                    // solved slices of the previous call (-1: none)
   gm::FeAssembly fe_assembly;            // cached face sums of the databases (derived data)
@@ -74,6 +79,13 @@ namespace gm {
 // The FE level's narrow view of the model (fe_compliance.hpp).
 inline FeView fe_view(const gm_model& m) {
   return FeView{m.compliance, m.layout, m.params.coupled_teeth};
+}
+
+// Whether the force solve is the coupled one (NlcpSolver over a dense compliance C between the
+// candidates, fe_solve.cpp): level 5, and level 4 with its tooth coupling (tooth_coupling.hpp).
+inline bool coupled_solve(const gm_model& m) {
+  return m.params.stiffness_level == GM_STIFFNESS_FE ||
+         (m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL && m.coupling.offsets > 0);
 }
 
 }  // namespace gm

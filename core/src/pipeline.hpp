@@ -40,11 +40,20 @@ int prepare_slices(const gm_model& m, const K& kin, ContactSliceT<T>* slices, Sl
 // d.forces and d.slice_stiffness, and d.approach (quasi: moved by the solved rigid approach).
 inline ForceSolve solve_forces(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n,
                                const PassMode& mode) {
-  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
+  const bool fe = coupled_solve(m);  // level 5, level 4 with tooth coupling
   const double tol = m.params.solver_tolerance;
   const int max_it = m.params.solver_max_iterations;
   if (fe || !mode.quasi)  // the separable quasi-static solve writes the approaches itself
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+  if (fe && m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL) {
+    // level 4 with tooth coupling: the low-rank solve; the dense one where it cannot
+    const CoupledSolveResult r =
+        solve_coupled(m.coupling, d.laws.data(), d.slices.data(), d.balance.data(), n,
+                      mode.quasi, mode.load, 0.0, tol, max_it, d.approach.data(),
+                      d.forces.data(), d.slice_stiffness.data(), d.coupled);
+    if (!r.fallback) return r.solve;
+    for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+  }
   if (fe) return fe_solve(m, d, kin, n, mode.all, mode.quasi, mode.load);
   if (mode.quasi)
     return solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(), n, mode.load,

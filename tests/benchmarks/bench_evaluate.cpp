@@ -184,6 +184,12 @@ int main(int argc, char** argv) {
        [](gm_model_params& p) { p.slices = 10; p.stiffness_level = 3; }, 0},
       {"spur, 10 slices, level 4 (analytical + Hertz)",
        [](gm_model_params& p) { p.slices = 10; p.stiffness_level = 4; }, 0},
+      {"spur, 10 slices, level 4 uncoupled (coupled_teeth 0)",
+       [](gm_model_params& p) { p.slices = 10; p.stiffness_level = 4; p.coupled_teeth = 0; }, 0},
+      {"helical 15 deg, 10 slices, level 4 (tooth coupling)",
+       [](gm_model_params& p) { helical(p); p.slices = 10; p.stiffness_level = 4; }, 0},
+      {"spur, 10 slices, level 4, quasi-static 500 N m",
+       [](gm_model_params& p) { p.slices = 10; p.stiffness_level = 4; p.quasi_static = 1; }, 0},
       {"spur, 10 slices, level 4, friction + damping",
        [](gm_model_params& p) {
          p.slices = 10; p.stiffness_level = 4; p.friction_coefficient = 0.4; p.damping = 1e3;

@@ -15,6 +15,7 @@
 #include "gearmesh/internal/compliance_db.hpp"
 #include "fe_compliance.hpp"
 #include "fe_synthetic.hpp"
+#include "tooth_coupling.hpp"
 #include "gearmesh/gearmesh.h"
 #include "model.hpp"
 #include "gearmesh/internal/geometry.hpp"
@@ -121,6 +122,7 @@ TEST(FeLevel, UncoupledSyntheticDatabaseReproducesLevel4) {
   for (int slices : {1, 3}) {
     gm_model_params p4 = fe_paper(slices);
     p4.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+    p4.coupled_teeth = 0;  // level 4 without its tooth coupling, as the database
     const FeFiles f = fe_files(p4, "uncoupled" + std::to_string(slices));
     Instance a4(p4), a5(at_level5(p4, f));
     const double torque = 300;
@@ -141,6 +143,71 @@ TEST(FeLevel, UncoupledSyntheticDatabaseReproducesLevel4) {
     // database's one Hertz depth h (level 4's depth follows the profile), the rest from the roll
     // interpolation of sqrt(c) on 41 nodes (0.426 % with 161 nodes)
     EXPECT_LT(worst, 0.01 * te_max);
+  }
+}
+
+// Level 4's tooth coupling against level 5 on a synthetic database that holds it: C_0 as above
+// (level 4's own compliance), C_d for 0 < |d| <= 2 the coupling surrogate's kernel at the roll
+// nodes, face-uniform: the response to a unit point load anywhere on the face is the kernel's
+// displacement under the line load of that force spread over the face, k_d(h_a, h_b) / b, taken
+// from coupling_coefficients (not from the core's slice mapping). Level 5 maps slices to teeth and
+// offsets with fe_compliance.cpp's conventions (checked against the geometry in
+// test_fe_mapping.cpp); so the two levels agree only if level 4 reads the same offsets, gears
+// and flanks (load on flank A and on flank B). The difference left is the database's one Hertz
+// depth and the roll interpolation, as in the uncoupled test.
+TEST(FeLevel, CoupledSyntheticDatabaseReproducesCoupledLevel4) {
+  gm_model_params p4 = fe_paper(3);
+  p4.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+  p4.coupled_teeth = 2;
+  FeFiles f;
+  for (int g = 0; g < 2; ++g) {
+    gm::ComplianceDb db = synthetic_db(p4, g, Coupling{});
+    std::string msg;
+    gm_pair_geometry geo{};
+    ASSERT_EQ(gm::compute_pair_geometry(p4, geo, msg), GM_OK) << msg;
+    const double mn = p4.pair.normal_module, rb = 0.5 * geo.gear[g].d_b, r = 0.5 * geo.gear[g].d;
+    const gm::CouplingCoefficients k =
+        gm::coupling_coefficients(p4.gear[g].teeth, p4.gear[g].face_width / mn);
+    const int nr = int(db.roll.size()), nf = int(db.face.size()), ng = nr * nf;
+    const double scale = 1.0 / (p4.gear[g].youngs_modulus * p4.gear[g].face_width);
+    for (int d = -2; d <= 2; ++d) {
+      if (d == 0) continue;
+      std::vector<double>& block = db.blocks[std::size_t(d + int(db.n_coupled))];
+      for (int a = 0; a < nr; ++a) {
+        for (int b = 0; b < nr; ++b) {
+          const double ha = (std::hypot(db.roll[a], rb) - r) / mn;
+          const double hb = (std::hypot(db.roll[b], rb) - r) / mn;
+          const double* c = k.c[std::abs(d) - 1];
+          const double x = d > 0 ? ha : hb, y = d > 0 ? hb : ha;  // receiver, load (table's)
+          const double v = scale * (c[0] + c[1] * x + c[2] * y + c[3] * x * y);
+          for (int m = 0; m < nf; ++m)
+            for (int n = 0; n < nf; ++n) block[std::size_t((a * nf + m) * ng + b * nf + n)] = v;
+        }
+      }
+    }
+    f.path[g] = write_db("coupled4_g" + std::to_string(g + 1) + ".gcdb", db);
+  }
+  Instance a4(p4), a5(at_level5(p4, f));
+  gm_model_params p0 = p4;
+  p0.coupled_teeth = 0;
+  Instance a0(p0);
+  for (double torque : {300.0, -300.0}) {
+    const int n = 40;
+    const std::vector<gm_result> r4 = over_a_pitch(a4, torque, n), r5 = over_a_pitch(a5, torque, n),
+                                 r0 = over_a_pitch(a0, torque, n);
+    double worst = 0, te_max = 0, effect = 0;
+    for (int s = 0; s < n; ++s) {
+      te_max = std::max(te_max, std::fabs(r4[s].te));
+      worst = std::max(worst, std::fabs(r5[s].te - r4[s].te));
+      effect = std::max(effect, std::fabs(r4[s].te - r0[s].te));
+      EXPECT_EQ(r5[s].pairs_in_contact, r4[s].pairs_in_contact) << s;
+      EXPECT_NEAR(r5[s].stiffness, r4[s].stiffness, 0.05 * r4[s].stiffness) << s;
+    }
+    std::printf("torque %g: coupled level 4 TE up to %.4g um, the coupling moves it up to %.3g um, "
+                "level 5 - level 4 up to %.3g um (%.3g %%)\n", torque, te_max * 1e6, effect * 1e6,
+                worst * 1e6, 100 * worst / te_max);
+    EXPECT_GT(effect, 1e-6);            // the coupling matters here (2.4 um measured)
+    EXPECT_LT(worst, 0.01 * te_max);    // and both levels read it alike
   }
 }
 

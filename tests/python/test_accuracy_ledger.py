@@ -274,6 +274,8 @@ def test_cli_writes_table_csv_and_plot(fmu_path, tmp_path, capsys):
                      "--reference", str(FIXTURES), "--fmu", str(fmu_path)]) == 0
     assert "cheapest within 100 %: L" in capsys.readouterr().out
     text = (out / "accuracy.md").read_text()
-    assert text.count("| L") == 3 and "Cheapest setting within 100 %: **L" in text
-    assert len(accuracy_report.read_csv(out / "accuracy.csv")) == 3 * 2 * 5
+    # quick: L2, L3, L4 and the uncoupled L4 (L4 s10 c0)
+    assert text.count("| L") == 4 and "Cheapest setting within 100 %: **L" in text
+    assert "| L4 s10 c0 |" in text
+    assert len(accuracy_report.read_csv(out / "accuracy.csv")) == 4 * 2 * 5
     assert (out / "accuracy_pareto.png").stat().st_size > 10_000

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -116,10 +117,14 @@ def test_fe_against_the_analytical_level_and_iso(fe):
     (coupling can only add compliance in double contact; the tooth alone agrees within a few
     per cent, compliance_tool's tests: 1.016 at mid-profile), within +-20 % of ISO c' (the
     literature's scatter of c' against FE); single contact within [0.85, 1.05] x level 4 (no
-    coupling there, the tooth models alone). A factor 2 or a sign error falls outside each."""
+    coupling there, the tooth models alone). A factor 2 or a sign error falls outside each.
+    Level 4 here is the uncoupled one (model.coupled_teeth = 0); its tooth coupling (the default,
+    docs/model.md "Tooth coupling at level 4") is checked as an increment: level 4 coupled /
+    uncoupled against the FE level's coupled / uncoupled (+12 %), within 4 %."""
     fmu = fe.fmus["solid"]
     fe_mean, fe_single = loaded_te(fmu)
-    l4_mean, l4_single = loaded_te(fmu, {"model.stiffness": 4, **NO_DB})
+    l4_mean, l4_single = loaded_te(fmu, {"model.stiffness": 4, "model.coupled_teeth": 0, **NO_DB})
+    l4c_mean, l4c_single = loaded_te(fmu, {"model.stiffness": 4, **NO_DB})
     iso_mean, _ = loaded_te(fmu, {"model.stiffness": 2, **NO_DB})
     uncoupled_mean, uncoupled_single = loaded_te(fmu, {"model.coupled_teeth": 0})
     assert 1.00 < fe_mean / l4_mean < 1.15, (fe_mean, l4_mean)
@@ -128,6 +133,12 @@ def test_fe_against_the_analytical_level_and_iso(fe):
     # visible tooth coupling: it raises the mean TE, and single contact does not feel it
     assert fe_mean / uncoupled_mean > 1.05
     assert fe_single == pytest.approx(uncoupled_single, rel=0.01)
+    # level 4's coupling adds what the FE level's does (single contact: nothing)
+    print(f"coupling increment: level 4 {l4c_mean / l4_mean:.4f}, FE {fe_mean / uncoupled_mean:.4f}")
+    assert l4c_mean / l4_mean == pytest.approx(fe_mean / uncoupled_mean, rel=0.04)
+    # (not to rounding: the coupling lengthens single contact, so the two means cover different
+    # poses; pose by pose it is exact, ToothCoupling.SinglePairIsUncoupledAndDoubleContactSoftens)
+    assert l4c_single == pytest.approx(l4_single, rel=0.01)
 
 
 def test_lightweight_gear_is_more_compliant(fe):
@@ -260,18 +271,26 @@ LEVEL4 = PAIR.split("[fe]")[0].replace("stiffness_level = 5", "stiffness_level =
 @pytest.mark.parametrize("extra, first", [
     ("[gear1.body]\nbore_diameter_mm = 10\n", "gear1.body"),
     ("[fe]\ndepth_mm = 0.5\n", "fe"),
-    ("[model]\ncoupled_teeth = 2\n", "model.coupled_teeth"),
 ])
 def test_fe_inputs_are_refused_below_level_5(extra, first):
     """Nothing in a scene is silently unused: FE inputs at level 4 are errors."""
     parse_scene(LEVEL4)  # the scene itself is valid
-    text = LEVEL4.replace("[model]\n", extra + "[model]\n") if first.startswith("model") else LEVEL4 + extra
-    if first.startswith("model"):
-        text = LEVEL4.replace("[model]\n", "[model]\ncoupled_teeth = 2\n")
     with pytest.raises(SceneError) as err:
-        parse_scene(text)
+        parse_scene(LEVEL4 + extra)
     message = str(err.value)
     assert message.startswith(first) and "model.stiffness_level = 5" in message and "has 4" in message
+
+
+def test_coupled_teeth_belongs_to_levels_4_and_5():
+    """Level 4's tooth coupling takes model.coupled_teeth 0..3 (its fitted table); levels 0-3
+    have none, so the key is refused there."""
+    assert parse_scene(LEVEL4.replace("[model]\n", "[model]\ncoupled_teeth = 0\n")).parameters[
+        "model.coupled_teeth"] == 0
+    for text, words in ((LEVEL4.replace("[model]\n", "[model]\ncoupled_teeth = 4\n"), "allowed range [0, 3]"),
+                        (LEVEL4.replace("stiffness_level = 4", "stiffness_level = 3").replace(
+                            "[model]\n", "[model]\ncoupled_teeth = 1\n"), "levels 4 and 5")):
+        with pytest.raises(SceneError, match=re.escape(words)):
+            parse_scene(text)
 
 
 def test_prebuilt_database_is_shipped_and_skips_the_build(tmp_path):
@@ -456,15 +475,21 @@ def test_helical_against_level_4(helical):
     the FE tooth's face ends, which the plane slices of level 4 lack, can only add compliance
     where a diagonal contact line ends near a tip); uncoupled mean [0.88, 1.10]; coupled mean
     [1.00, 1.25] (coupling adds compliance in double contact). A doubled gear compliance (about
-    +35 %) or a sign error falls outside."""
+    +35 %) or a sign error falls outside. Level 4 here is the uncoupled one; its tooth coupling
+    is checked as an increment against the FE level's (+17 %), within 6 %."""
     fmu, builds = helical
     assert builds[1].key != builds[2].key  # opposite hands
     fe_run = sweep(fmu, z1=20)
-    l4 = sweep(fmu, {"model.stiffness": 4, **NO_DB}, z1=20)
+    l4 = sweep(fmu, {"model.stiffness": 4, "model.coupled_teeth": 0, **NO_DB}, z1=20)
+    l4c = sweep(fmu, {"model.stiffness": 4, **NO_DB}, z1=20)
     uncoupled = sweep(fmu, {"model.coupled_teeth": 0}, z1=20)
     assert 0.90 < single(fe_run) / single(l4) < 1.12, (single(fe_run), single(l4))
     assert 0.88 < uncoupled["deflection"].mean() / l4["deflection"].mean() < 1.10
     assert 1.00 < fe_run["deflection"].mean() / l4["deflection"].mean() < 1.25
+    fe_increment = fe_run["deflection"].mean() / uncoupled["deflection"].mean()
+    l4_increment = l4c["deflection"].mean() / l4["deflection"].mean()
+    print(f"coupling increment: level 4 {l4_increment:.4f}, FE {fe_increment:.4f}")
+    assert l4_increment == pytest.approx(fe_increment, rel=0.06)
 
 
 def test_helical_flank_b_and_axial_force(helical):

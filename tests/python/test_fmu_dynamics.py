@@ -52,7 +52,7 @@ def judge(fmu_path, mu, t, te, angle1, speed1, speed2, energy):
                         zip(angle1[settled], speed1[settled], speed2[settled])])
     te = te[settled]
     assert np.all(np.isfinite(te))
-    assert np.ptp(ref) > 5e-6  # the comparison sees the mesh's TE variation
+    assert np.ptp(ref) > 4e-6  # the comparison sees the mesh's TE variation (level 4: 4.7 um)
     assert abs(te.mean() - ref.mean()) < 0.05e-6
     assert abs(np.ptp(te) - np.ptp(ref)) < 0.05e-6
     assert abs(energy["energy.residual"]) <= 0.01 * energy["energy.work_in"]
@@ -120,7 +120,10 @@ def test_explicit_chain_with_motor_and_load_outside(fmu_path, h):
     with GearMeshFMU(fmu_path, start) as f:
         t = 0.0
         out = f.get(["gear1.shaft_torque", "gear2.shaft_torque"])
-        while t < 0.6 - 1e-12:
+        # 1.2 s: the ringing builds up over about 0.5 s (with level 4's tooth coupling to a
+        # gear-speed p-p of 0.86-0.97 rad/s, bounded over 3 s; uncoupled 0.65-0.74), so that the
+        # growth check below compares two windows past it
+        while t < 1.2 - 1e-12:
             shaft1, shaft2 = out["gear1.shaft_torque"], out["gear2.shaft_torque"]
             inputs = {"gear1.shaft_phi": rest.phi_m, "gear1.shaft_omega": rest.w_m,
                       "gear2.shaft_phi": rest.phi_l, "gear2.shaft_omega": rest.w_l}

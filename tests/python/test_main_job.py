@@ -61,14 +61,16 @@ def test_main_job_on_set_a(fmu_path, tmp_path):
     level4 = read(folder / "loaded_te_level4.csv")
     assert (folder / f"{scene.name}.level4.fmu").is_file()
     mean4 = level4["mesh.te"][level4["torque"] == 350.0].mean()
-    assert means[2] > 1.1 * mean4  # the FE level is softer than level 4 (body and coupling)
+    # level 4 couples its teeth as the FE level does (docs/model.md, "Tooth coupling at level 4"):
+    # measured 5.3 % more compliant at 350 N m (without the coupling 15 % stiffer)
+    assert abs(mean4 / means[2] - 1) < 0.10
     # the accuracy section against the committed CalculiX reference (independent code): the FE
     # level's mean TE lies inside the plane-stress/plane-strain band at every torque, level 4's
-    # is more than 5 % too stiff at 350 N m
+    # (tooth coupling) within 5 % of it at 350 N m (measured +1.2 %; uncoupled it was -13.7 %)
     acc = _section_rows(text, "Error against the FE reference")
     assert {r[0] for r in acc} == {"5", "4"} and len(acc) == 8
     assert all(abs(float(r[2].rstrip(" %"))) < 1.0 for r in acc if r[0] == "5")
-    assert float(next(r for r in acc if r[:2] == ["4", "350"])[2].rstrip(" %")) < -5.0
+    assert abs(float(next(r for r in acc if r[:2] == ["4", "350"])[2].rstrip(" %"))) < 5.0
 
 
 def _section_rows(text: str, title: str) -> list[list[str]]:

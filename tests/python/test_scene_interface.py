@@ -70,9 +70,10 @@ def test_torsional_lists_the_spins_and_the_mesh_outputs(set_a_fmus):
     assert not parameters & set(fixed), "a parameter the scene sets is listed"
     # not read at level 4: the other levels' inputs and level 5's databases
     assert not parameters & {"model.user_stiffness", "model.stiffness_table", "model.rated_line_load",
-                             "gear1.compliance", "gear2.compliance", "model.coupled_teeth"}
-    # left at the FMU's defaults, read at level 4: still tunable
-    assert {"gear1.lead_crowning", "model.damping", "solver.tolerance", "model.quasi_static"} <= parameters
+                             "gear1.compliance", "gear2.compliance"}
+    # left at the FMU's defaults, read at level 4 (its tooth coupling too): still tunable
+    assert {"gear1.lead_crowning", "model.damping", "solver.tolerance", "model.quasi_static",
+            "model.coupled_teeth"} <= parameters
     assert names(fmu, "calculatedParameter") == names(set_a_fmus["full"], "calculatedParameter")
 
 

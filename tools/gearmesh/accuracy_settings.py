@@ -16,7 +16,7 @@ from gearmesh.scene import Scene
 SLICES = (1, 3, 10, 20, 40)
 COUPLED = (0, 1, 2, 3)
 # quick: the CI ledger (docs/validation.md): levels 2, 3, 4 at 10 slices, the reference's lowest
-# and highest torque
+# and highest torque, and level 4 without its tooth coupling (L4 s10 c0) beside it
 QUICK_LEVELS = (2, 3, 4)
 QUICK_SLICES = (10,)
 PRESETS = ("quick", "full")
@@ -43,7 +43,7 @@ DEFAULT_COUPLED = 2  # the FMU's default model.coupled_teeth
 class Setting:
     level: int
     slices: int
-    coupled: int | None = None  # level 5 only
+    coupled: int | None = None  # levels 4 (tooth coupling) and 5; None: the scene's
     constant: str | None = None  # level 0 only: one of LEVEL0_CONSTANTS
     fe: str | None = None        # level 5 only: one of FE_VARIANTS (None: the scene's [fe])
 
@@ -66,7 +66,8 @@ def settings(preset: str, level5_coupled: tuple[int, ...] = (),
     """The preset's settings; level 5 only with the coupled-teeth values and FE variants that
     have databases."""
     if preset == "quick":
-        return [Setting(level, s) for level in QUICK_LEVELS for s in QUICK_SLICES]
+        return ([Setting(level, s) for level in QUICK_LEVELS for s in QUICK_SLICES] +
+                [Setting(4, s, 0) for s in QUICK_SLICES])
     if preset != "full":
         raise ValueError(f"--settings {preset}: unknown; allowed: {', '.join(PRESETS)}")
     out = [Setting(0, s, constant=c) for c in LEVEL0_CONSTANTS for s in SLICES]

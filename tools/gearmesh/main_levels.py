@@ -45,8 +45,8 @@ def scene_at_level(scene: Scene, level: int) -> Scene:
     parameters = {**scene.parameters, "model.stiffness": level}
     if level == 5:
         parameters.setdefault("model.coupled_teeth", DEFAULT_COUPLED)
-    else:
-        parameters.pop("model.coupled_teeth", None)  # an input of level 5 only
+    elif level != 4 or parameters.get("model.coupled_teeth", 0) > 3:
+        parameters.pop("model.coupled_teeth", None)  # an input of levels 4 (<= 3) and 5 only
     return with_databases(dataclasses.replace(scene, parameters=parameters))
 
 

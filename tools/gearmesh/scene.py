@@ -488,8 +488,13 @@ def _parse_fmu(table: dict) -> dict:
 def _check_fe_level(scene: Scene, level: int) -> None:
     """Body and FE tables are inputs of the FE level only; refused elsewhere (nothing unused)."""
     fe_keys = [f"gear{i}.body" for i in sorted(scene.bodies)] + (["fe"] if scene.fe else [])
-    if "model.coupled_teeth" in scene.parameters:
-        fe_keys.append("model.coupled_teeth")
+    coupled = scene.parameters.get("model.coupled_teeth")
+    if coupled is not None and level not in (4, 5):
+        raise SceneError(f"model.coupled_teeth: an input of levels 4 and 5 (model.stiffness_level), "
+                         f"this scene has {level}; allowed: level 4 or 5, or leave it out")
+    if coupled is not None and level == 4 and coupled > 3:
+        raise SceneError(f"model.coupled_teeth = {coupled}: level 4 couples at most 3 teeth each side "
+                         "(its fitted table); allowed range [0, 3]")
     if level != 5:
         if fe_keys:
             raise SceneError(f"{fe_keys[0]}: an input of the FE level (model.stiffness_level = 5) "

@@ -43,7 +43,7 @@ OUT_OF_PLANE_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("uz", "rx", "ry")
 
 # parameters read at some stiffness levels only (model.stiffness)
 LEVEL_PARAMETERS = {"model.user_stiffness": {0}, "model.stiffness_table": {1},
-                    "model.rated_line_load": {2}, "model.coupled_teeth": {5},
+                    "model.rated_line_load": {2}, "model.coupled_teeth": {4, 5},
                     "gear1.compliance": {5}, "gear2.compliance": {5}}
 # parameters of the large-step mode only
 LARGE_STEP_PARAMETERS = {f"gear{i}.{x}" for i in GEARS for x in ("inertia", "shaft_stiffness", "shaft_damping")} \

@@ -87,7 +87,8 @@ typedef struct gm_model_params {
   int stiffness_level;          /* gm_stiffness_level */
   double user_stiffness;        /* level 0: mesh stiffness per unit face width, N/m^2 */
   int slices;                   /* slices across the axial overlap, >= 1 */
-  int coupled_teeth;            /* FE level: neighbouring teeth coupled each side, >= 0 */
+  int coupled_teeth;            /* levels 4 and 5: neighbouring teeth coupled each side, >= 0
+                                   (level 4: its tooth-coupling table, at most 3 used; 0 = none) */
   double friction_coefficient;  /* mu, - */
   double friction_velocity;     /* regularization velocity v0, m/s */
   double damping;               /* normal damping per unit face width, N*s/m^2 */
