@@ -44,7 +44,7 @@ def connect(scheduler: str | None = None, workers: int | None = None,
                                f"{timeout:g} s; start at least one (dask worker {scheduler})"
                                ) from exc
     else:
-        n = workers or os.cpu_count() or 1
+        n = (os.cpu_count() or 1) if workers is None else workers
         if not 1 <= n <= 1024:
             raise ClusterError(f"--jobs {n}: allowed range [1, 1024] local workers")
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,

@@ -179,7 +179,7 @@ def _write_plan(p: Plan) -> None:
     folder = p.out / "deviations"
     for k in range(p.cases):
         for gear in (1, 2):
-            lines = [f"pitch {t} {flank} {f * 1e6!r}"
+            lines = [f"pitch {t} {flank} {float(f) * 1e6!r}"
                      for flank in "AB" if f"gear{gear}.pitch_{flank}" in p.values
                      for t, f in enumerate(p.values[f"gear{gear}.pitch_{flank}"][k])]
             if lines:

@@ -52,13 +52,18 @@ def write(plan: Plan, result: BatchResult, worst: int = 10) -> pathlib.Path:
         lines += ["", "![distribution](study_distribution.png)", "",
                   f"## The {min(worst, len(summary))} worst by peak-to-peak TE", ""]
         drawn = [s for s in plan.samples if s.name in summary[0]]
-        lines += ["| case | torque (N m) | p-p TE (um) | order 1 (um) | order 2 (um) | "
-                  + "".join(f"{s.name} ({s.unit or 'SI'}) | " for s in drawn),
-                  "|---|---|---|---|---|" + "---|" * len(drawn)]
+        pitches = [s for s in plan.samples if s.name not in summary[0]]
+        head = ["case", "torque (N m)", "p-p TE (um)", "order 1 (um)", "order 2 (um)",
+                *(f"{s.name} ({s.unit or 'SI'})" for s in drawn),
+                *(f"{s.name} max abs (um)" for s in pitches)]
+        lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for r in sorted(summary, key=lambda r: -r["ptp_te_m"])[:worst]:
-            lines.append(f"| {r['case']} | {r['torque_Nm']:g} | {r['ptp_te_m'] * 1e6:.4g} | "
-                         f"{r['order1_m'] * 1e6:.4g} | {r['order2_m'] * 1e6:.4g} | "
-                         + "".join(f"{r[s.name] * s.factor:.4g} | " for s in drawn))
+            cells = [str(r["case"]), f"{r['torque_Nm']:g}", *(f"{r[k] * 1e6:.4g}" for k in
+                     ("ptp_te_m", "order1_m", "order2_m")),
+                     *(f"{r[s.name] * s.factor:.4g}" for s in drawn),
+                     *(f"{np.abs(plan.values[s.name][r['case']]).max() * 1e6:.4g}"
+                       for s in pitches)]
+            lines.append("| " + " | ".join(cells) + " |")
         lines += ["", "Pitch deviations of a case: deviations/case<NNNNNN>.gear<i>.txt.", ""]
     report = out / "study_report.md"
     report.write_text("\n".join(lines), encoding="utf-8")
