@@ -220,3 +220,18 @@ def test_unreachable_scheduler_and_bad_jobs_are_named():
     with pytest.raises(cluster.ClusterError, match=r"--jobs 0: allowed range \[1, 1024\]"):
         with cluster.connect(None, 0):
             pass
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--scheduler", "foo"], "--scheduler foo: not a scheduler address"),
+    (["--jobs", "100000"], "--jobs 100000: allowed range [1, 1024] local workers"),
+    (["--vary", "model.frictoin_coefficient=0.3"], "--vary model.frictoin_coefficient: unknown "
+     "parameter 'model.frictoin_coefficient' (did you mean model.friction_coefficient"),
+])
+def test_bad_batch_input_is_named_without_traceback(argv, needle, fmu_path, tmp_path, capsys):
+    from gearmesh import cli
+
+    assert cli.main(["batch", str(SCENES / "paper_setB_P1P2.toml"), "--fmu", str(fmu_path),
+                     "--out", str(tmp_path), *argv]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "Traceback" not in err

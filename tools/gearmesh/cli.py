@@ -168,6 +168,12 @@ def _batch(scenes, args) -> int:
             cases = study.expand(plan, args.torques)
         else:
             variations = dict(batch.parse_variation(v) for v in args.vary)
+            if variations:
+                from fmpy import read_model_description
+
+                md = read_model_description(str(args.fmu))
+                for name in variations:
+                    study.variable_unit(name, md, f"--vary {name}")
             cases = batch.expand(scenes, args.torques, variations)
         result = batch.run_batch(cases, args.fmu, args.out, args.jobs, args.scheduler,
                                  args.shared, report=args.command == "batch")

@@ -32,7 +32,10 @@ def connect(scheduler: str | None = None, workers: int | None = None,
     if scheduler:
         try:
             client = Client(scheduler, timeout=timeout)
-        except (OSError, TimeoutError, ValueError) as exc:
+        except ValueError as exc:
+            raise ClusterError(f"--scheduler {scheduler}: not a scheduler address ({exc}); "
+                               "allowed: PROTOCOL://HOST:PORT, e.g. tcp://host:8786") from None
+        except (OSError, TimeoutError) as exc:
             raise ClusterError(f"--scheduler {scheduler}: no Dask scheduler answered within "
                                f"{timeout:g} s ({type(exc).__name__}: {exc}); allowed: the "
                                "address of a running scheduler, e.g. tcp://host:8786") from None

@@ -66,6 +66,24 @@ def _units(md) -> dict[str, dict[str, float]]:
     return out
 
 
+def variable_unit(name: str, md, where: str) -> str:
+    """The unit of `name`, a Real parameter or input of the FMU that the sweep does not set
+    (ValueError naming `where` and what is allowed; close names suggested)."""
+    variables = {v.name: v for v in md.modelVariables}
+    var = variables.get(name)
+    if var is None or var.causality not in ("parameter", "input") or var.type != "Real":
+        close = difflib.get_close_matches(name, [n for n, v in variables.items()
+                                                 if v.type == "Real"], 3)
+        hint = f" (did you mean {', '.join(close)}?)" if close else ""
+        raise ValueError(f"{where}: unknown parameter {name!r}{hint}; allowed: a Real parameter "
+                         "or input of the FMU (docs/fmi.md), or for --sample gear1.pitch_A, "
+                         "gear1.pitch_B, gear2.pitch_A, gear2.pitch_B")
+    if name in SWEEP_VARIABLES:
+        raise ValueError(f"{where}: {name} is set by the sweep itself; allowed: any other Real "
+                         f"parameter or input (not {', '.join(sorted(SWEEP_VARIABLES))})")
+    return var.unit or (var.declaredType.unit if var.declaredType else None) or ""
+
+
 def parse_sample(text: str, md) -> Sample:
     """One --sample spec, checked against the FMU's variables and units (ValueError naming the
     spec and what is allowed)."""
@@ -77,22 +95,7 @@ def parse_sample(text: str, md) -> Sample:
     if dist not in DISTRIBUTIONS:
         raise ValueError(f"--sample {text!r}: unknown distribution {dist!r}; allowed: "
                          f"{', '.join(DISTRIBUTIONS)}")
-    variables = {v.name: v for v in md.modelVariables}
-    if _PITCH.match(name):
-        unit = "m"
-    else:
-        var = variables.get(name)
-        if var is None or var.causality not in ("parameter", "input") or var.type != "Real":
-            close = difflib.get_close_matches(name, [v for v in variables if variables[v].type
-                                                     == "Real"], 3)
-            hint = f" (did you mean {', '.join(close)}?)" if close else ""
-            raise ValueError(f"--sample {text!r}: unknown parameter {name!r}{hint}; allowed: a "
-                             "Real parameter or input of the FMU (docs/fmi.md), or gear1.pitch_A, "
-                             "gear1.pitch_B, gear2.pitch_A, gear2.pitch_B")
-        if name in SWEEP_VARIABLES:
-            raise ValueError(f"--sample {text!r}: {name} is set by the sweep itself; allowed: "
-                             f"any other Real parameter or input (not {', '.join(sorted(SWEEP_VARIABLES))})")
-        unit = var.unit or (var.declaredType.unit if var.declaredType else None) or ""
+    unit = "m" if _PITCH.match(name) else variable_unit(name, md, f"--sample {text!r}")
     parts = args.split(",")
     parsed = [_NUMBER.match(p) for p in parts]
     if len(parts) != 2 or not all(parsed):
