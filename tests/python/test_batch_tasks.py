@@ -136,6 +136,17 @@ def test_a_failing_case_is_reported_while_the_others_finish(dask_cluster, cases,
     assert "model.friction_coefficient" in result.errors[batch_tasks.label(bad)]
     assert result.ran == 2 and len(result.summary_rows) == 2
     assert "friction_coefficient=-1" in (tmp_path / "batch_errors.csv").read_text()
+    # the scheduler's log: the failed case was run twice (one retry), the others once
+    from distributed import Client
+
+    def starts(dask_scheduler):
+        return [(t[0], t[2]) for t in dask_scheduler.transition_log]
+
+    with Client(address) as client:
+        log = client.run_on_scheduler(starts)
+    erred = {k for k, to in log if to == "erred" and str(k).startswith("case-")}
+    assert len(erred) == 1
+    assert sum(1 for k, to in log if k in erred and to == "processing") == 2
 
 
 def test_resume_after_an_interrupt_skips_the_finished_cases(dask_cluster, cases, serial,
