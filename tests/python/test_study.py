@@ -57,3 +57,26 @@ def test_bad_study_input_is_named_without_traceback(argv, needle, fmu_path, tmp_
     assert cli.main(args) == 2
     err = capsys.readouterr().err
     assert needle in err and "Traceback" not in err
+
+
+def test_study_report_lists_the_worst_cases_and_plots_the_distribution(fmu_path, tmp_path):
+    from gearmesh import study_report
+
+    scene = load_scene(SCENES / "paper_setB_P1P2.toml")
+    plan = study.plan(scene, ["gear2.rx=uniform(-0.5,0.5mrad)"], 3, 7, fmu_path, tmp_path)
+    cases = study.expand(plan, [150.0])
+    rows = batch.run_in_process(cases, fmu_path)
+    summary = batch.write_outputs(rows, cases, tmp_path)
+    result = batch.BatchResult(tmp_path / "batch_te.csv", tmp_path / "batch_summary.csv",
+                               summary, len(cases), 0, {})
+    text = study_report.write(plan, result, worst=2).read_text()
+    # the worst case by peak-to-peak TE, from the tidy rows directly
+    te = {k: np.array([r["te_m"] for r in rows if r["case"] == k]) for k in range(3)}
+    worst = max(te, key=lambda k: np.ptp(te[k]))
+    table = text[text.index("## The 2 worst"):].splitlines()
+    first = table[4].split("|")
+    assert first[1].strip() == str(worst)
+    assert float(first[3]) == pytest.approx(np.ptp(te[worst]) * 1e6, rel=1e-3)
+    assert float(first[6]) == pytest.approx(plan.values["gear2.rx"][worst] * 1e3, rel=1e-3)
+    assert len([line for line in table if line.startswith("| ")]) == 3  # header + 2 cases
+    assert "seed 7" in text and (tmp_path / "study_distribution.png").stat().st_size > 0
