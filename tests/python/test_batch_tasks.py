@@ -3,6 +3,7 @@ separate processes on 127.0.0.1; every result compared bit for bit with a plain 
 same cases in this process (batch.run_in_process, no Dask)."""
 from __future__ import annotations
 
+import csv
 import filecmp
 import json
 import os
@@ -13,6 +14,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 import pytest
 
 from gearmesh import batch, batch_tasks, cluster, compliance
@@ -77,16 +79,15 @@ def fake_tool(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def dask_cluster(tmp_path_factory, fake_tool):
-    """The scheduler's address and the processes [scheduler, worker 0, worker 1]; torn down after
-    the module. The workers see the stand-in compliance tool and a cache of their own."""
+def dask_cluster(tmp_path_factory):
+    """The scheduler's address, the processes [scheduler, worker 0, worker 1] and the workers'
+    compliance cache (their own, not this process's); torn down after the module."""
     tmp = tmp_path_factory.mktemp("cluster")
-    env = {**os.environ, compliance.TOOL_ENV: str(fake_tool[0]),
-           compliance.CACHE_ENV: str(tmp / "worker_cache")}
+    env = {**os.environ, compliance.CACHE_ENV: str(tmp / "worker_cache")}
     procs = []
     try:
         address, procs = _start(tmp, env)
-        yield address, procs
+        yield address, procs, tmp / "worker_cache"
     finally:
         _stop(procs)
 
@@ -114,7 +115,7 @@ def _same_as_serial(out: pathlib.Path, serial: pathlib.Path, n_cases: int):
 
 def test_cluster_results_equal_a_serial_run_uploaded_and_shared(dask_cluster, cases, serial,
                                                                 fmu_path, tmp_path):
-    address, _ = dask_cluster
+    address, *_ = dask_cluster
     up = batch.run_batch(cases, fmu_path, tmp_path / "up", scheduler=address)
     assert (up.ran, up.skipped, up.errors) == (len(cases), 0, {})
     _same_as_serial(tmp_path / "up", serial, len(cases))
@@ -129,7 +130,7 @@ def test_cluster_results_equal_a_serial_run_uploaded_and_shared(dask_cluster, ca
 
 def test_a_failing_case_is_reported_while_the_others_finish(dask_cluster, cases, fmu_path,
                                                            tmp_path):
-    address, _ = dask_cluster
+    address, *_ = dask_cluster
     bad = batch.Case(cases[0].scene, 100.0, (("model.friction_coefficient", -1.0),))
     result = batch.run_batch([*cases[:2], bad], fmu_path, tmp_path, scheduler=address)
     assert list(result.errors) == [batch_tasks.label(bad)]
@@ -151,7 +152,7 @@ def test_a_failing_case_is_reported_while_the_others_finish(dask_cluster, cases,
 
 def test_resume_after_an_interrupt_skips_the_finished_cases(dask_cluster, cases, serial,
                                                            fmu_path, tmp_path):
-    address, _ = dask_cluster
+    address, *_ = dask_cluster
     command = [sys.executable, "-m", "gearmesh", "batch", str(SCENES / "paper_setB_P1P2.toml"),
                "--torques", "100", "200", "300", "350",
                "--vary", "model.friction_coefficient=0.3,0.4",
@@ -172,23 +173,94 @@ def test_resume_after_an_interrupt_skips_the_finished_cases(dask_cluster, cases,
     _same_as_serial(tmp_path, serial, len(cases))
 
 
+def _set_worker_env(name, value):
+    """Run on the workers (client.run; sent by value: the workers cannot import the tests)."""
+    if value is None:
+        os.environ.pop(name, None)
+    else:
+        os.environ[name] = value
+
+
 def test_fe_databases_build_once_per_content_hash(dask_cluster, fake_tool, monkeypatch, tmp_path):
     tool, log = fake_tool
     monkeypatch.setenv(compliance.TOOL_ENV, str(tool))
-    address, _ = dask_cluster
+    address, *_ = dask_cluster
     # set A's gears are equal: one database for both, also across two copies of the scene
     scenes = [load_scene(SCENES / "fe" / "paper_setA_3U4U_fe.toml") for _ in range(2)]
     from distributed import Client
 
+    import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
     with Client(address) as client:
-        ship = cluster.Shipper(client)
-        builds = {}
-        files = [batch_tasks._scene_files(client, ship, s, None, builds)[1] for s in scenes]
-        assert len(builds) == 1
-        data = client.gather(list(builds.values()))[0]
+        client.run(_set_worker_env, compliance.TOOL_ENV, str(tool))
+        try:
+            ship = cluster.Shipper(client)
+            builds = {}
+            files = [batch_tasks._scene_files(client, ship, s, None, builds)[1] for s in scenes]
+            assert len(builds) == 1
+            data = client.gather(list(builds.values()))[0]
+        finally:
+            client.run(_set_worker_env, compliance.TOOL_ENV, None)
     assert data.startswith(b"fake database ") and b" --gear 1 " in data
     assert files[0]["gear1.gcdb"][0] == files[1]["gear2.gcdb"][0] == next(iter(builds))
     assert log.read_text().splitlines() == ["--gear 1"]  # one tool run in all
+
+
+SMALL_FE = """[pair]
+center_distance_mm = 40.0
+normal_module_mm = 2.0
+pressure_angle_deg = 20.0
+[gear1]
+teeth = 20
+profile_shift = 0.0
+face_width_mm = 10.0
+thickness_allowance_um = -20
+[gear2]
+teeth = 20
+profile_shift = 0.0
+face_width_mm = 10.0
+thickness_allowance_um = -20
+[model]
+stiffness_level = 5
+slices = 5
+coupled_teeth = 1
+[fe]
+profile_elements = 3
+width_elements = 2
+fillet_elements = 2
+body_size_mm = 6.0
+[run]
+points_per_pitch = 10
+te_pitches = 2
+"""
+
+
+def test_level_5_builds_its_database_on_a_worker_and_matches_a_serial_run(
+        dask_cluster, fmu_path, tmp_path, monkeypatch):
+    """The real compliance_tool on a small coarse pair (tests/python/test_fe_scenes.py's, equal
+    gears: one database). The serial run on the worker's database is bit for bit the same; on a
+    database built in this process, the same to 1e-9 of the TE: compliance_tool's last bits
+    depend on the process environment (docs/batch.md, "Batches")."""
+    address, _, worker_cache = dask_cluster
+    path = tmp_path / "small_fe.toml"
+    path.write_text(SMALL_FE)
+    cases = batch.expand([load_scene(path)], [20.0, 40.0], {})
+    result = batch.run_batch(cases, fmu_path, tmp_path / "dask", scheduler=address)
+    assert result.errors == {} and result.ran == 2
+    assert len(list(worker_cache.glob("*.gcdb"))) == 1
+    monkeypatch.setenv(compliance.CACHE_ENV, str(worker_cache))
+    serial = tmp_path / "serial"
+    serial.mkdir()
+    batch.write_outputs(batch.run_in_process(cases, fmu_path), cases, serial)
+    _same_as_serial(tmp_path / "dask", serial, 2)
+    monkeypatch.setenv(compliance.CACHE_ENV, str(tmp_path / "own_cache"))
+    own = batch.run_in_process(cases, fmu_path)
+    assert len(list((tmp_path / "own_cache").glob("*.gcdb"))) == 1
+    te = np.array([float(r["te_m"]) for r in csv.DictReader((serial / "batch_te.csv").open())])
+    batch.write_outputs(own, cases, tmp_path)
+    te_own = np.array([float(r["te_m"]) for r in csv.DictReader((tmp_path / "batch_te.csv").open())])
+    assert te.min() > 1e-6 and np.abs(te_own - te).max() < 1e-9 * te.max()
 
 
 def test_a_worker_killed_mid_batch_still_yields_every_result(cases, serial, fmu_path, tmp_path):
