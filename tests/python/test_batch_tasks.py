@@ -19,6 +19,7 @@ import pytest
 
 from gearmesh import batch, batch_tasks, cluster, compliance
 from gearmesh.scene import load_scene
+from test_fe_scenes import PAIR
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 SCENES = REPO / "scenarios"
@@ -207,39 +208,13 @@ def test_fe_databases_build_once_per_content_hash(dask_cluster, fake_tool, monke
     assert log.read_text().splitlines() == ["--gear 1"]  # one tool run in all
 
 
-SMALL_FE = """[pair]
-center_distance_mm = 40.0
-normal_module_mm = 2.0
-pressure_angle_deg = 20.0
-[gear1]
-teeth = 20
-profile_shift = 0.0
-face_width_mm = 10.0
-thickness_allowance_um = -20
-[gear2]
-teeth = 20
-profile_shift = 0.0
-face_width_mm = 10.0
-thickness_allowance_um = -20
-[model]
-stiffness_level = 5
-slices = 5
-coupled_teeth = 1
-[fe]
-profile_elements = 3
-width_elements = 2
-fillet_elements = 2
-body_size_mm = 6.0
-[run]
-points_per_pitch = 10
-te_pitches = 2
-"""
+# test_fe_scenes.py's small coarse pair (equal gears: one database), a short sweep
+SMALL_FE = PAIR + "[run]\npoints_per_pitch = 10\nte_pitches = 2\n"
 
 
 def test_level_5_builds_its_database_on_a_worker_and_matches_a_serial_run(
         dask_cluster, fmu_path, tmp_path, monkeypatch):
-    """The real compliance_tool on a small coarse pair (tests/python/test_fe_scenes.py's, equal
-    gears: one database). The serial run on the worker's database is bit for bit the same; on a
+    """The real compliance_tool on the small coarse pair. The serial run on the worker's database is bit for bit the same; on a
     database built in this process, the same to 1e-9 of the TE: compliance_tool's last bits
     depend on the process environment (docs/batch.md, "Batches")."""
     address, _, worker_cache = dask_cluster
