@@ -221,9 +221,12 @@ def test_level_5_builds_its_database_on_a_worker_and_matches_a_serial_run(
     path = tmp_path / "small_fe.toml"
     path.write_text(SMALL_FE)
     cases = batch.expand([load_scene(path)], [20.0, 40.0], {})
+    key = compliance.cache_key(cases[0].scene, 1, compliance.default_tool())
+    assert key == compliance.cache_key(cases[0].scene, 2, compliance.default_tool())
+    before = set(worker_cache.glob("*.gcdb"))
     result = batch.run_batch(cases, fmu_path, tmp_path / "dask", scheduler=address)
     assert result.errors == {} and result.ran == 2
-    assert len(list(worker_cache.glob("*.gcdb"))) == 1
+    assert set(worker_cache.glob("*.gcdb")) - before == {worker_cache / f"{key}.gcdb"}
     monkeypatch.setenv(compliance.CACHE_ENV, str(worker_cache))
     serial = tmp_path / "serial"
     serial.mkdir()
