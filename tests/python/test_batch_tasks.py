@@ -214,9 +214,11 @@ SMALL_FE = PAIR + "[run]\npoints_per_pitch = 10\nte_pitches = 2\n"
 
 def test_level_5_builds_its_database_on_a_worker_and_matches_a_serial_run(
         dask_cluster, fmu_path, tmp_path, monkeypatch):
-    """The real compliance_tool on the small coarse pair. The serial run on the worker's database is bit for bit the same; on a
-    database built in this process, the same to 1e-9 of the TE: compliance_tool's last bits
-    depend on the process environment (docs/batch.md, "Batches")."""
+    """The real compliance_tool on the small coarse pair: one database, built on a worker. Level
+    5 is not bit for bit reproducible across processes (docs/batch.md, "Batches": in the full
+    suite the serial run on the worker's own database moved the TE by 5e-13 relative, in a run
+    of this file alone not at all), so the serial runs, on that database and on one built in this
+    process, are compared to 1e-9 of the TE."""
     address, _, worker_cache = dask_cluster
     path = tmp_path / "small_fe.toml"
     path.write_text(SMALL_FE)
@@ -227,18 +229,17 @@ def test_level_5_builds_its_database_on_a_worker_and_matches_a_serial_run(
     result = batch.run_batch(cases, fmu_path, tmp_path / "dask", scheduler=address)
     assert result.errors == {} and result.ran == 2
     assert set(worker_cache.glob("*.gcdb")) - before == {worker_cache / f"{key}.gcdb"}
-    monkeypatch.setenv(compliance.CACHE_ENV, str(worker_cache))
-    serial = tmp_path / "serial"
-    serial.mkdir()
-    batch.write_outputs(batch.run_in_process(cases, fmu_path), cases, serial)
-    _same_as_serial(tmp_path / "dask", serial, 2)
-    monkeypatch.setenv(compliance.CACHE_ENV, str(tmp_path / "own_cache"))
-    own = batch.run_in_process(cases, fmu_path)
+    te = np.array([float(r["te_m"]) for r in csv.DictReader((tmp_path / "dask" / "batch_te.csv").open())])
+    assert len(te) == 2 * 20 and te.min() > 1e-6
+    for cache in (worker_cache, tmp_path / "own_cache"):
+        monkeypatch.setenv(compliance.CACHE_ENV, str(cache))
+        serial = tmp_path / cache.name
+        serial.mkdir(exist_ok=True)
+        batch.write_outputs(batch.run_in_process(cases, fmu_path), cases, serial)
+        te_serial = np.array([float(r["te_m"])
+                              for r in csv.DictReader((serial / "batch_te.csv").open())])
+        assert np.abs(te_serial - te).max() < 1e-9 * te.max(), cache.name
     assert len(list((tmp_path / "own_cache").glob("*.gcdb"))) == 1
-    te = np.array([float(r["te_m"]) for r in csv.DictReader((serial / "batch_te.csv").open())])
-    batch.write_outputs(own, cases, tmp_path)
-    te_own = np.array([float(r["te_m"]) for r in csv.DictReader((tmp_path / "batch_te.csv").open())])
-    assert te.min() > 1e-6 and np.abs(te_own - te).max() < 1e-9 * te.max()
 
 
 def test_a_worker_killed_mid_batch_still_yields_every_result(cases, serial, fmu_path, tmp_path):
