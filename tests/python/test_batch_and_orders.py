@@ -30,7 +30,8 @@ def test_batch_runs_scenes_times_torques_times_variations(fmu_path, tmp_path):
     scene = load_scene(SCENES / "paper_setB_P1P2.toml")
     cases = batch.expand([scene], [100.0, 300.0], {"model.friction_coefficient": [0.3, 0.4]})
     assert len(cases) == 4
-    tidy, summary = batch.run_batch(cases, fmu_path, tmp_path, jobs=2)
+    result = batch.run_batch(cases, fmu_path, tmp_path, jobs=2)  # a local Dask cluster
+    tidy, summary = result.tidy, result.summary
     with summary.open() as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 4
@@ -44,6 +45,12 @@ def test_batch_runs_scenes_times_torques_times_variations(fmu_path, tmp_path):
     assert "model.friction_coefficient 0.4: order 1" not in report  # labels live in the plot
     assert "paper_setB_P1P2_orders.png" in report
     assert (tmp_path / "paper_setB_P1P2_orders.png").stat().st_size > 0
+    # bit for bit the same as the cases run one after the other in this process, without Dask
+    serial = tmp_path / "serial"
+    serial.mkdir()
+    batch.write_outputs(batch.run_in_process(cases, fmu_path), cases, serial)
+    for name in ("batch_te.csv", "batch_summary.csv"):
+        assert (serial / name).read_bytes() == (tmp_path / name).read_bytes(), name
 
 
 def test_bad_variation_is_named():

@@ -1,5 +1,7 @@
-"""Batch runs: scenes x load cases x parameter variations, in parallel processes with a progress
-bar; results as tidy tables (one row per observation) and a summary per case."""
+"""Batch runs: scenes x load cases x parameter variations as tasks on a Dask cluster (a local
+one with one worker per core unless a scheduler is given: gearmesh.cluster, gearmesh.batch_tasks),
+with a progress bar; results as tidy tables (one row per observation) and a summary per case.
+docs/batch.md."""
 from __future__ import annotations
 
 import csv
@@ -7,11 +9,9 @@ import itertools
 import math
 import pathlib
 import tempfile
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm import tqdm
 
 from gearmesh.compliance import with_databases
 from gearmesh.fmu_driver import GearMeshFMU
@@ -20,23 +20,26 @@ from gearmesh.prescribed_motion import loaded_te_sweep, mesh_order_amplitudes
 from gearmesh.scene import Scene
 from gearmesh.scene_fmu import build_scene_fmu
 
+OBSERVATIONS = ("gear1_phi_rad", "te_m", "normal_force_N", "pairs_in_contact", "friction_power_W")
+
 
 @dataclass(frozen=True)
 class Case:
     scene: Scene
     torque: float                           # N m on gear 2
-    overrides: tuple[tuple[str, float], ...]  # FMU parameter -> SI value
+    overrides: tuple[tuple[str, float], ...]  # FMU parameter or input -> SI value
+    tags: tuple[tuple[str, object], ...] = ()  # extra columns, not FMU variables (a study's case)
 
 
 def expand(scenes: list[Scene], torques: list[float] | None,
            variations: dict[str, list[float]]) -> list[Case]:
     """The cases: every scene x torque (the scene's own run.torques_Nm unless given) x every
-    combination of the parameter variations."""
+    combination of the parameter variations. Level 5's databases are not built here: the batch
+    builds them as tasks (batch_tasks), run_in_process before its cases."""
     names = sorted(variations)
     combos = list(itertools.product(*(variations[n] for n in names))) or [()]
     cases = []
     for scene in scenes:
-        scene = with_databases(scene)  # level 5: built once here, not in every case's process
         run = {**RUN_DEFAULTS, **scene.run}
         for torque in torques or run["torques_Nm"]:
             for combo in combos:
@@ -45,7 +48,8 @@ def expand(scenes: list[Scene], torques: list[float] | None,
 
 
 def run_case(case: Case, generic_fmu: str) -> list[dict]:
-    """One case in its own process: tidy rows, one per roll angle."""
+    """One case (in a worker, or in this process): tidy rows, one per roll angle. The scene's
+    resources are local files (level 5: its databases among them)."""
     scene = case.scene
     run = {**RUN_DEFAULTS, **scene.run}
     with tempfile.TemporaryDirectory() as tmp:
@@ -55,7 +59,7 @@ def run_case(case: Case, generic_fmu: str) -> list[dict]:
         with GearMeshFMU(fmu_path, params, instance_name=scene.name) as fmu:
             out = loaded_te_sweep(fmu, [case.torque], run["speed_rpm"], run["te_pitches"],
                                   run["points_per_pitch"])
-    base = {"scene": scene.name, "torque_Nm": case.torque, **dict(case.overrides)}
+    base = {"scene": scene.name, "torque_Nm": case.torque, **dict(case.tags), **dict(case.overrides)}
     return [{**base, "gear1_phi_rad": phi, "te_m": te, "normal_force_N": f,
              "pairs_in_contact": int(p), "friction_power_W": w}
             for phi, te, f, p, w in zip(out["gear1.phi"], out["mesh.te"],
@@ -65,8 +69,7 @@ def run_case(case: Case, generic_fmu: str) -> list[dict]:
 
 def summarize(rows: list[dict], pitches_of: dict[str, int]) -> list[dict]:
     """Per case: mean and peak-to-peak TE and the first two mesh-order amplitudes."""
-    keys = [k for k in rows[0] if k not in ("gear1_phi_rad", "te_m", "normal_force_N",
-                                            "pairs_in_contact", "friction_power_W")]
+    keys = [k for k in rows[0] if k not in OBSERVATIONS]
     groups: dict[tuple, list[float]] = {}
     for r in rows:
         groups.setdefault(tuple(r[k] for k in keys), []).append(r["te_m"])
@@ -80,6 +83,7 @@ def summarize(rows: list[dict], pitches_of: dict[str, int]) -> list[dict]:
 
 
 def write_rows(path: pathlib.Path, rows: list[dict]) -> None:
+    """A CSV of the rows; its columns are the rows' keys in order of appearance."""
     names = list(dict.fromkeys(k for r in rows for k in r))
     with path.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=names)
@@ -87,25 +91,64 @@ def write_rows(path: pathlib.Path, rows: list[dict]) -> None:
         writer.writerows(rows)
 
 
+def run_in_process(cases: list[Case], generic_fmu: pathlib.Path) -> list[dict]:
+    """The cases one after the other in this process, without Dask (the reference the cluster's
+    results are checked against, and the benchmark's baseline)."""
+    scenes: dict[int, Scene] = {}
+    rows = []
+    for case in cases:
+        if id(case.scene) not in scenes:
+            scenes[id(case.scene)] = with_databases(case.scene, progress=False)
+        scene = scenes[id(case.scene)]
+        rows += run_case(Case(scene, case.torque, case.overrides, case.tags), str(generic_fmu))
+    return rows
+
+
+@dataclass
+class BatchResult:
+    tidy: pathlib.Path
+    summary: pathlib.Path
+    summary_rows: list[dict]
+    ran: int                     # cases run now
+    skipped: int                 # cases finished by an earlier (interrupted) run
+    errors: dict[str, str]       # case label -> error, after its retry
+
+
 def run_batch(cases: list[Case], generic_fmu: pathlib.Path, out: pathlib.Path,
-              jobs: int) -> tuple[pathlib.Path, pathlib.Path]:
-    """Run the cases in `jobs` processes; writes out/batch_te.csv (tidy) and
-    out/batch_summary.csv; returns their paths."""
+              jobs: int | None = None, scheduler: str | None = None,
+              shared: pathlib.Path | None = None, report: bool = True) -> BatchResult:
+    """Run the cases on a Dask cluster (`scheduler`, else a local one of `jobs` workers, default
+    one per core); each finished case is kept in out/cases/ as it arrives, and cases found there
+    are skipped (resume). Writes out/batch_te.csv (tidy), out/batch_summary.csv, and with
+    `report` out/batch_report.md, from the finished cases; failed cases (after one retry) are in
+    BatchResult.errors and out/batch_errors.csv."""
+    from gearmesh import batch_tasks, cluster
+
     out.mkdir(parents=True, exist_ok=True)
-    rows: list[dict] = []
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        futures = [pool.submit(run_case, c, str(generic_fmu)) for c in cases]
-        for f in tqdm(as_completed(futures), total=len(futures), desc="batch"):
-            rows.extend(f.result())
-    rows.sort(key=lambda r: (r["scene"], r["torque_Nm"],
-                             tuple(str(r.get(k)) for k in sorted(r)), r["gear1_phi_rad"]))
-    pitches = {c.scene.name: {**RUN_DEFAULTS, **c.scene.run}["te_pitches"] for c in cases}
+    with cluster.connect(scheduler, jobs) as client:
+        rows, ran, skipped, errors = batch_tasks.run(client, cases, pathlib.Path(generic_fmu),
+                                                     out, shared)
     tidy, summary = out / "batch_te.csv", out / "batch_summary.csv"
-    write_rows(tidy, rows)
-    summary_rows = summarize(rows, pitches)
-    write_rows(summary, summary_rows)
-    write_report(out, summary_rows)
-    return tidy, summary
+    errors_csv = out / "batch_errors.csv"
+    errors_csv.unlink(missing_ok=True)
+    if errors:
+        write_rows(errors_csv, [{"case": k, "error": v} for k, v in errors.items()])
+    summary_rows = write_outputs(rows, cases, out)
+    if report and summary_rows:
+        write_report(out, summary_rows)
+    return BatchResult(tidy, summary, summary_rows, ran, skipped, errors)
+
+
+def write_outputs(rows: list[dict], cases: list[Case], out: pathlib.Path) -> list[dict]:
+    """out/batch_te.csv and out/batch_summary.csv from the cases' rows (in any order); returns
+    the summary rows."""
+    rows = sorted(rows, key=lambda r: (r["scene"], r["torque_Nm"],
+                                       tuple(str(r.get(k)) for k in sorted(r)), r["gear1_phi_rad"]))
+    pitches = {c.scene.name: {**RUN_DEFAULTS, **c.scene.run}["te_pitches"] for c in cases}
+    write_rows(out / "batch_te.csv", rows)
+    summary_rows = summarize(rows, pitches) if rows else []
+    write_rows(out / "batch_summary.csv", summary_rows)
+    return summary_rows
 
 
 def write_report(out: pathlib.Path, summary: list[dict]) -> pathlib.Path:

@@ -31,7 +31,21 @@ def main(argv: list[str] | None = None) -> int:
     p_batch.add_argument("--torques", type=float, nargs="+", help="N m (default: each scene's)")
     p_batch.add_argument("--vary", action="append", default=[],
                          help="FMU parameter and SI values, e.g. model.friction_coefficient=0.3,0.4")
-    p_batch.add_argument("--jobs", type=int, default=2)
+    _cluster_options(p_batch)
+    p_study = sub.add_parser("study", help="a sampled study (tolerances, misalignment, pitch "
+                             "deviations) of one scene on the batch's cluster (docs/batch.md)")
+    p_study.add_argument("scenes", nargs=1, type=pathlib.Path, metavar="SCENE.toml")
+    p_study.add_argument("--sample", action="append", default=[], required=True,
+                         help="NAME=normal(MEAN,SD UNIT) or NAME=uniform(LO,HI UNIT), e.g. "
+                         "gear2.rx=normal(0,0.3mrad) or gear1.pitch_A=normal(0,2um)")
+    p_study.add_argument("--cases", type=int, required=True, help="samples (1..100000)")
+    p_study.add_argument("--seed", type=int, default=0, help="seed of numpy's random generator "
+                         "(recorded in study.json; default 0)")
+    p_study.add_argument("--torques", type=float, nargs="+", help="N m (default: the scene's)")
+    p_study.add_argument("--worst", type=int, default=10, help="worst cases listed (default 10)")
+    p_study.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
+    p_study.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "study")
+    _cluster_options(p_study)
     p_ref = sub.add_parser("reference", help="compare the scenes' loaded TE with their reference "
                            "curves, or (--write) regenerate them on purpose")
     p_ref.add_argument("scenes", nargs="*", type=pathlib.Path)
@@ -133,18 +147,8 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     if args.command == "fmu":
         return _scene_fmu(scenes[0], args)
-    if args.command == "batch":
-        from gearmesh import batch
-
-        try:
-            variations = dict(batch.parse_variation(v) for v in args.vary)
-        except ValueError as exc:
-            print(f"gearmesh: {exc}", file=sys.stderr)
-            return 2
-        cases = batch.expand(scenes, args.torques, variations)
-        tidy, summary = batch.run_batch(cases, args.fmu, args.out, args.jobs)
-        print(f"gearmesh: {len(cases)} cases: {tidy}, {summary}")
-        return 0
+    if args.command in ("batch", "study"):
+        return _batch(scenes, args)
     if args.command == "reference":
         from gearmesh import reference_curves as rc
 
@@ -180,6 +184,49 @@ def _scene_fmu(scene, args) -> int:
         return 2
     print(fmu_command.summary(interface, listed, args.fmu, out))
     return 0
+
+
+def _cluster_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scheduler", help="address of a running Dask scheduler, e.g. "
+                   "tcp://host:8786 (default: a local cluster of --jobs workers)")
+    p.add_argument("--jobs", type=int, help="local workers (default: one per core)")
+    p.add_argument("--shared", type=pathlib.Path, help="a folder every worker reads at the same "
+                   "path: the FMU, tables and databases are copied there instead of uploaded")
+
+
+def _batch(scenes, args) -> int:
+    """batch and study: the cases on the cluster; 1 if a case failed, 2 on bad input."""
+    from gearmesh import batch, cluster, compliance, study, study_report
+
+    try:
+        if args.command == "study":
+            plan = study.plan(scenes[0], args.sample, args.cases, args.seed, args.fmu, args.out)
+            cases = study.expand(plan, args.torques)
+        else:
+            variations = dict(batch.parse_variation(v) for v in args.vary)
+            if variations:
+                from fmpy import read_model_description
+
+                md = read_model_description(str(args.fmu))
+                for name in variations:
+                    study.variable_unit(name, md, f"--vary {name}")
+            cases = batch.expand(scenes, args.torques, variations)
+        result = batch.run_batch(cases, args.fmu, args.out, args.jobs, args.scheduler,
+                                 args.shared, report=args.command == "batch")
+        if args.command == "study":
+            print(f"gearmesh: study report {study_report.write(plan, result, args.worst)}")
+    except (ValueError, OSError, cluster.ClusterError, compliance.ComplianceError) as exc:
+        print(f"gearmesh: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"gearmesh: interrupted; the finished cases are kept in {args.out / 'cases'}, "
+              "run the same command again to resume", file=sys.stderr)
+        return 130
+    print(f"gearmesh: {result.ran} cases run, {result.skipped} finished before (skipped), "
+          f"{len(result.errors)} failed: {result.tidy}, {result.summary}")
+    for name, error in result.errors.items():
+        print(f"gearmesh: failed: {name}: {error}", file=sys.stderr)
+    return 1 if result.errors else 0
 
 
 def _compliance(scenes, args) -> int:

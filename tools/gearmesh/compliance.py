@@ -60,7 +60,7 @@ def default_cache() -> pathlib.Path:
     return pathlib.Path(os.environ.get(CACHE_ENV, REPO / "output" / "compliance_cache"))
 
 
-def _sha256_file(path: pathlib.Path) -> str:
+def sha256_file(path: pathlib.Path) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
@@ -72,11 +72,12 @@ _tool_hashes: dict[tuple, str] = {}
 
 
 def tool_hash(tool: pathlib.Path) -> str:
-    """SHA-256 of the tool binary, remembered per (path, size, mtime) within the process."""
+    """SHA-256 of a file (the tool binary; a batch's input files), remembered per (path, size,
+    mtime) within the process."""
     st = tool.stat()
     key = (str(tool.resolve()), st.st_size, st.st_mtime_ns)
     if key not in _tool_hashes:
-        _tool_hashes[key] = _sha256_file(tool)
+        _tool_hashes[key] = sha256_file(tool)
     return _tool_hashes[key]
 
 
@@ -133,7 +134,7 @@ def cache_key(scene: Scene, gear: int, tool: pathlib.Path, threads: int = 1) -> 
     pair.pop("pair.helix_angle", None)
     body = {}
     for key, value in scene.bodies.get(gear, {}).items():
-        body[key] = _sha256_file(value) if isinstance(value, pathlib.Path) else value
+        body[key] = sha256_file(value) if isinstance(value, pathlib.Path) else value
     inputs = {"tool": tool_hash(tool), "gear": gear_params(gear), "mate": gear_params(other),
               "pair": pair, "role": role, "body": body, "fe": scene.fe,
               "coupled": params.get("model.coupled_teeth"), "threads": threads}
