@@ -55,13 +55,28 @@ def cache_dir() -> pathlib.Path:
 
 
 def zig() -> pathlib.Path:
-    """The Zig binary of the ziglang package installed in this Python (tools/requirements.txt)."""
+    """The Zig binary of the ziglang package installed in this Python (tools/requirements.txt),
+    from a copy of the package in the cache (ziglang-<version>/). Zig's cache keys hold the path
+    of its lib/ folder, so runtimes built with the venv's own copy (a new path in every clean
+    clone) would be built again in every clone; the copy's path stays the same."""
     try:
         import ziglang
+        from importlib.metadata import version
     except ImportError as exc:
         raise BuildError("the ziglang package is not installed in this Python: tools/bootstrap.sh "
                          "installs tools/requirements.txt into .venv") from exc
-    return pathlib.Path(ziglang.__file__).parent / "zig"
+    stable = cache_dir() / f"ziglang-{version('ziglang')}"
+    if not (stable / "zig").is_file():
+        stable.parent.mkdir(parents=True, exist_ok=True)
+        tmp = pathlib.Path(tempfile.mkdtemp(prefix=stable.name + ".", dir=stable.parent))
+        shutil.copytree(pathlib.Path(ziglang.__file__).parent, tmp / "ziglang", symlinks=True)
+        try:
+            os.replace(tmp / "ziglang", stable)
+        except OSError:  # another build put it there first
+            if not (stable / "zig").is_file():
+                raise
+        shutil.rmtree(tmp, ignore_errors=True)
+    return stable / "zig"
 
 
 def zig_env() -> dict[str, str]:
