@@ -8,6 +8,7 @@
 //   makes double contact more compliant; model.coupled_teeth = 0 switches it off;
 // * the low-rank solve against the dense coupled solver (NlcpSolver over the assembled C, the
 //   level-5 solver) at every pose of a pitch, plain and quasi-static, spur, helical and tilted.
+#include <limits>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -211,7 +212,7 @@ void compare_with_dense(gm_model_params p, const char* what) {
     const std::vector<double> F(d.forces.begin(), d.forces.begin() + n),
         K(d.slice_stiffness.begin(), d.slice_stiffness.begin() + n);
     const double lambda = fs.lambda;
-    int loaded_pairs = 0, last = -1 << 30;
+    int loaded_pairs = 0, last = std::numeric_limits<int>::min();  // no tooth index
     for (int i = 0; i < n; ++i)
       if (F[i] > 0 && d.slices[i].tooth[0] != last) {
         ++loaded_pairs;
