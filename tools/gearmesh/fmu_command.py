@@ -9,7 +9,7 @@ from collections.abc import Iterable
 
 from gearmesh import main_levels
 from gearmesh.scene import Scene
-from gearmesh.scene_fmu import _variables, build_scene_fmu
+from gearmesh.scene_fmu import build_scene_fmu, model_variables
 from gearmesh.scene_interface import MODE_PARAMETERS, default_interface, listed_variables
 
 
@@ -33,7 +33,7 @@ def write_scene_fmu(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path,
 def causalities(fmu: pathlib.Path) -> dict[str, str]:
     """name -> causality of every variable the FMU lists."""
     with zipfile.ZipFile(fmu) as z:
-        return {name: v[1] for name, v in _variables(z.read("modelDescription.xml").decode()).items()}
+        return {name: v[1] for name, v in model_variables(z.read("modelDescription.xml").decode()).items()}
 
 
 def summary(interface: str, listed: set[str], generic_fmu: pathlib.Path, out: pathlib.Path) -> str:

@@ -48,7 +48,7 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
     if "modelDescription.xml" not in entries:
         raise ValueError(f"{generic_fmu}: no modelDescription.xml; not an FMU")
     xml = entries["modelDescription.xml"][1].decode("utf-8")
-    variables = _variables(xml)
+    variables = model_variables(xml)
 
     added = {}
     for name, path in resources.items():
@@ -94,7 +94,7 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
     return out
 
 
-def _variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
+def model_variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
     """name -> (type, causality, start) of every ScalarVariable."""
     root = ET.fromstring(xml)
     out = {}
@@ -159,7 +159,7 @@ def _replace_start(xml: str, name: str, text: str, typ: str) -> str:
 
 
 def _check_starts(xml: str, starts: dict[str, str]) -> None:
-    variables = _variables(xml)
+    variables = model_variables(xml)
     for name, text in starts.items():
         if name in variables and variables[name][2] != _xml_value(text):
             raise ValueError(f"{name}: the start value did not reach modelDescription.xml")
