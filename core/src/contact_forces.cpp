@@ -9,17 +9,18 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// c F + f(F) = delta for delta > 0: Newton from F0 = delta/c (an upper bound, since f >= 0).
-// g(F) = c F + f(F) - delta is concave and increasing, so its tangents lie above it: after the
-// first step every iterate is below the root and they rise monotonically onto it.
-double solve_slice(const SliceLaw& law, double delta, double tol, int max_iterations,
-                   int& iterations, double& residual, double& stiffness) {
+// c F + f(F) = delta for delta > 0: Newton from F0 (delta/c when no start is given, an upper
+// bound since f >= 0). g(F) = c F + f(F) - delta is concave and increasing, so its tangents lie
+// above it: after the first step from any start every iterate is below the root and they rise
+// monotonically onto it.
+double solve_slice(const SliceLaw& law, double delta, double start, double tol,
+                   int max_iterations, int& iterations, double& residual, double& stiffness) {
   if (law.local.width == 0) {
     stiffness = 1 / law.compliance;
     residual = 0;
     return delta / law.compliance;
   }
-  double F = delta / law.compliance;
+  double F = start > 0 ? start : delta / law.compliance;
   const LocalLawKernel kernel = local_law_kernel(law.local);
   for (int i = 0; i < max_iterations; ++i) {
     const LocalLawJet v = local_law_jet(kernel, F);
@@ -35,6 +36,8 @@ double solve_slice(const SliceLaw& law, double delta, double tol, int max_iterat
   return F;
 }
 
+}  // namespace
+
 bool same_law(const SliceLaw& a, const SliceLaw& b) {
   return a.compliance == b.compliance && a.local.width == b.local.width &&
          a.local.reduced_radius == b.local.reduced_radius &&
@@ -46,12 +49,11 @@ bool same_law(const SliceLaw& a, const SliceLaw& b) {
          a.local.body[1].poisson_ratio == b.local.body[1].poisson_ratio;
 }
 
-}  // namespace
-
 ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, double tol,
-                           int max_iterations, double* force, double* stiffness) {
+                           int max_iterations, double* force, double* stiffness, bool warm) {
   ForceSolve out;
   for (int i = 0; i < n; ++i) {
+    const double start = warm ? force[i] : 0.0;
     force[i] = 0;
     stiffness[i] = 0;
     if (approach[i] <= 0) continue;
@@ -62,7 +64,7 @@ ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, 
       continue;
     }
     double r = 0;
-    force[i] = solve_slice(laws[i], approach[i], tol, max_iterations, out.iterations, r,
+    force[i] = solve_slice(laws[i], approach[i], start, tol, max_iterations, out.iterations, r,
                            stiffness[i]);
     out.residual = std::max(out.residual, r);
   }
@@ -71,24 +73,31 @@ ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, 
   return out;
 }
 
-ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slices,
-                                 const double* balance, int n, double load, double lambda_start,
-                                 double tol, int max_iterations, double* approach, double* force,
-                                 double* stiffness) {
+namespace {
+
+// solve_separable_total over accessors base(i) (the approach at lambda = 0) and gain(i).
+// warm: the first separable solve starts from force[]; chain: every later one from the last.
+template <class Base, class Gain>
+ForceSolve total_solve(const SliceLaw* laws, const Base& base, const Gain& gain,
+                       const double* balance, int n, double load, double lambda_start, double tol,
+                       int max_iterations, bool warm, bool chain, double* approach, double* force,
+                       double* stiffness) {
   ForceSolve out;
   // h(lambda) = sum b_i F_i(Delta_i + w_i lambda) - load is nondecreasing while b_i w_i >= 0
   // (friction never reverses a slice's moment); Newton with a bracket, bisection where Newton
   // leaves it.
   const auto h = [&](double lambda, double& slope) {
-    for (int i = 0; i < n; ++i) approach[i] = slices[i].approach + slices[i].te_gain * lambda;
-    const ForceSolve s = solve_separable(laws, approach, n, tol, max_iterations, force, stiffness);
+    for (int i = 0; i < n; ++i) approach[i] = base(i) + gain(i) * lambda;
+    const ForceSolve s =
+        solve_separable(laws, approach, n, tol, max_iterations, force, stiffness, warm);
+    warm = chain;
     out.iterations += s.iterations;
     out.residual = std::max(out.residual, s.residual);
     double sum = 0;
     slope = 0;
     for (int i = 0; i < n; ++i) {
       sum += balance[i] * force[i];
-      slope += balance[i] * slices[i].te_gain * stiffness[i];
+      slope += balance[i] * gain(i) * stiffness[i];
     }
     return sum - load;
   };
@@ -96,9 +105,9 @@ ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slice
   const auto next_touch = [&](double lambda, int direction) {
     double best = kInf;
     for (int i = 0; i < n; ++i) {
-      const double w = slices[i].te_gain;
+      const double w = gain(i);
       if (w * direction <= 0) continue;
-      const double at = -slices[i].approach / w;
+      const double at = -base(i) / w;
       if ((at - lambda) * direction >= 0) best = std::min(best, std::fabs(at - lambda));
     }
     return std::isfinite(best) ? lambda + direction * best * (1 + 1e-12) + direction * 1e-15
@@ -111,7 +120,7 @@ ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slice
     // solve below finds its preloaded balance.
     double first = kInf;
     for (int i = 0; i < n; ++i)
-      if (slices[i].te_gain > 0) first = std::min(first, -slices[i].approach / slices[i].te_gain);
+      if (gain(i) > 0) first = std::min(first, -base(i) / gain(i));
     lambda = std::isfinite(first) ? first : 0;
     double slope0 = 0;
     if (h(lambda, slope0) == 0 && slope0 == 0) {
@@ -151,6 +160,27 @@ ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slice
   out.converged = false;
   out.message = "the load balance did not converge";
   return out;
+}
+
+}  // namespace
+
+ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slices,
+                                 const double* balance, int n, double load, double lambda_start,
+                                 double tol, int max_iterations, double* approach, double* force,
+                                 double* stiffness) {
+  return total_solve(
+      laws, [slices](int i) { return slices[i].approach; },
+      [slices](int i) { return slices[i].te_gain; }, balance, n, load, lambda_start, tol,
+      max_iterations, false, false, approach, force, stiffness);
+}
+
+ForceSolve solve_separable_total(const SliceLaw* laws, const double* base, const double* gain,
+                                 const double* balance, int n, double load, double lambda_start,
+                                 double tol, int max_iterations, bool warm, double* approach,
+                                 double* force, double* stiffness) {
+  return total_solve(
+      laws, [base](int i) { return base[i]; }, [gain](int i) { return gain[i]; }, balance, n,
+      load, lambda_start, tol, max_iterations, warm, true, approach, force, stiffness);
 }
 
 }  // namespace gm

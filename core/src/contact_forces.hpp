@@ -29,9 +29,15 @@ struct ForceSolve {
   const char* message = "";
 };
 
-// Plain solve: forces F (N) and tangent stiffnesses k = dF/dDelta (N/m) of n slices.
+// Whether two slices have the same law (bit for bit): repeated slices are solved once.
+bool same_law(const SliceLaw& a, const SliceLaw& b);
+
+// Plain solve: forces F (N) and tangent stiffnesses k = dF/dDelta (N/m) of n slices. warm:
+// force[] holds on entry a start for each slice (used where > 0; the scalar Newton converges
+// from any start, docs/physics.md §6), as the coupled solve's outer iterations have it.
 ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, double tol,
-                           int max_iterations, double* force, double* stiffness);
+                           int max_iterations, double* force, double* stiffness,
+                           bool warm = false);
 
 // Quasi-static: find lambda with sum_i b_i F_i(Delta_i + w_i lambda) = load (N), with w_i the
 // slices' te_gain (how the TE coordinate moves each approach) and b_i the balance weights (the
@@ -43,5 +49,13 @@ ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slice
                                  const double* balance, int n, double load, double lambda_start,
                                  double tol, int max_iterations, double* approach, double* force,
                                  double* stiffness);
+
+// The same over arrays: base[i] the approach at lambda = 0, gain[i] the te_gain. warm: as
+// solve_separable's, for the first of its separable solves (the later ones always start from
+// the last).
+ForceSolve solve_separable_total(const SliceLaw* laws, const double* base, const double* gain,
+                                 const double* balance, int n, double load, double lambda_start,
+                                 double tol, int max_iterations, bool warm, double* approach,
+                                 double* force, double* stiffness);
 
 }  // namespace gm

@@ -7,6 +7,8 @@
 namespace gm {
 namespace {
 
+using W = CoupledWorkspace;
+
 // Solve A x = b in place (A r x r row-major, destroyed; b becomes x), partial pivoting.
 // false when A is singular.
 bool dense_solve(double* A, double* b, int r) {
@@ -35,267 +37,349 @@ bool dense_solve(double* A, double* b, int r) {
   return true;
 }
 
-// Column of gear g, pair P, component k (0: the force, 1: its height moment).
-inline int col(int g, int P, int k, int pairs) { return (g * pairs + P) * 2 + k; }
-
-// Solve J x = b (J r x r row-major, b becomes x) where the rows of the pairs without a loaded
-// slice (loaded[p] false) are those of the identity: x = b there, and the rest is the reduced
-// system over the loaded pairs' columns. Jr: scratch of r x r, idx of r. false if singular.
-bool solve_loaded(const double* J, double* b, int r, int pairs, const bool* loaded, double* Jr,
-                  int* idx) {
-  int ra = 0;
-  for (int q = 0; q < 2; ++q)
-    for (int p = 0; p < pairs; ++p)
-      if (loaded[p])
-        for (int k = 0; k < 2; ++k) idx[ra++] = col(q, p, k, pairs);
-  if (ra == 0) return true;
-  double* rhs = Jr + ra * ra;  // after the reduced matrix (Jr holds r (r + 1))
-  for (int a = 0; a < ra; ++a) {
-    double s = b[idx[a]];
-    for (int j = 0; j < r; ++j)  // inactive unknowns are already b_j
-      if (!loaded[(j / 2) % pairs]) s -= J[idx[a] * r + j] * b[j];
-    rhs[a] = s;
-    for (int c = 0; c < ra; ++c) Jr[a * ra + c] = J[idx[a] * r + idx[c]];
-  }
-  if (!dense_solve(Jr, rhs, ra)) return false;
-  for (int a = 0; a < ra; ++a) b[idx[a]] = rhs[a];
-  return true;
+// The pair of candidate s (a new one when unseen); -1 when the workspace holds no more pairs.
+int pair_of(W& w, int& pairs, const ContactSlice& s) {
+  for (int g = 0; g < pairs; ++g)
+    if (w.pair_key[g][0] == s.tooth[0] && w.pair_key[g][1] == s.tooth[1] &&
+        w.pair_key[g][2] == s.flank)
+      return g;
+  if (pairs == W::kMaxPairs) return -1;
+  w.pair_key[pairs][0] = s.tooth[0];
+  w.pair_key[pairs][1] = s.tooth[1];
+  w.pair_key[pairs][2] = s.flank;
+  w.pair_slices[pairs] = 0;
+  return pairs++;
 }
 
-}  // namespace
-
-void CoupledWorkspace::reserve(int capacity) {
-  const int r = 4 * kMaxPairs;
-  group.assign(std::size_t(capacity), 0);
-  height.assign(2 * std::size_t(capacity), 0.0);
-  original.assign(std::size_t(capacity), 0.0);
-  B.assign(std::size_t(r) * r, 0.0);
-  J.assign(std::size_t(r) * r, 0.0);
-  Jr.assign(std::size_t(r) * (r + 1), 0.0);
-  index.assign(std::size_t(r), 0);
-  for (auto* x : {&m, &v, &G, &a, &c, &y}) x->assign(std::size_t(r), 0.0);
-}
-
-CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* laws,
-                                 ContactSlice* slices, const double* balance, int n, bool quasi,
-                                 double load, double lambda_start, double tol, int max_iterations,
-                                 double* approach, double* force, double* stiffness,
-                                 CoupledWorkspace& w) {
-  CoupledSolveResult out;
-  // the tooth pairs (groups) and each candidate's heights
-  int P = 0;
+// The solved candidates as distinct slices (w.rep, and the per-slice arrays), and the pairs.
+// Returns the number of distinct slices, or -1 when there are more pairs than the workspace
+// holds. Plain mode: a slice handed in open stays open (no law is built for it; the coupling
+// only opens slices further): not part of the solve.
+int gather(const ToothCoupling& coupling, const SliceLaw* laws, const ContactSlice* slices,
+           const double* balance, const double* approach, int n, bool quasi, W& w, int& pairs) {
+  int nu = 0, last = -1;  // last: the distinct slice of the previous candidate
+  pairs = 0;
   for (int i = 0; i < n; ++i) {
     const ContactSlice& s = slices[i];
-    w.original[i] = quasi ? s.approach : approach[i];
-    // plain mode: a slice handed in open stays open (no law is built for it; the coupling only
-    // opens slices further): not part of the solve
-    w.group[i] = -1;
-    if (!quasi && !(w.original[i] > 0)) continue;
-    int g = 0;
-    while (g < P && !(w.pair_key[g][0] == s.tooth[0] && w.pair_key[g][1] == s.tooth[1] &&
-                      w.pair_key[g][2] == s.flank))
-      ++g;
-    if (g == P) {
-      if (P == CoupledWorkspace::kMaxPairs) {
-        out.fallback = true;
-        out.solve.converged = false;
-        return out;
-      }
-      w.pair_key[P][0] = s.tooth[0];
-      w.pair_key[P][1] = s.tooth[1];
-      w.pair_key[P][2] = s.flank;
-      ++P;
+    const double base = quasi ? s.approach : approach[i];
+    w.rep[i] = -1;
+    if (!quasi && !(base > 0)) {
+      last = -1;
+      continue;
     }
-    w.group[i] = g;
-    for (int q = 0; q < 2; ++q) w.height[2 * i + q] = coupling_height(coupling.gear[q], s.roll[q]);
+    const int g = pair_of(w, pairs, s);
+    if (g < 0) return -1;
+    const ContactSlice* prev = last >= 0 ? &slices[i - 1] : nullptr;
+    if (prev && w.group[last] == g && w.base[last] == base && same_law(w.laws[last], laws[i]) &&
+        prev->roll[0] == s.roll[0] && prev->roll[1] == s.roll[1] &&
+        (!quasi || (w.gain[last] == s.te_gain && w.balance[last] == balance[i]))) {
+      w.rep[i] = last;
+      w.weight[last] += 1;
+      w.balance_sum[last] += w.balance[last];
+      continue;
+    }
+    const int u = nu++;
+    w.rep[i] = last = u;
+    w.group[u] = g;
+    w.weight[u] = 1;
+    w.base[u] = base;
+    w.gain[u] = s.te_gain;
+    w.balance[u] = w.balance_sum[u] = quasi ? balance[i] : 0.0;
+    w.laws[u] = laws[i];
+    w.force[u] = 0;
+    // the basis [1, h_1, h_2] (reduced to [1] below where the pair has one distinct slice)
+    double* phi = &w.basis[W::kBasis * u];
+    phi[0] = 1;
+    for (int q = 0; q < 2; ++q) phi[1 + q] = coupling_height(coupling.gear[q], s.roll[q]);
+    w.pair_slices[g] += 1;
   }
-  const int r = 4 * P;
+  return nu;
+}
+
+// Each pair's basis size and first column; returns r.
+int assign_columns(W& w, int pairs) {
+  int r = 0;
+  for (int p = 0; p < pairs; ++p) {
+    w.pair_dim[p] = w.pair_slices[p] == 1 ? 1 : W::kBasis;
+    w.pair_col[p] = r;
+    r += w.pair_dim[p];
+  }
+  return r;
+}
+
+// The basis heights of pair p where it is reduced to [1]: those of its one distinct slice.
+const double* pair_heights(const W& w, int nu, int p) {
+  for (int u = 0; u < nu; ++u)
+    if (w.group[u] == p) return &w.basis[W::kBasis * u];
+  return nullptr;
+}
+
+// B in the pairs' bases: the 3 x 3 block of receiver pair p1 and load pair p2 in [1, h_1, h_2]
+// (gear g's s_g A_d on the rows [1, h_g] and columns [force, h_g force]), reduced through
+// T = [1, h_1, h_2]^T where a pair has the basis [1].
+void build_coupling_matrix(const ToothCoupling& coupling, W& w, int nu, int pairs, int r) {
   double* B = w.B.data();
   std::fill(B, B + r * r, 0.0);
-  for (int q = 0; q < 2; ++q) {
-    const ToothCouplingGear& cg = coupling.gear[q];
-    for (int p1 = 0; p1 < P; ++p1) {
-      for (int p2 = 0; p2 < P; ++p2) {
-        if (p1 == p2 || w.pair_key[p1][2] != w.pair_key[p2][2]) continue;
+  for (int p1 = 0; p1 < pairs; ++p1) {
+    for (int p2 = 0; p2 < pairs; ++p2) {
+      if (p1 == p2 || w.pair_key[p1][2] != w.pair_key[p2][2]) continue;
+      double full[3][3] = {};
+      bool any = false;
+      for (int q = 0; q < 2; ++q) {
         const int d = coupling_table_offset(coupling, q, w.pair_key[p1][2], w.pair_key[p1][q],
                                             w.pair_key[p2][q]);
         if (d == 0) continue;
-        const double* k = cg.k.c[std::abs(d) - 1];
-        // receiver row [1, h_a] against load moments [M0, M1]: d > 0 [[c00 c01][c10 c11]] in
-        // the table's (h_a, h_b) order, d < 0 its transpose (tooth_coupling.hpp)
-        const double A00 = k[0], A01 = d > 0 ? k[2] : k[1], A10 = d > 0 ? k[1] : k[2], A11 = k[3];
-        const int i0 = col(q, p1, 0, P), j0 = col(q, p2, 0, P);
-        B[i0 * r + j0] = cg.scale * A00;
-        B[i0 * r + j0 + 1] = cg.scale * A01;
-        B[(i0 + 1) * r + j0] = cg.scale * A10;
-        B[(i0 + 1) * r + j0 + 1] = cg.scale * A11;
+        const double* k = coupling.gear[q].k.c[std::abs(d) - 1];
+        const double s = coupling.gear[q].scale;
+        // receiver [1, h_a] against load [F, h_b F]: d > 0 [[c00 c01][c10 c11]] in the
+        // table's (h_a, h_b) order, d < 0 its transpose (tooth_coupling.hpp)
+        full[0][0] += s * k[0];
+        full[0][1 + q] += s * (d > 0 ? k[2] : k[1]);
+        full[1 + q][0] += s * (d > 0 ? k[1] : k[2]);
+        full[1 + q][1 + q] += s * k[3];
+        any = true;
       }
+      if (!any) continue;
+      const double* t1 = w.pair_dim[p1] == 1 ? pair_heights(w, nu, p1) : nullptr;
+      const double* t2 = w.pair_dim[p2] == 1 ? pair_heights(w, nu, p2) : nullptr;
+      for (int a = 0; a < w.pair_dim[p1]; ++a)
+        for (int b = 0; b < w.pair_dim[p2]; ++b) {
+          double e = 0;
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+              e += (t1 ? t1[i] : double(i == a)) * full[i][j] * (t2 ? t2[j] : double(j == b));
+          B[(w.pair_col[p1] + a) * r + w.pair_col[p2] + b] = e;
+        }
     }
   }
-  double scale = 0;
-  for (int i = 0; i < n; ++i) scale = std::max(scale, std::fabs(w.original[i]));
-  const double tol_outer = std::min(tol, 1e-15 + 1e-10 * scale);
-  double* m = w.m.data();
-  double* v = w.v.data();
-  double* G = w.G.data();
-  std::fill(m, m + r, 0.0);
-  double lambda = lambda_start;
+}
 
-  // the separable solve at the approaches Delta - Phi B m (v = B m on entry)
-  const auto inner = [&]() -> bool {
-    for (int i = 0; i < n; ++i) {
-      const int g = w.group[i];
-      double u = 0;
-      for (int q = 0; q < 2 && g >= 0; ++q)
-        u += v[col(q, g, 0, P)] + w.height[2 * i + q] * v[col(q, g, 1, P)];
-      const double shifted = w.original[i] - u;
-      if (quasi) slices[i].approach = shifted; else approach[i] = shifted;
+// The solve's state over the distinct slices: the Newton steps' linear algebra.
+struct LowRank {
+  W& w;
+  int nu, pairs, r;
+
+  const double* phi(int u) const { return &w.basis[W::kBasis * u]; }
+  int dim(int u) const { return w.pair_dim[w.group[u]]; }
+  int col(int u) const { return w.pair_col[w.group[u]]; }
+
+  // (Phi x)_u for an r-vector x
+  double at(const double* x, int u) const {
+    const double* f = phi(u);
+    const double* xs = x + col(u);
+    double e = 0;
+    for (int k = 0; k < dim(u); ++k) e += f[k] * xs[k];
+    return e;
+  }
+  // Phi^T (weight x) over the distinct slices into an r-vector
+  void phi_t(const double* x, double* to) const {
+    std::fill(to, to + r, 0.0);
+    for (int u = 0; u < nu; ++u) {
+      if (x[u] == 0) continue;
+      const double* f = phi(u);
+      double* ts = to + col(u);
+      for (int k = 0; k < dim(u); ++k) ts[k] += w.weight[u] * f[k] * x[u];
     }
-    ForceSolve s;
-    if (quasi) {
-      s = solve_separable_total(laws, slices, balance, n, load, lambda, tol, max_iterations,
-                                approach, force, stiffness);
-      lambda = s.lambda;
-    } else {
-      s = solve_separable(laws, approach, n, tol, max_iterations, force, stiffness);
-    }
-    out.solve.iterations += s.iterations;
-    out.solve.residual = std::max(out.solve.residual, s.residual);
-    if (!s.converged) out.solve.message = s.message;
-    return s.converged;
-  };
-  const auto restore = [&]() {
-    for (int i = 0; i < n; ++i) {
-      if (quasi) {
-        slices[i].approach = w.original[i];
-        approach[i] = w.original[i] + slices[i].te_gain * lambda;
-      } else {
-        approach[i] = w.original[i];
-      }
-    }
-  };
-  // v = B x for an r-vector x
-  const auto apply_B = [&](const double* x, double* to) {
+  }
+  void apply_B(const double* x, double* to) const {
+    const double* B = w.B.data();
     for (int i = 0; i < r; ++i) {
       double s = 0;
       for (int j = 0; j < r; ++j) s += B[i * r + j] * x[j];
       to[i] = s;
     }
-  };
-  // J = I + (Phi^T K Phi) B, Phi^T K Phi block diagonal by pair (4 x 4 over gear, component)
-  const auto tangent = [&](double* J) {
+  }
+  // J = I + (Phi^T K Phi) B; Phi^T K Phi is block diagonal by pair
+  void tangent(double* J) const {
+    const double* B = w.B.data();
     std::fill(J, J + r * r, 0.0);
-    for (int p = 0; p < P; ++p) {
-      double blk[4][4] = {};
-      for (int i = 0; i < n; ++i) {
-        if (w.group[i] != p || !(stiffness[i] > 0)) continue;
-        const double phi[4] = {1, w.height[2 * i], 1, w.height[2 * i + 1]};
-        for (int a = 0; a < 4; ++a)
-          for (int b = 0; b < 4; ++b) blk[a][b] += stiffness[i] * phi[a] * phi[b];
+    for (int p = 0; p < pairs; ++p) {
+      const int kp = w.pair_dim[p], c0 = w.pair_col[p];
+      double blk[W::kBasis][W::kBasis] = {};
+      for (int u = 0; u < nu; ++u) {
+        if (w.group[u] != p || !(w.stiffness[u] > 0)) continue;
+        const double* f = phi(u);
+        const double s = w.weight[u] * w.stiffness[u];
+        for (int a = 0; a < kp; ++a)
+          for (int b = 0; b < kp; ++b) blk[a][b] += s * f[a] * f[b];
       }
-      const int idx[4] = {col(0, p, 0, P), col(0, p, 1, P), col(1, p, 0, P), col(1, p, 1, P)};
-      for (int a = 0; a < 4; ++a)
+      for (int a = 0; a < kp; ++a)
         for (int j = 0; j < r; ++j) {
           double s = 0;
-          for (int b = 0; b < 4; ++b) s += blk[a][b] * B[idx[b] * r + j];
-          J[idx[a] * r + j] = s;
+          for (int b = 0; b < kp; ++b) s += blk[a][b] * B[(c0 + b) * r + j];
+          J[(c0 + a) * r + j] = s;
         }
     }
     for (int i = 0; i < r; ++i) J[i * r + i] += 1;
-  };
-  // Phi^T x over the candidates into an r-vector
-  const auto phi_t = [&](const double* x, double* to) {
-    std::fill(to, to + r, 0.0);
-    for (int i = 0; i < n; ++i) {
-      const int g = w.group[i];
-      if (x[i] == 0 || g < 0) continue;
-      for (int q = 0; q < 2; ++q) {
-        to[col(q, g, 0, P)] += x[i];
-        to[col(q, g, 1, P)] += w.height[2 * i + q] * x[i];
-      }
+  }
+  // Quasi-static: the balance's rank-one term -(Phi^T K w)(b^T K Phi B)/(b^T K w) added to J.
+  void balance_term(double* J) const {
+    double s = 0;
+    for (int u = 0; u < nu; ++u) s += w.weight[u] * w.balance[u] * w.stiffness[u] * w.gain[u];
+    if (s == 0) return;
+    double* scratch = w.approach.data();  // free between the separable solves
+    for (int u = 0; u < nu; ++u) scratch[u] = w.stiffness[u] * w.gain[u];
+    phi_t(scratch, w.c.data());  // Phi^T K w
+    for (int u = 0; u < nu; ++u) scratch[u] = w.stiffness[u] * w.balance[u];
+    phi_t(scratch, w.y.data());  // Phi^T K b
+    const double* B = w.B.data();
+    for (int j = 0; j < r; ++j) {  // (B^T Phi^T K b)_j = (b^T K Phi B)_j
+      double t = 0;
+      for (int i = 0; i < r; ++i) t += B[i * r + j] * w.y[i];
+      for (int i = 0; i < r; ++i) J[i * r + j] -= w.c[i] * t / s;
     }
-  };
+  }
+  void mark_loaded() const {
+    for (int p = 0; p < pairs; ++p) w.loaded[p] = false;
+    for (int u = 0; u < nu; ++u)
+      if (w.stiffness[u] > 0) w.loaded[w.group[u]] = true;
+  }
+  // Solve J x = b (b becomes x) where the rows of the pairs without a loaded slice are those
+  // of the identity: x = b there, and the rest is the reduced system over the loaded pairs'
+  // columns. false if singular.
+  bool solve_loaded(double* b) const {
+    mark_loaded();
+    const double* J = w.J.data();
+    int* idx = w.index.data();
+    unsigned char* active = w.active.data();
+    int ra = 0;
+    for (int p = 0; p < pairs; ++p)
+      for (int k = 0; k < w.pair_dim[p]; ++k) {
+        active[w.pair_col[p] + k] = w.loaded[p];
+        if (w.loaded[p]) idx[ra++] = w.pair_col[p] + k;
+      }
+    if (ra == 0) return true;
+    double* Jr = w.Jr.data();
+    double* rhs = Jr + ra * ra;
+    for (int a = 0; a < ra; ++a) {
+      double s = b[idx[a]];
+      for (int j = 0; j < r; ++j)  // inactive unknowns are already b_j
+        if (!active[j]) s -= J[idx[a] * r + j] * b[j];
+      rhs[a] = s;
+      for (int c = 0; c < ra; ++c) Jr[a * ra + c] = J[idx[a] * r + idx[c]];
+    }
+    if (!dense_solve(Jr, rhs, ra)) return false;
+    for (int a = 0; a < ra; ++a) b[idx[a]] = rhs[a];
+    return true;
+  }
+};
 
-  const auto mark_loaded = [&]() {
-    for (int p = 0; p < P; ++p) w.loaded[p] = false;
-    for (int i = 0; i < n; ++i)
-      if (w.group[i] >= 0 && stiffness[i] > 0) w.loaded[w.group[i]] = true;
-  };
-  std::fill(v, v + r, 0.0);
-  if (!inner()) {
-    restore();
+}  // namespace
+
+void CoupledWorkspace::reserve(int capacity) {
+  const int r = kBasis * kMaxPairs;
+  const std::size_t n = std::size_t(capacity);
+  rep.assign(n, -1);
+  group.assign(n, 0);
+  for (auto* x : {&weight, &base, &gain, &balance, &balance_sum, &shifted, &approach, &force, &stiffness})
+    x->assign(n, 0.0);
+  basis.assign(kBasis * n, 0.0);
+  laws.assign(n, SliceLaw{});
+  B.assign(std::size_t(r) * r, 0.0);
+  J.assign(std::size_t(r) * r, 0.0);
+  Jr.assign(std::size_t(r) * (r + 1), 0.0);  // reduced matrix and its right-hand side
+  index.assign(std::size_t(r), 0);
+  active.assign(std::size_t(r), 0);
+  for (auto* x : {&m, &v, &G, &a, &c, &y}) x->assign(std::size_t(r), 0.0);
+}
+
+CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* laws,
+                                 const ContactSlice* slices, const double* balance, int n,
+                                 bool quasi, double load, double lambda_start, double tol,
+                                 int max_iterations, double* approach, double* force,
+                                 double* stiffness, CoupledWorkspace& w) {
+  CoupledSolveResult out;
+  int pairs = 0;
+  const int nu = gather(coupling, laws, slices, balance, approach, n, quasi, w, pairs);
+  if (nu < 0) {
+    out.fallback = true;
     out.solve.converged = false;
     return out;
   }
-  bool converged = false;
-  int extra = 0;
-  for (int it = 0; it < max_iterations; ++it) {
-    // G = m - Phi^T F, and the gap residual Phi B G
-    phi_t(force, G);
-    for (int j = 0; j < r; ++j) G[j] = m[j] - G[j];
-    apply_B(G, w.a.data());
-    double res = 0;
-    for (int i = 0; i < n; ++i) {
-      const int g = w.group[i];
-      if (g < 0) continue;
-      double e = 0;
-      for (int q = 0; q < 2; ++q)
-        e += w.a[col(q, g, 0, P)] + w.height[2 * i + q] * w.a[col(q, g, 1, P)];
-      res = std::max(res, std::fabs(e));
+  const int r = assign_columns(w, pairs);
+  build_coupling_matrix(coupling, w, nu, pairs, r);
+  const LowRank L{w, nu, pairs, r};
+  double scale = 0;
+  for (int u = 0; u < nu; ++u) scale = std::max(scale, std::fabs(w.base[u]));
+  const double tol_outer = std::min(tol, 1e-15 + 1e-10 * scale);
+  // the separable solves well inside it: their gaps are the outer residual's noise floor (a
+  // warm-started scalar Newton stops at its tolerance rather than far below it)
+  const double tol_inner = 1e-3 * tol_outer;
+  double* m = w.m.data();
+  double* v = w.v.data();
+  double* G = w.G.data();
+  double* e = w.a.data();
+  std::fill(m, m + r, 0.0);
+  std::fill(v, v + r, 0.0);
+  double lambda = lambda_start;
+  bool warm = false;  // the first separable solve is the uncoupled one, from scratch
+
+  // the separable solve at the approaches Delta - Phi B m (v = B m on entry)
+  const auto inner = [&]() -> bool {
+    double* shifted = w.shifted.data();
+    for (int u = 0; u < nu; ++u) shifted[u] = w.base[u] - L.at(v, u);
+    ForceSolve s;
+    if (quasi) {
+      s = solve_separable_total(w.laws.data(), shifted, w.gain.data(), w.balance_sum.data(), nu,
+                                load, lambda, tol_inner, max_iterations, warm, w.approach.data(),
+                                w.force.data(), w.stiffness.data());
+      lambda = s.lambda;
+    } else {
+      s = solve_separable(w.laws.data(), shifted, nu, tol_inner, max_iterations, w.force.data(),
+                          w.stiffness.data(), warm);
     }
-    if (res <= tol_outer) {
-      // one more step when it is cheap to reach rounding (quadratic convergence)
-      if (res <= 1e-3 * tol_outer || extra++ > 0) {
+    warm = true;
+    out.solve.iterations += s.iterations;
+    out.solve.residual = std::max(out.solve.residual, s.residual);
+    if (!s.converged) out.solve.message = s.message;
+    return s.converged;
+  };
+
+  bool converged = false;
+  if (inner()) {
+    for (int it = 0; it < max_iterations; ++it) {
+      // G = m - Phi^T F, and the gap residual Phi B G
+      L.phi_t(w.force.data(), G);
+      for (int j = 0; j < r; ++j) G[j] = m[j] - G[j];
+      L.apply_B(G, e);
+      double res = 0;
+      for (int u = 0; u < nu; ++u) res = std::max(res, std::fabs(L.at(e, u)));
+      if (res <= tol_outer) {
         converged = true;
         break;
       }
+      // Newton step on m
+      L.tangent(w.J.data());
+      if (quasi) L.balance_term(w.J.data());
+      for (int j = 0; j < r; ++j) G[j] = -G[j];
+      if (!L.solve_loaded(G)) break;
+      for (int j = 0; j < r; ++j) m[j] += G[j];
+      L.apply_B(m, v);
+      if (!inner()) break;
+      out.solve.iterations += 1;
     }
-    // Newton step on m
-    tangent(w.J.data());
-    if (quasi) {
-      // rank-one term of the balance: -(Phi^T K w)(b^T K Phi B)/(b^T K w)
-      double s = 0;
-      for (int i = 0; i < n; ++i) s += balance[i] * stiffness[i] * slices[i].te_gain;
-      if (s != 0) {
-        for (int i = 0; i < n; ++i) approach[i] = stiffness[i] * slices[i].te_gain;  // scratch
-        phi_t(approach, w.c.data());                                              // Phi^T K w
-        for (int i = 0; i < n; ++i) approach[i] = stiffness[i] * balance[i];
-        phi_t(approach, w.y.data());                                              // Phi^T K b
-        for (int j = 0; j < r; ++j) {  // (B^T Phi^T K b)_j = (b^T K Phi B)_j
-          double t = 0;
-          for (int i = 0; i < r; ++i) t += B[i * r + j] * w.y[i];
-          for (int i = 0; i < r; ++i) w.J[i * r + j] -= w.c[i] * t / s;
-        }
-      }
-    }
-    for (int j = 0; j < r; ++j) G[j] = -G[j];
-    mark_loaded();
-    if (!solve_loaded(w.J.data(), G, r, P, w.loaded, w.Jr.data(), w.index.data())) break;
-    for (int j = 0; j < r; ++j) m[j] += G[j];
-    apply_B(m, v);
-    if (!inner()) break;
-    out.solve.iterations += 1;
   }
-  restore();
   if (!converged) {
+    for (int i = 0; i < n && quasi; ++i) approach[i] = slices[i].approach;
     out.fallback = true;
     out.solve.converged = false;
     return out;
   }
   // tangent stiffness of each slice: x = K (1 - Phi B y), J y = Phi^T K 1
-  tangent(w.J.data());
-  phi_t(stiffness, w.y.data());
-  mark_loaded();
-  if (solve_loaded(w.J.data(), w.y.data(), r, P, w.loaded, w.Jr.data(), w.index.data())) {
-    apply_B(w.y.data(), w.a.data());
-    for (int i = 0; i < n; ++i) {
-      const int g = w.group[i];
-      if (!(stiffness[i] > 0) || g < 0) continue;
-      double e = 0;
-      for (int q = 0; q < 2; ++q)
-        e += w.a[col(q, g, 0, P)] + w.height[2 * i + q] * w.a[col(q, g, 1, P)];
-      stiffness[i] *= 1 - e;
-    }
+  L.tangent(w.J.data());
+  double* y = w.y.data();
+  L.phi_t(w.stiffness.data(), y);
+  if (L.solve_loaded(y)) {
+    L.apply_B(y, e);
+    for (int u = 0; u < nu; ++u)
+      if (w.stiffness[u] > 0) w.stiffness[u] *= 1 - L.at(e, u);
+  }
+  // back onto the candidates
+  for (int i = 0; i < n; ++i) {
+    const int u = w.rep[i];
+    force[i] = u >= 0 ? w.force[u] : 0.0;
+    stiffness[i] = u >= 0 ? w.stiffness[u] : 0.0;
+    if (quasi) approach[i] = slices[i].approach + slices[i].te_gain * lambda;
   }
   out.solve.lambda = lambda;
   out.solve.converged = true;

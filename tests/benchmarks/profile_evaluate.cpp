@@ -2,9 +2,12 @@
 // paper's set A at level 4, 10 slices, TE 5 um (plain) or 500 N m (quasi-static), over one pitch
 // of gear 1. Instructions per evaluation (docs/model.md, "Tooth coupling at level 4", Cost):
 //   valgrind --tool=callgrind --toggle-collect=gm_evaluate build/tests/profile_evaluate 2 0 1000
-// and divide callgrind's "Collected" by N. Arguments: coupled teeth (0..3), quasi-static (0/1), N.
+// and divide callgrind's "Collected" by N. Arguments: coupled teeth (0..3), quasi-static (0/1), N,
+// and optionally "helical" (the 15 deg variant of tests/benchmarks/bench_evaluate.cpp).
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 #include "gearmesh/gearmesh.h"
 
@@ -12,8 +15,10 @@ int main(int argc, char** argv) {
   const int coupled = argc > 1 ? std::atoi(argv[1]) : 2;
   const int quasi = argc > 2 ? std::atoi(argv[2]) : 0;
   const int n = argc > 3 ? std::atoi(argv[3]) : 1000;
-  if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1) {
-    std::fprintf(stderr, "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1)\n");
+  const bool helical = argc > 4 && std::strcmp(argv[4], "helical") == 0;
+  if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1 ||
+      (argc > 4 && !helical)) {
+    std::fprintf(stderr, "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical]\n");
     return 2;
   }
   gm_model_params p;
@@ -22,6 +27,11 @@ int main(int argc, char** argv) {
   p.slices = 10;
   p.coupled_teeth = coupled;
   p.quasi_static = quasi;
+  if (helical) {
+    p.pair.helix_angle = 15 * 3.14159265358979323846 / 180;
+    p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
+    p.pair.center_distance = 0.0026 / std::cos(p.pair.helix_angle) * 57 + 50e-6;
+  }
   char msg[512];
   gm_model* m = nullptr;
   gm_data* d = nullptr;
