@@ -304,7 +304,7 @@ CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* 
   const double tol_outer = std::min(tol, 1e-15 + 1e-10 * scale);
   // the separable solves well inside it: their gaps are the outer residual's noise floor (a
   // warm-started scalar Newton stops at its tolerance rather than far below it)
-  const double tol_inner = 1e-3 * tol_outer;
+  const double tol_inner = 1e-2 * tol_outer;
   double* m = w.m.data();
   double* v = w.v.data();
   double* G = w.G.data();
@@ -317,7 +317,13 @@ CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* 
   // the separable solve at the approaches Delta - Phi B m (v = B m on entry)
   const auto inner = [&]() -> bool {
     double* shifted = w.shifted.data();
-    for (int u = 0; u < nu; ++u) shifted[u] = w.base[u] - L.at(v, u);
+    for (int u = 0; u < nu; ++u) {
+      const double next = w.base[u] - L.at(v, u);
+      // the warm start predicted along the slice's tangent: F + K (next - last approach)
+      if (warm && w.force[u] > 0)
+        w.force[u] = std::max(0.0, w.force[u] + w.stiffness[u] * (next - shifted[u]));
+      shifted[u] = next;
+    }
     ForceSolve s;
     if (quasi) {
       s = solve_separable_total(w.laws.data(), shifted, w.gain.data(), w.balance_sum.data(), nu,

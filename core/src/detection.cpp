@@ -426,6 +426,22 @@ GM_STAGE void fill_slice(const MeshLayout& L, const SliceFrame<T>& F, const Sect
   c.path_position = G.path;
 }
 
+// The next slice of an aligned spur pair: the pair's first slice moved along the face to z,
+// with its own normal approach. Only the contact velocities change, by
+// (omega_1 - omega_2) x (0, 0, dz).
+template <class T>
+GM_STAGE void shift_slice(const ContactSliceT<T>& first, const Motion<T>& mo, const T& z,
+                          const T& approach_n, ContactSliceT<T>& c) {
+  c = first;
+  const T dz = z - first.point.z();
+  const Vec3<T> dv((mo.omega[0].y() - mo.omega[1].y()) * dz,
+                   (mo.omega[1].x() - mo.omega[0].x()) * dz, T(0));
+  c.point.z() = z;
+  c.approach = approach_n;
+  c.approach_rate = first.approach_rate + dv.dot(first.normal);
+  c.sliding_velocity = first.sliding_velocity + dv.dot(first.tangent);
+}
+
 // The approach beyond the detection range (a quarter base pitch): msg set.
 template <class T>
 void approach_too_large(const MeshLayout& L, int sigma, const T& approach_t, std::string& msg) {
@@ -481,6 +497,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
       const double m2 = std::nearbyint(val(mid.T1T2 - s * rho1_mid - base2) / pb);
       const T rho2_mid = base2 + m2 * pb;
       int tooth1 = -1, tooth2 = -1;  // found when the pair has a slice
+      int first = -1;                // the pair's first slice
       bool emitted = false;
       SliceContact<T> G;
       for (int k = 0; k < L.slices; ++k) {
@@ -512,10 +529,15 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
           return -1;
         }
         ContactSliceT<T>& c = out[count++];
+        if (uniform && emitted) {
+          shift_slice(out[first], mo, z, T(approach_t * L.cos_beta_b), c);
+          continue;
+        }
         fill_slice(L, F, S, mo, G, sigma, fl, z, approach_t, c);
         c.tooth[0] = tooth1;
         c.tooth[1] = tooth2;
         c.pair = pair;
+        first = count - 1;
         emitted = true;
       }
       pair += emitted;
