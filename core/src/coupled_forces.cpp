@@ -301,7 +301,9 @@ CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* 
   const LowRank L{w, nu, pairs, r};
   double scale = 0;
   for (int u = 0; u < nu; ++u) scale = std::max(scale, std::fabs(w.base[u]));
-  const double tol_outer = std::min(tol, 1e-15 + 1e-10 * scale);
+  // model.solver_tolerance, and at most 1e-8 of the largest approach (plain) or 1e-10 of it
+  // (quasi-static: the load balance, to 1e-12 of the load, needs the forces that close)
+  const double tol_outer = std::min(tol, 1e-15 + (quasi ? 1e-10 : 1e-8) * scale);
   // the separable solves well inside it: their gaps are the outer residual's noise floor (a
   // warm-started scalar Newton stops at its tolerance rather than far below it)
   const double tol_inner = 1e-2 * tol_outer;

@@ -35,11 +35,14 @@ void split_periods(const T& x, double period, double& n, T& f) {
 
 // Tooth index in [0, z) of the tooth m periods after the reference one (n and m are whole and
 // finite: detect_impl refuses spins beyond GM_MAX_SPIN_ANGLE before they get here).
+// Spins are at most GM_MAX_SPIN_ANGLE (1e7 rad), so |m - n| < 1e7 z / (2 pi) + 2: far inside a
+// long long, and the remainder is integer arithmetic.
 int tooth_index(double n, double m, int sigma, int z) {
-  double k = std::fmod(sigma * (m - n), static_cast<double>(z));
-  if (!(k >= 0 || k < 0)) return 0;  // NaN: never cast (unreachable with the checks above)
+  const double periods = sigma * (m - n);
+  if (!(std::fabs(periods) < 9e15)) return 0;  // NaN or huge: never cast (unreachable)
+  long long k = static_cast<long long>(periods) % z;
   if (k < 0) k += z;
-  return static_cast<int>(k) % z;
+  return static_cast<int>(k);
 }
 
 template <class T>
@@ -455,7 +458,7 @@ void approach_too_large(const MeshLayout& L, int sigma, const T& approach_t, std
 
 template <class T, class K>
 int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int capacity,
-                std::string& msg) {
+                std::string& msg, double emit_above) {
   GM_AD_USING;
   if (!spins_in_range(kin, msg)) return -1;
   SliceFrame<T> F;
@@ -496,7 +499,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
       const T rho1_mid = base1 + m1 * pb;
       const double m2 = std::nearbyint(val(mid.T1T2 - s * rho1_mid - base2) / pb);
       const T rho2_mid = base2 + m2 * pb;
-      int tooth1 = -1, tooth2 = -1;  // found when the pair has a slice
+      int tooth1 = -1, tooth2 = -1;  // found at the pair's first contact
       int first = -1;                // the pair's first slice
       bool emitted = false;
       SliceContact<T> G;
@@ -512,7 +515,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
         // face coordinates from each gear's mid-face
         const T y1 = z - F.ax[0].c.z() + G.dz1 - L.axial_offset[0];
         const T y2 = z - F.ax[1].c.z() + G.dz2 - L.axial_offset[1];
-        if (!emitted) {
+        if (tooth1 < 0) {
           tooth1 = tooth_index(n1, m1, sigma, L.teeth[0]);
           tooth2 = tooth_index(n2, m2, sigma, L.teeth[1]);
         }
@@ -523,6 +526,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
           approach_too_large(L, sigma, approach_t, msg);
           return -1;
         }
+        if (val(approach_t) * L.cos_beta_b <= emit_above) continue;  // cannot carry load
         if (count >= capacity) {
           msg = "more candidate slices than the model's capacity: the tilts are far outside "
                 "the small-tilt range of the detection";
@@ -549,13 +553,13 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
 }  // namespace
 
 int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
-                    std::string& msg) {
-  return detect_impl<double>(L, kin, out, capacity, msg);
+                    std::string& msg, double emit_above) {
+  return detect_impl<double>(L, kin, out, capacity, msg, emit_above);
 }
 
 int detect_contacts(const MeshLayout& L, const KinematicsT<Dual>& kin, ContactSliceT<Dual>* out,
-                    int capacity, std::string& msg) {
-  return detect_impl<Dual>(L, kin, out, capacity, msg);
+                    int capacity, std::string& msg, double emit_above) {
+  return detect_impl<Dual>(L, kin, out, capacity, msg, emit_above);
 }
 
 }  // namespace gm

@@ -91,6 +91,9 @@ struct KinematicsT {
   T load_torque;
 };
 
+// detect_contacts' default: every candidate (no approach is below -kEmitAll).
+constexpr double kEmitAll = 1e300;
+
 // Derive the detection layout from validated parameters, their geometry and the gears'
 // micro-geometry (moved in).
 MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
@@ -100,13 +103,15 @@ MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
 int slice_capacity(const MeshLayout& L);
 
 // Candidate slices at the given pose. Writes at most `capacity` slices into out and returns
-// their number, or -1 with msg set when the pose is outside the detection range.
+// their number, or -1 with msg set when the pose is outside the detection range. Slices whose
+// normal approach is at most `emit_above` (m) are left out: a plain solve needs only the slices
+// that can carry load (emit_above = the gap the TE excitation adds), the quasi-static one all.
 int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
-                    std::string& msg);
+                    std::string& msg, double emit_above = -kEmitAll);
 
 // The same with derivatives along one input direction (gm_directional_derivative): the same
 // candidates, in the same order, as the double evaluation at the values of kin.
 int detect_contacts(const MeshLayout& L, const KinematicsT<Dual>& kin, ContactSliceT<Dual>* out,
-                    int capacity, std::string& msg);
+                    int capacity, std::string& msg, double emit_above = -kEmitAll);
 
 }  // namespace gm

@@ -107,6 +107,12 @@ void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>*
 }
 
 
+// The gap the TE excitation opens along every slice's normal at gear 1's angle phi1, m.
+inline double te_excitation_gap(const gm_model& m, double phi1) {
+  if (m.te_table.empty()) return 0;
+  return te_excitation_at(m.te_table, phi1).te * m.layout.cos_beta_b;
+}
+
 // The TE excitation (user_tables.hpp): a gap of TE_exc cos(beta_b) along the normal of every
 // slice, flank A and B alike, and its rate in the approach rate.
 template <class T, class K>

@@ -3,7 +3,8 @@
 // of gear 1. Instructions per evaluation (docs/model.md, "Tooth coupling at level 4", Cost):
 //   valgrind --tool=callgrind --toggle-collect=gm_evaluate build/tests/profile_evaluate 2 0 1000
 // and divide callgrind's "Collected" by N. Arguments: coupled teeth (0..3), quasi-static (0/1), N,
-// and optionally "helical" (the 15 deg variant of tests/benchmarks/bench_evaluate.cpp).
+// and optionally a variant: "helical" (the 15 deg pair of tests/benchmarks/bench_evaluate.cpp) or
+// "baseline" (that benchmark's baseline: the default parameters; COUPLED is then ignored).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -16,9 +17,11 @@ int main(int argc, char** argv) {
   const int quasi = argc > 2 ? std::atoi(argv[2]) : 0;
   const int n = argc > 3 ? std::atoi(argv[3]) : 1000;
   const bool helical = argc > 4 && std::strcmp(argv[4], "helical") == 0;
+  const bool baseline = argc > 4 && std::strcmp(argv[4], "baseline") == 0;
   if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1 ||
-      (argc > 4 && !helical)) {
-    std::fprintf(stderr, "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical]\n");
+      (argc > 4 && !helical && !baseline)) {
+    std::fprintf(stderr,
+                 "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical|baseline]\n");
     return 2;
   }
   gm_model_params p;
@@ -27,6 +30,10 @@ int main(int argc, char** argv) {
   p.slices = 10;
   p.coupled_teeth = coupled;
   p.quasi_static = quasi;
+  if (baseline) {
+    gm_default_params(&p);
+    p.quasi_static = quasi;
+  }
   if (helical) {
     p.pair.helix_angle = 15 * 3.14159265358979323846 / 180;
     p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
