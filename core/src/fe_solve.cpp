@@ -135,6 +135,8 @@ void fe_set_options(const gm_model& m, gm_data& d, int na) {
   opt.max_iterations = m.params.solver_max_iterations;
   // level 4: no factorization carried over from the previous call (history independence)
   opt.reuse_tangent = m.params.stiffness_level == GM_STIFFNESS_FE;
+  // C is symmetric by construction (FeAssembly and coupled_assemble mirror every entry)
+  opt.check_symmetry = false;
   d.nlcp->set_options(opt);
 }
 
