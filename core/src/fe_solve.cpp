@@ -24,6 +24,36 @@ int fe_select(gm_data& d, int n, bool all) {
   return na;
 }
 
+// Quasi-static under load at level 5: keep in d.fe_index only the candidates of the flank that
+// the load closes (te_gain * load > 0); their flank, or 0 (nothing left out) when both flanks
+// have such candidates. The databases never couple flank A with flank B (fe_compliance.hpp), so
+// a candidate of the other flank that stays open at the solved approach carries no force and
+// changes nothing of the solve (its gap is its approach, -Delta_i >= 0): the answer on the
+// smaller system is the answer on all of them, which fe_others_open confirms after the solve.
+int fe_loaded_flank(gm_data& d, int& na, double load) {
+  const ContactSlice* S = d.slices.data();
+  int flank = 0;
+  for (int a = 0; a < na; ++a) {
+    const ContactSlice& s = S[d.fe_index[a]];
+    if (s.te_gain * load > 0) {
+      if (flank != 0 && s.flank != flank) return 0;
+      flank = s.flank;
+    }
+  }
+  int kept = 0;
+  for (int a = 0; a < na && flank != 0; ++a)
+    if (S[d.fe_index[a]].flank == flank) d.fe_index[kept++] = d.fe_index[a];
+  if (flank != 0) na = kept;
+  return flank;
+}
+
+// Whether every candidate off `flank` is open (Delta <= 0) at the solved approaches d.approach.
+bool fe_others_open(const gm_data& d, int n, int flank) {
+  for (int i = 0; i < n; ++i)
+    if (d.slices[i].flank != flank && d.approach[i] > 0) return false;
+  return true;
+}
+
 // Level 4 with tooth coupling: C between the solved slices, each slice's own law on the diagonal
 // (Weber/Sainsot of both teeth) and the tooth coupling between slices of different tooth pairs.
 void coupled_assemble(const gm_model& m, gm_data& d, int na) {
@@ -105,6 +135,8 @@ void fe_set_options(const gm_model& m, gm_data& d, int na) {
   opt.max_iterations = m.params.solver_max_iterations;
   // level 4: no factorization carried over from the previous call (history independence)
   opt.reuse_tangent = m.params.stiffness_level == GM_STIFFNESS_FE;
+  // C is symmetric by construction (FeAssembly and coupled_assemble mirror every entry)
+  opt.check_symmetry = false;
   d.nlcp->set_options(opt);
 }
 
@@ -206,7 +238,7 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
                     bool quasi, double load) {
   ForceSolve out;
   const ContactSlice* S = d.slices.data();
-  const int na = fe_select(d, n, all);
+  int na = fe_select(d, n, all);
   if (na == 0) {
     if (quasi) {  // no candidate: nothing to balance
       out.converged = false;
@@ -215,6 +247,9 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
     d.fe_prev_n = 0;
     return out;
   }
+  const int flank = quasi && load != 0 && m.params.stiffness_level == GM_STIFFNESS_FE
+                        ? fe_loaded_flank(d, na, load)
+                        : 0;
   fe_gather(m, d, kin, na);
   fe_set_options(m, d, na);
   NlcpResult res;
@@ -236,6 +271,15 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
   } else {
     res = fe_solve_balanced(d, na, load, out);
     for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
+    if (flank != 0 && res.status == NlcpStatus::converged && !fe_others_open(d, n, flank)) {
+      // the other flank closes (wedging): solve over every candidate
+      for (int i = 0; i < n; ++i) d.approach[i] = S[i].approach;
+      na = fe_select(d, n, all);
+      fe_gather(m, d, kin, na);
+      fe_set_options(m, d, na);
+      res = fe_solve_balanced(d, na, load, out);
+      for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
+    }
   }
   out.residual = res.residual;
   if (res.status != NlcpStatus::converged) {

@@ -76,7 +76,7 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
     ok = ok && c > 0 && c < kInf;
     root[i] = ok ? std::sqrt(c) : 0;
   }
-  for (int j = 0; j < n && ok; ++j) {
+  for (int j = 0; j < n && ok && options_.check_symmetry; ++j) {
     const double* Cj = C.data() + j * C.outerStride();
     const double tol_j = kSymmetryTol * root[j];
     bool column_ok = true;

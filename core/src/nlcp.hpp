@@ -63,6 +63,11 @@ struct NlcpOptions {
   // nearly the answer's.
   // Saves one or two factorizations per call. false: factorize at every iteration.
   bool reuse_tangent = true;
+  // Check that C is symmetric (and finite) on every call, an O(n^2) pass over both triangles.
+  // false: the caller made C symmetric by construction (level 5's assembly mirrors each entry);
+  // only its diagonal is checked (> 0, finite). A non-finite entry elsewhere then ends the solve
+  // unconverged (the factorization or the line search fails on it) instead of being named.
+  bool check_symmetry = true;
 };
 
 struct NlcpResult {

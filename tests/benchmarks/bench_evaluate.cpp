@@ -195,6 +195,8 @@ int main(int argc, char** argv) {
          p.slices = 10; p.stiffness_level = 4; p.friction_coefficient = 0.4; p.damping = 1e3;
        }, 0},
       {"spur, 10 slices, level 5 (FE, +-2 coupled teeth)", fe_level, 0},
+      {"spur, 20 slices, level 5 (FE, +-2 coupled teeth)",
+       [](gm_model_params& p) { fe_level(p); p.slices = 20; }, 0},
       {"helical 15 deg, 10 slices, level 5 (FE, +-2 teeth)",
        [](gm_model_params& p) { helical(p); fe_level(p); }, 0},
       {"spur, 10 slices, level 5, quasi-static 500 N m",

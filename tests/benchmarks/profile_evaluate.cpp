@@ -1,33 +1,49 @@
 // A fixed workload for instruction counts (callgrind), not a timer: N gm_evaluate calls of the
 // paper's set A at level 4, 10 slices, TE 5 um (plain) or 500 N m (quasi-static), over one pitch
-// of gear 1. Instructions per evaluation (docs/model.md, "Tooth coupling at level 4", Cost):
+// of gear 1. Instructions per evaluation (docs/model.md, "Tooth coupling at level 4", Cost;
+// docs/performance.md, "Where level 5's time goes"):
 //   valgrind --tool=callgrind --toggle-collect=gm_evaluate build/tests/profile_evaluate 2 0 1000
 // and divide callgrind's "Collected" by N. Arguments: coupled teeth (0..3), quasi-static (0/1), N,
-// and optionally a variant: "helical" (the 15 deg pair of tests/benchmarks/bench_evaluate.cpp) or
-// "baseline" (that benchmark's baseline: the default parameters; COUPLED is then ignored).
+// then optionally, in any order: "helical" (the 15 deg variant of
+// tests/benchmarks/bench_evaluate.cpp), "fe" (level 5 with bench_evaluate's synthetic databases,
+// written to the temporary directory), "baseline" (bench_evaluate's baseline: the default
+// parameters; COUPLED is then ignored) and a slice count (default 10).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <string>
 
+#include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
+#include "gearmesh/internal/compliance_db.hpp"
 
 int main(int argc, char** argv) {
   const int coupled = argc > 1 ? std::atoi(argv[1]) : 2;
   const int quasi = argc > 2 ? std::atoi(argv[2]) : 0;
   const int n = argc > 3 ? std::atoi(argv[3]) : 1000;
-  const bool helical = argc > 4 && std::strcmp(argv[4], "helical") == 0;
-  const bool baseline = argc > 4 && std::strcmp(argv[4], "baseline") == 0;
-  if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1 ||
-      (argc > 4 && !helical && !baseline)) {
-    std::fprintf(stderr,
-                 "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical|baseline]\n");
+  bool helical = false, fe = false, baseline = false, bad = false;
+  int slices = 10;
+  for (int a = 4; a < argc; ++a) {
+    if (std::strcmp(argv[a], "helical") == 0)
+      helical = true;
+    else if (std::strcmp(argv[a], "fe") == 0)
+      fe = true;
+    else if (std::strcmp(argv[a], "baseline") == 0)
+      baseline = true;
+    else if ((slices = std::atoi(argv[a])) < 1)
+      bad = true;
+  }
+  if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1 || bad) {
+    std::fprintf(stderr, "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical] [fe] "
+                         "[baseline] [SLICES]\n");
     return 2;
   }
   gm_model_params p;
   gm_default_params(&p);
-  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
-  p.slices = 10;
+  p.stiffness_level = fe ? GM_STIFFNESS_FE : GM_STIFFNESS_ANALYTICAL;
+  p.slices = slices;
   p.coupled_teeth = coupled;
   p.quasi_static = quasi;
   if (baseline) {
@@ -38,6 +54,21 @@ int main(int argc, char** argv) {
     p.pair.helix_angle = 15 * 3.14159265358979323846 / 180;
     p.gear[0].profile_shift = p.gear[1].profile_shift = 0;
     p.pair.center_distance = 0.0026 / std::cos(p.pair.helix_angle) * 57 + 50e-6;
+  }
+  std::string path[2];
+  for (int g = 0; g < 2 && fe; ++g) {
+    gm_model_params q = p;
+    q.compliance[0] = q.compliance[1] = nullptr;
+    std::string err;
+    const gm::ComplianceDb db = gm_test::smooth_db(q, g, gm_test::SmoothDbShape{}, err);
+    path[g] = (std::filesystem::temp_directory_path() /
+               ("profile_evaluate_" + std::to_string(int(helical)) + "_gear" + std::to_string(g + 1) +
+                ".gcdb")).string();
+    if (gm::write_compliance_db(path[g].c_str(), db, err) != GM_OK) {
+      std::fprintf(stderr, "profile_evaluate: %s\n", err.c_str());
+      return 1;
+    }
+    p.compliance[g] = path[g].c_str();
   }
   char msg[512];
   gm_model* m = nullptr;

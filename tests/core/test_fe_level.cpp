@@ -484,3 +484,42 @@ TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
 }
 
 }  // namespace
+
+// Level 5 quasi-static solves the load balance over the candidates of the flank the load closes
+// alone when the other flank stays open (the databases never couple the two flanks), and over
+// every candidate when it closes too (gear 2 moved towards gear 1 until both flanks touch:
+// wedging). Either way the answer is that of the plain solve at the solved TE: the same flanks
+// in contact, the same forces, moments and stiffness within the pass loop's TE tolerance (the
+// solved TE is good to ~1e-13 m here, a force error of ~1e-8 of the load through the mesh
+// stiffness).
+TEST(FeLevel, QuasiStaticAgreesWithThePlainSolveAtItsTeOpenAndWedged) {
+  gm_model_params base = fe_paper(5);
+  base.coupled_teeth = 2;
+  const SmoothFe fe(base, "flanks5");
+  gm_model_params pp = fe.p;
+  pp.quasi_static = 0;
+  Instance quasi(fe.p), plain(pp);
+  const double torque = 300;
+  for (const double shift : {0.0, 100e-6}) {
+    for (int s = 0; s < 4; ++s) {
+      gm_kinematics k{};
+      k.phi[0] = quasi.geo().p_bt / quasi.rb(0) * (s + 0.5) / 4;
+      k.u[1][0] = -shift;
+      k.load_torque = torque;
+      const gm_result rq = quasi.eval(k);
+      k.load_torque = 0;
+      k.phi[1] = (rq.te - quasi.rb(0) * k.phi[0]) / quasi.rb(1);
+      const gm_result rp = plain.eval(k);
+      EXPECT_EQ(rq.flank, shift == 0 ? 1 : 3) << s;
+      EXPECT_EQ(rp.flank, rq.flank) << s;
+      EXPECT_LT(rq.solver_residual, fe.p.solver_tolerance) << s;
+      const double f = std::fabs(rq.normal_force);
+      EXPECT_NEAR(rp.normal_force, rq.normal_force, 1e-7 * f) << s;
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(rp.force[1][a], rq.force[1][a], 1e-7 * f) << s << " " << a;
+        EXPECT_NEAR(rp.moment[1][a], rq.moment[1][a], 1e-7 * f * quasi.rb(1)) << s << " " << a;
+      }
+      EXPECT_NEAR(rp.stiffness, rq.stiffness, 1e-6 * rq.stiffness) << s;
+    }
+  }
+}

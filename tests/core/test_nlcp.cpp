@@ -522,6 +522,17 @@ TEST(Nlcp, BadInput) {
   p = good;
   p.C(1, 3) *= 1.01;
   EXPECT_NE(expect_bad(p, "asymmetric C").find("symmetric"), std::string::npos);
+  {  // check_symmetry off (a caller that builds C symmetric): not looked at; the diagonal still is
+    gm::NlcpOptions trusting;
+    trusting.check_symmetry = false;
+    gm::NlcpSolver unchecked(4, trusting);
+    VectorXd F = VectorXd::Zero(p.n());
+    EXPECT_NE(unchecked.solve(p.C, p.delta, p.laws(), F).status, gm::NlcpStatus::bad_input);
+    Problem q = good;
+    q.C(0, 0) = -q.C(0, 0);
+    F.setZero();
+    EXPECT_EQ(unchecked.solve(q.C, q.delta, q.laws(), F).status, gm::NlcpStatus::bad_input);
+  }
   p = good;
   p.C(0, 0) = -p.C(0, 0);
   EXPECT_NE(expect_bad(p, "negative diagonal").find("positive definite"), std::string::npos);
