@@ -54,16 +54,17 @@ int pair_of(W& w, int& pairs, const ContactSlice& s) {
 // The solved candidates as distinct slices (w.rep, and the per-slice arrays), and the pairs.
 // Returns the number of distinct slices, or -1 when there are more pairs than the workspace
 // holds. Plain mode: a slice handed in open stays open (no law is built for it; the coupling
-// only opens slices further): not part of the solve.
+// only opens slices further): not part of the solve. flank != 0: that flank's candidates alone.
 int gather(const ToothCoupling& coupling, const SliceLaw* laws, const ContactSlice* slices,
-           const double* balance, const double* approach, int n, bool quasi, W& w, int& pairs) {
+           const double* balance, const double* approach, int n, bool quasi, int flank, W& w,
+           int& pairs) {
   int nu = 0, last = -1;  // last: the distinct slice of the previous candidate
   pairs = 0;
   for (int i = 0; i < n; ++i) {
     const ContactSlice& s = slices[i];
     const double base = quasi ? s.approach : approach[i];
     w.rep[i] = -1;
-    if (!quasi && !(base > 0)) {
+    if ((!quasi && !(base > 0)) || (flank != 0 && s.flank != flank)) {
       last = -1;
       continue;
     }
@@ -283,14 +284,17 @@ void CoupledWorkspace::reserve(int capacity) {
   for (auto* x : {&m, &v, &G, &a, &c, &y}) x->assign(std::size_t(r), 0.0);
 }
 
-CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* laws,
-                                 const ContactSlice* slices, const double* balance, int n,
-                                 bool quasi, double load, double lambda_start, double tol,
-                                 int max_iterations, double* approach, double* force,
-                                 double* stiffness, CoupledWorkspace& w) {
+namespace {
+
+// solve_coupled over the candidates of one flank (flank = +-1) or of both (0).
+CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* laws,
+                                const ContactSlice* slices, const double* balance, int n,
+                                bool quasi, double load, double lambda_start, double tol,
+                                int max_iterations, int flank, double* approach, double* force,
+                                double* stiffness, CoupledWorkspace& w) {
   CoupledSolveResult out;
   int pairs = 0;
-  const int nu = gather(coupling, laws, slices, balance, approach, n, quasi, w, pairs);
+  const int nu = gather(coupling, laws, slices, balance, approach, n, quasi, flank, w, pairs);
   if (nu < 0) {
     out.fallback = true;
     out.solve.converged = false;
@@ -392,6 +396,29 @@ CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* 
   out.solve.lambda = lambda;
   out.solve.converged = true;
   return out;
+}
+
+}  // namespace
+
+CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* laws,
+                                 const ContactSlice* slices, const double* balance, int n,
+                                 bool quasi, double load, double lambda_start, double tol,
+                                 int max_iterations, double* approach, double* force,
+                                 double* stiffness, CoupledWorkspace& w) {
+  // Quasi-static under load: the flank the load closes alone (positive loads flank A; the flanks
+  // never couple), as long as the other stays open at the solved rigid approach; else both.
+  const int closing = quasi && load != 0 ? (load > 0 ? 1 : -1) : 0;
+  if (closing != 0) {
+    const CoupledSolveResult one =
+        solve_flanks(coupling, laws, slices, balance, n, quasi, load, lambda_start, tol,
+                     max_iterations, closing, approach, force, stiffness, w);
+    bool open = true;
+    for (int i = 0; i < n && open && one.solve.converged; ++i)
+      open = slices[i].flank == closing || !(approach[i] > 0);
+    if (one.fallback || (one.solve.converged && open)) return one;
+  }
+  return solve_flanks(coupling, laws, slices, balance, n, quasi, load, lambda_start, tol,
+                      max_iterations, 0, approach, force, stiffness, w);
 }
 
 }  // namespace gm
