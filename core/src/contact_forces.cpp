@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <type_traits>
 #include <limits>
 
 namespace gm {
@@ -39,14 +41,9 @@ double solve_slice(const SliceLaw& law, double delta, double start, double tol,
 }  // namespace
 
 bool same_law(const SliceLaw& a, const SliceLaw& b) {
-  return a.compliance == b.compliance && a.local.width == b.local.width &&
-         a.local.reduced_radius == b.local.reduced_radius &&
-         a.local.body[0].depth == b.local.body[0].depth &&
-         a.local.body[1].depth == b.local.body[1].depth &&
-         a.local.body[0].youngs_modulus == b.local.body[0].youngs_modulus &&
-         a.local.body[1].youngs_modulus == b.local.body[1].youngs_modulus &&
-         a.local.body[0].poisson_ratio == b.local.body[0].poisson_ratio &&
-         a.local.body[1].poisson_ratio == b.local.body[1].poisson_ratio;
+  // bit for bit: nine doubles, no padding (a law's -0.0 and 0.0 count as different laws)
+  static_assert(std::is_trivially_copyable_v<SliceLaw> && sizeof(SliceLaw) == 9 * sizeof(double));
+  return std::memcmp(&a, &b, sizeof(SliceLaw)) == 0;
 }
 
 ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, double tol,

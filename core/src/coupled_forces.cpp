@@ -68,11 +68,13 @@ int gather(const ToothCoupling& coupling, const SliceLaw* laws, const ContactSli
       last = -1;
       continue;
     }
-    const int g = pair_of(w, pairs, s);
-    if (g < 0) return -1;
     const ContactSlice* prev = last >= 0 ? &slices[i - 1] : nullptr;
-    if (prev && w.group[last] == g && w.base[last] == base && same_law(w.laws[last], laws[i]) &&
-        prev->roll[0] == s.roll[0] && prev->roll[1] == s.roll[1] &&
+    const bool same_pair = prev && prev->tooth[0] == s.tooth[0] && prev->tooth[1] == s.tooth[1] &&
+                           prev->flank == s.flank;
+    const int g = same_pair ? w.group[last] : pair_of(w, pairs, s);
+    if (g < 0) return -1;
+    if (same_pair && w.base[last] == base && prev->roll[0] == s.roll[0] &&
+        prev->roll[1] == s.roll[1] && same_law(w.laws[last], laws[i]) &&
         (!quasi || (w.gain[last] == s.te_gain && w.balance[last] == balance[i]))) {
       w.rep[i] = last;
       w.weight[last] += 1;

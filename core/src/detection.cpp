@@ -472,6 +472,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
   const double tb = L.tan_beta_b;
   const double margin = pb + 0.5 * tb * val(F.zhi - F.zlo) + F.tilt_margin;
   const bool uniform = F.aligned && tb == 0;  // every slice has the same section and roll distances
+  const bool micro = L.micro[0].any || L.micro[1].any;  // approaches that vary over the face
   Motion<T> mo;
   mo.omega[0] = Vec3<T>(kin.w[0][0], kin.w[0][1], kin.omega[0]);
   mo.omega[1] = Vec3<T>(kin.w[1][0], kin.w[1][1], kin.omega[1]);
@@ -526,7 +527,10 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
           approach_too_large(L, sigma, approach_t, msg);
           return -1;
         }
-        if (val(approach_t) * L.cos_beta_b <= emit_above) continue;  // cannot carry load
+        if (val(approach_t) * L.cos_beta_b <= emit_above) {  // cannot carry load
+          if (uniform && !micro) break;  // nor can the pair's other slices, all alike
+          continue;
+        }
         if (count >= capacity) {
           msg = "more candidate slices than the model's capacity: the tilts are far outside "
                 "the small-tilt range of the detection";

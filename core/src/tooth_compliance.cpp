@@ -286,10 +286,7 @@ double tooth_compliance_slope(const ToothSection& s, double rho) {
 }
 
 double tooth_contact_depth(const ToothSection& s, double rho) {
-  const double rb = s.base_radius;
-  const double alpha = std::atan2(rho, rb);
-  const double eta = s.eta_b - (rho / rb - alpha);
-  return std::hypot(rb, rho) * std::sin(eta) / std::cos(alpha - eta);  // x_c / cos phi
+  return tooth_contact_depth_t<double>(s, rho);
 }
 
 }  // namespace gm

@@ -180,13 +180,15 @@ double tooth_compliance_slope(const ToothSection& s, double rho);
 template <class T>
 T tooth_contact_depth_t(const ToothSection& s, const T& rho) {
   using std::atan2;
-  using std::hypot;
   using std::sin;
   using std::cos;
   const double rb = s.base_radius;
   const T alpha = atan2(rho, T(rb));
   const T eta = s.eta_b - (rho / rb - alpha);
-  return hypot(T(rb), rho) * sin(eta) / cos(alpha - eta);
+  // |OC| sin(eta) / cos(alpha - eta) with |OC| = hypot(r_b, rho), cos(alpha) = r_b / |OC| and
+  // sin(alpha) = rho / |OC|
+  const T se = sin(eta), ce = cos(eta);
+  return (rb * rb + rho * rho) * se / (rb * ce + rho * se);
 }
 
 // The exact (untabulated) model at rho, by parts, m^2/N. rho must lie in [rho_min, rho_max].
