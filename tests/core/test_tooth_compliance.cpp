@@ -386,6 +386,7 @@ TEST(ToothCompliance, UnsupportedCasesSaySo) {
   EXPECT_EQ(gm::build_tooth_section(r, gr, 0, {}, s, msg), GM_OK) << msg;  // the pinion works
   EXPECT_EQ(gm::build_tooth_section(r, gr, 1, {}, s, msg), GM_ERR_PARAMETER);
   EXPECT_NE(msg.find("internal ring"), std::string::npos) << msg;
+  EXPECT_EQ(msg.rfind("pair.internal", 0), 0u) << msg;  // names the parameter first
   // Undercut pinion: 12 teeth, x = 0.
   const gm_model_params u = spur_pair(12, 30, 2 * kMm, 42.5 * kMm, 0.0, 0.0, 20 * kMm);
   const gm_pair_geometry gu = geometry_of(u);
