@@ -321,6 +321,7 @@ CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* l
   std::fill(v, v + r, 0.0);
   double lambda = lambda_start;
   bool warm = false;  // the first separable solve is the uncoupled one, from scratch
+  bool settled = false;  // the last separable solve converged
 
   // the separable solve at the approaches Delta - Phi B m (v = B m on entry)
   const auto inner = [&]() -> bool {
@@ -339,12 +340,16 @@ CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* l
                                 w.force.data(), w.stiffness.data());
       lambda = s.lambda;
     } else {
-      s = solve_separable(w.laws.data(), shifted, nu, tol_inner, max_iterations, w.force.data(),
-                          w.stiffness.data(), warm);
+      // the first (uncoupled) solve only roughly: two Newton steps from the upper bound give the
+      // first outer step its tangents; the later solves converge it
+      s = solve_separable(w.laws.data(), shifted, nu, tol_inner, warm ? max_iterations : 2,
+                          w.force.data(), w.stiffness.data(), warm);
     }
+    settled = s.converged;
+    if (!quasi && !warm) s.converged = true;  // rough on purpose
     warm = true;
     out.solve.iterations += s.iterations;
-    out.solve.residual = std::max(out.solve.residual, s.residual);
+    if (settled) out.solve.residual = s.residual;
     if (!s.converged) out.solve.message = s.message;
     return s.converged;
   };
@@ -358,9 +363,13 @@ CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* l
       L.apply_B(G, e);
       double res = 0;
       for (int u = 0; u < nu; ++u) res = std::max(res, std::fabs(L.at(e, u)));
-      if (res <= tol_outer) {
+      if (res <= tol_outer && settled) {
         converged = true;
         break;
+      }
+      if (res <= tol_outer) {  // the rough first solve alone: converge it
+        if (!inner()) break;
+        continue;
       }
       // Newton step on m
       L.tangent(w.J.data());
