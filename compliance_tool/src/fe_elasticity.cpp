@@ -339,6 +339,82 @@ Solver::Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs
   factorize(Kff);
 }
 
+Solver::Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs)
+    : n_(3 * static_cast<int>(mesh.nodes.size())), fixed_(std::move(fixed_dofs)), factor_(std::make_unique<Factor>()) {
+  const auto t0 = Clock::now();
+  number_dofs();
+  const int nn = static_cast<int>(mesh.nodes.size()), nf = free_dofs();
+  for (const auto& t : mesh.tets)
+    for (int id : t)
+      if (id < 0 || id >= nn) throw std::runtime_error("fe: element node index out of range");
+  // Node graph (each node with itself), sorted, from the elements of each node.
+  std::vector<int> ep(nn + 1, 0), elems;
+  for (const auto& t : mesh.tets)
+    for (int id : t) ++ep[id + 1];
+  for (int v = 0; v < nn; ++v) ep[v + 1] += ep[v];
+  elems.resize(ep[nn]);
+  {
+    std::vector<int> fill(ep.begin(), ep.end() - 1);
+    for (std::size_t e = 0; e < mesh.tets.size(); ++e)
+      for (int id : mesh.tets[e]) elems[fill[id]++] = static_cast<int>(e);
+  }
+  std::vector<int> np(nn + 1, 0), nbr, mark(nn, -1);
+  nbr.reserve(static_cast<std::size_t>(nn) * 30);
+  for (int v = 0; v < nn; ++v) {
+    const std::size_t start = nbr.size();
+    for (int q = ep[v]; q < ep[v + 1]; ++q)
+      for (int w : mesh.tets[elems[q]])
+        if (w >= v && mark[w] != v) mark[w] = v, nbr.push_back(w);  // the lower triangle: w >= v
+    std::sort(nbr.begin() + static_cast<std::ptrdiff_t>(start), nbr.end());
+    np[v + 1] = static_cast<int>(nbr.size());
+  }
+  std::vector<int>().swap(elems);
+  // Pattern of the free-free block's lower triangle, column by column (free dof order = full
+  // dof order, so the rows come out sorted).
+  std::vector<int> cp(nf + 1, 0), ri;
+  ri.reserve(static_cast<std::size_t>(np[nn]) * 9 / 2 + nf);
+  for (int j = 0; j < nf; ++j) {
+    const int d = free_[j], v = d / 3;
+    for (int q = np[v]; q < np[v + 1]; ++q)
+      for (int c = 0; c < 3; ++c) {
+        const int i = index_[3 * nbr[q] + c];
+        if (i >= j) ri.push_back(i);
+      }
+    cp[j + 1] = static_cast<int>(ri.size());
+  }
+  std::vector<int>().swap(nbr);
+  std::vector<double> val(ri.size(), 0.0);
+  std::vector<Eigen::Triplet<double>> fc;
+  // Element by element (the order of the former triplet assembly: the same sums).
+  std::array<int, 30> idx;
+  for (std::size_t e = 0; e < mesh.tets.size(); ++e) {
+    const auto& t = mesh.tets[e];
+    const ElementStiffness Ke = element_stiffness(element_nodes(mesh, static_cast<int>(e)), m);
+    for (int a = 0; a < 10; ++a)
+      for (int i = 0; i < 3; ++i) idx[3 * a + i] = index_[3 * t[a] + i];
+    for (int b = 0; b < 30; ++b) {
+      const int c = idx[b];
+      for (int a = 0; a < 30; ++a) {
+        const int r = idx[a];
+        if (r < 0) continue;
+        if (c < 0) {
+          fc.emplace_back(r, -1 - c, Ke(a, b));
+        } else if (r >= c) {
+          const int* lo = ri.data() + cp[c];
+          const int* hi = ri.data() + cp[c + 1];
+          val[std::lower_bound(lo, hi, r) - ri.data()] += Ke(a, b);
+        }
+      }
+    }
+  }
+  K_fc_.resize(nf, static_cast<Eigen::Index>(fixed_.size()));
+  K_fc_.setFromTriplets(fc.begin(), fc.end());
+  std::vector<Eigen::Triplet<double>>().swap(fc);
+  Eigen::Map<Eigen::SparseMatrix<double>> Kff(nf, nf, static_cast<Eigen::Index>(ri.size()), cp.data(), ri.data(), val.data());
+  stats_.setup_seconds = seconds_since(t0);
+  factorize(Kff);
+}
+
 void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff) {
   auto t0 = Clock::now();
   cholmod_common& c = factor_->c;

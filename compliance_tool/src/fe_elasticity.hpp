@@ -85,6 +85,10 @@ std::size_t cholmod_factorization_count();
 class Solver {
  public:
   Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs);
+  // The same for the stiffness of mesh (assemble_stiffness's), assembled straight into the
+  // free-free block's lower triangle (its pattern from the node graph, the element matrices added
+  // in element order: the same sums as assemble_stiffness) and the free-fixed block; no full K.
+  Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs);
   ~Solver();
   Solver(const Solver&) = delete;
   Solver& operator=(const Solver&) = delete;
@@ -96,7 +100,7 @@ class Solver {
 
   // What the factorization cost and what CHOLMOD chose (its Common statistics).
   struct Stats {
-    double setup_seconds = 0;    // splitting K into the free-free block (and free-fixed)
+    double setup_seconds = 0;    // the free-free block (and free-fixed): split from K, or assembled
     double analyze_seconds = 0;  // fill-reducing ordering and symbolic analysis
     double factor_seconds = 0;   // numerical (supernodal) factorization
     double lnz = 0, flops = 0;   // entries of L, flops of the factorization
