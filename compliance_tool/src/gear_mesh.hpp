@@ -60,7 +60,8 @@
 // tooth flank without nodes.
 //
 // Known approximations: fillet and involute are gmsh splines through dense samples of the
-// profile (the deviation is far below 1 um for the default sampling); lightening holes follow
+// profile (the deviation is far below 1 um for the default sampling of the fine teeth, 0.03 um
+// on set A's involute; below 1 um on the far teeth's 16 samples, 0.4 um there); lightening holes follow
 // the helical twist in helical gears (the whole section turns); the ring's fillet is a circular
 // arc, not the trochoid of its pinion cutter.
 #pragma once
