@@ -8,6 +8,7 @@
 #include <exception>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <stdexcept>
 #include <sstream>
@@ -174,11 +175,17 @@ class Locator {
 // Reading (or load) at a point: the displacement (or force) along n, distributed on the nodes of
 // the element containing the point with the TET10 shape functions (a point load anywhere is the
 // transpose of this reading: consistent nodal forces N_a(x) n).
-double reading(const Probe& pr, const Eigen::MatrixXd& U, int c) {
+// U: the free dofs' displacements (fe::Solver::solve_free), column c; fixed dofs are zero.
+double reading(const Probe& pr, const fe::Solver& solver, const Eigen::Map<const Eigen::MatrixXd>& U, int c) {
   double w = 0;
   for (int a = 0; a < 10; ++a) {
     if (pr.weight[a] == 0) continue;
-    w += pr.weight[a] * pr.n.dot(U.block<3, 1>(3 * pr.nodes[a], c));
+    Eigen::Vector3d u;
+    for (int i = 0; i < 3; ++i) {
+      const int f = solver.free_index(3 * pr.nodes[a] + i);
+      u(i) = f >= 0 ? U(f, c) : 0.0;
+    }
+    w += pr.weight[a] * pr.n.dot(u);
   }
   return w;
 }
@@ -630,26 +637,31 @@ void solve_set(Build& B, const fe::Solver& solver, std::size_t si, int total, in
   const LoadSet& ls = B.sets[si];
   const std::vector<int>& loaded = B.loaded;
   const int nL = int(loaded.size()), n_grid = B.n_grid, nd = B.nd();
-  const int batch = std::max(1, B.o.batch);
+  const int batches = (nL + std::max(1, B.o.batch) - 1) / std::max(1, B.o.batch);
+  const int batch = (nL + batches - 1) / std::max(1, batches);  // even batches
   auto& blocks = B.result[si];
   blocks.assign(nd, std::vector<double>(std::size_t(n_grid) * n_grid, 0.0));
-  Eigen::MatrixXd S(n_grid, nL);
+  Eigen::MatrixXd S(n_grid, nL), F;
   for (int c0 = 0; c0 < nL; c0 += batch) {
     const int nb = std::min(batch, nL - c0);
-    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(B.stats.dofs, nb);
+    F.setZero(solver.free_dofs(), nb);  // loads on the free dofs (a clamped node takes none)
     for (int c = 0; c < nb; ++c) {
       const Probe& lp = (*ls.surf)[loaded[c0 + c]];
       for (int a = 0; a < 10; ++a)
-        if (lp.weight[a] != 0) F.block<3, 1>(3 * lp.nodes[a], c) += lp.weight[a] * lp.n;
+        if (lp.weight[a] != 0)
+          for (int i = 0; i < 3; ++i) {
+            const int f = solver.free_index(3 * lp.nodes[a] + i);
+            if (f >= 0) F(f, c) += lp.weight[a] * lp.n(i);
+          }
     }
-    const Eigen::MatrixXd U = solver.solve(F);
+    const Eigen::Map<const Eigen::MatrixXd> U = solver.solve_free(F);
     for (int c = 0; c < nb; ++c) {
       const int j = loaded[c0 + c];
       for (int d = 0; d < nd; ++d)
         for (int k = 0; k < n_grid; ++k)
-          blocks[d][std::size_t(k) * n_grid + j] = reading((*ls.depth[d])[k], U, c) / kMm;  // m/N
+          blocks[d][std::size_t(k) * n_grid + j] = reading((*ls.depth[d])[k], solver, U, c) / kMm;  // m/N
       if (!B.unloaded.empty())
-        for (int k = 0; k < n_grid; ++k) S(k, c0 + c) = reading((*ls.surf)[k], U, c);
+        for (int k = 0; k < n_grid; ++k) S(k, c0 + c) = reading((*ls.surf)[k], solver, U, c);
     }
     done += nb;
     std::ostringstream s;
@@ -670,20 +682,21 @@ gm_status solve_all(Build& B) {
   mat.nu = gp.poisson_ratio;
   B.result.resize(B.sets.size());
   try {
-    B.say("assembling " + std::to_string(stats.dofs) + " dofs ...");
-    auto t0 = Clock::now();
-    const Eigen::SparseMatrix<double> K = fe::assemble_stiffness(B.fm, mat);
-    stats.assembly_seconds = seconds_since(t0);
-    B.say("factorizing (CHOLMOD, " + std::to_string(stats.dofs) + " dofs) ...");
-    t0 = Clock::now();
-    fe::Solver solver(K, fe::dofs_of_nodes(B.body.clamped_nodes));
-    stats.factor_seconds = seconds_since(t0);
+    B.say("assembling and factorizing (CHOLMOD, " + std::to_string(stats.dofs) + " dofs) ...");
+    // assembled straight into the free-free block (no full K), then factorized
+    const fe::Solver solver(B.fm, mat, fe::dofs_of_nodes(B.body.clamped_nodes));
+    const fe::Solver::Stats& fs = solver.stats();
+    stats.assembly_seconds = fs.setup_seconds;
+    stats.factor_seconds = fs.analyze_seconds + fs.factor_seconds;
     {
       std::ostringstream s;
-      s << "  assembly " << stats.assembly_seconds << " s, factorization " << stats.factor_seconds << " s";
+      s << "  assembly " << stats.assembly_seconds << " s, factorization " << stats.factor_seconds
+        << " s (ordering " << fe::cholmod_ordering_name(fs.ordering) << " and analysis "
+        << fs.analyze_seconds << " s, numerical " << fs.factor_seconds << " s; lnz " << fs.lnz << ", "
+        << fs.flops << " flops)";
       B.say(s.str());
     }
-    t0 = Clock::now();
+    const auto t0 = Clock::now();
     const int total = int(B.sets.size()) * int(B.loaded.size());
     int done = 0;
     for (std::size_t si = 0; si < B.sets.size(); ++si) solve_set(B, solver, si, total, done, t0);

@@ -1,10 +1,11 @@
 #include "fe_elasticity.hpp"
 
-#include <Eigen/CholmodSupport>
+#include <cholmod.h>
 #include <Eigen/LU>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <stdexcept>
 #include <string>
 
@@ -180,31 +181,148 @@ Eigen::VectorXd traction_loads(const Mesh& mesh, const std::function<bool(const 
 
 std::size_t cholmod_factorization_count() { return g_factorizations.load(); }
 
+const char* cholmod_ordering_name(int ordering) {
+  switch (ordering) {
+    case CHOLMOD_NATURAL: return "natural";
+    case CHOLMOD_GIVEN: return "given";
+    case CHOLMOD_AMD: return "AMD";
+    case CHOLMOD_METIS: return "METIS";
+    case CHOLMOD_NESDIS: return "NESDIS";
+    case CHOLMOD_COLAMD: return "COLAMD";
+    case CHOLMOD_POSTORDERED: return "postordered";
+    default: return "unknown";
+  }
+}
+
 struct Solver::Factor {
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+  cholmod_common c;
+  cholmod_factor* L = nullptr;
+  // cholmod_solve2's solution and workspace, kept between solves (same sizes: no reallocation)
+  cholmod_dense *X = nullptr, *Y = nullptr, *E = nullptr;
+  Factor() { cholmod_start(&c); }
+  ~Factor() {
+    cholmod_free_dense(&X, &c);
+    cholmod_free_dense(&Y, &c);
+    cholmod_free_dense(&E, &c);
+    cholmod_free_factor(&L, &c);
+    cholmod_finish(&c);
+  }
+  // The free dofs' solution of F (free rows), in X.
+  void solve(const Eigen::MatrixXd& F) {
+    cholmod_dense B{};
+    B.nrow = static_cast<std::size_t>(F.rows());
+    B.ncol = static_cast<std::size_t>(F.cols());
+    B.nzmax = B.nrow * B.ncol;
+    B.d = B.nrow;
+    B.x = const_cast<double*>(F.data());
+    B.xtype = CHOLMOD_REAL;
+    B.dtype = CHOLMOD_DOUBLE;
+    if (!cholmod_solve2(CHOLMOD_A, L, &B, nullptr, &X, nullptr, &Y, &E, &c))
+      throw std::runtime_error("fe: CHOLMOD solve failed (status " + std::to_string(c.status) + ")");
+  }
 };
 
-Solver::Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs)
-    : n_(static_cast<int>(K.rows())), fixed_(std::move(fixed_dofs)), factor_(std::make_unique<Factor>()) {
-  if (K.rows() != K.cols()) throw std::runtime_error("fe: stiffness matrix is not square");
+namespace {
+
+// A view of the lower triangle A (CSC, sorted, int indices) as CHOLMOD's symmetric matrix.
+cholmod_sparse cholmod_view_lower(Eigen::Ref<Eigen::SparseMatrix<double>>& A) {
+  cholmod_sparse s{};
+  s.nrow = static_cast<std::size_t>(A.rows());
+  s.ncol = static_cast<std::size_t>(A.cols());
+  s.nzmax = static_cast<std::size_t>(A.nonZeros());
+  s.p = A.outerIndexPtr();
+  s.i = A.innerIndexPtr();
+  s.x = A.valuePtr();
+  s.stype = -1;
+  s.itype = CHOLMOD_INT;
+  s.xtype = CHOLMOD_REAL;
+  s.dtype = CHOLMOD_DOUBLE;
+  s.sorted = 1;
+  s.packed = 1;
+  return s;
+}
+
+// Fill-reducing order of the free dofs: METIS (through CHOLMOD) on the graph of their nodes
+// (group of free dof i: its full dof / 3), each node's free dofs then together in ascending order.
+// Kff: the free-free block's lower triangle (CSC), free: full dof of each free dof (ascending).
+std::vector<int> node_graph_metis_order(const Eigen::Ref<Eigen::SparseMatrix<double>>& Kff, const std::vector<int>& free,
+                                        cholmod_common& c) {
+  const int nf = static_cast<int>(free.size());
+  std::vector<int> group(nf), first;  // group of each free dof; first free dof of each group
+  for (int i = 0; i < nf; ++i) {
+    if (i == 0 || free[i] / 3 != free[i - 1] / 3) first.push_back(i);
+    group[i] = static_cast<int>(first.size()) - 1;
+  }
+  const int ng = static_cast<int>(first.size());
+  first.push_back(nf);
+  // Lower triangle of the node graph (no diagonal), column by column with a marker.
+  std::vector<int> p(ng + 1, 0), rows, mark(ng, -1);
+  rows.reserve(static_cast<std::size_t>(Kff.nonZeros() / 6 + ng));
+  for (int g = 0; g < ng; ++g) {
+    const std::size_t start = rows.size();
+    for (int j = first[g]; j < first[g + 1]; ++j)
+      for (Eigen::Ref<Eigen::SparseMatrix<double>>::InnerIterator it(Kff, j); it; ++it) {
+        const int h = group[it.row()];
+        if (h > g && mark[h] != g) mark[h] = g, rows.push_back(h);
+      }
+    std::sort(rows.begin() + static_cast<std::ptrdiff_t>(start), rows.end());
+    p[g + 1] = static_cast<int>(rows.size());
+  }
+  cholmod_sparse G{};
+  G.nrow = G.ncol = static_cast<std::size_t>(ng);
+  G.nzmax = std::max<std::size_t>(1, rows.size());
+  rows.resize(G.nzmax);
+  G.p = p.data();
+  G.i = rows.data();
+  G.stype = -1;
+  G.itype = CHOLMOD_INT;
+  G.xtype = CHOLMOD_PATTERN;
+  G.dtype = CHOLMOD_DOUBLE;
+  G.sorted = 1;
+  G.packed = 1;
+  std::vector<int> gperm(ng);
+  if (!cholmod_metis(&G, nullptr, 0, 1, gperm.data(), &c))
+    throw std::runtime_error("fe: CHOLMOD's METIS ordering failed (status " + std::to_string(c.status) + ")");
+  std::vector<int> perm;
+  perm.reserve(nf);
+  for (int g : gperm)
+    for (int i = first[g]; i < first[g + 1]; ++i) perm.push_back(i);
+  return perm;
+}
+
+}  // namespace
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+}  // namespace
+
+void Solver::number_dofs() {
   std::sort(fixed_.begin(), fixed_.end());
   fixed_.erase(std::unique(fixed_.begin(), fixed_.end()), fixed_.end());
-  std::vector<int> index(n_, n_);  // free index, or -1 - fixed index
+  index_.assign(n_, n_);  // free index, or -1 - fixed index
   for (std::size_t k = 0; k < fixed_.size(); ++k) {
     if (fixed_[k] < 0 || fixed_[k] >= n_) throw std::runtime_error("fe: fixed dof out of range");
-    index[fixed_[k]] = -1 - static_cast<int>(k);
+    index_[fixed_[k]] = -1 - static_cast<int>(k);
   }
   for (int i = 0; i < n_; ++i)
-    if (index[i] == n_) {
-      index[i] = static_cast<int>(free_.size());
+    if (index_[i] == n_) {
+      index_[i] = static_cast<int>(free_.size());
       free_.push_back(i);
     }
   if (free_.empty()) throw std::runtime_error("fe: every degree of freedom is fixed");
+}
+
+Solver::Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs)
+    : n_(static_cast<int>(K.rows())), fixed_(std::move(fixed_dofs)), factor_(std::make_unique<Factor>()) {
+  const auto t0 = Clock::now();
+  if (K.rows() != K.cols()) throw std::runtime_error("fe: stiffness matrix is not square");
+  number_dofs();
   std::vector<Eigen::Triplet<double>> ff, fc;
   ff.reserve(K.nonZeros() / 2 + free_.size());
   for (int c = 0; c < K.outerSize(); ++c)
     for (Eigen::SparseMatrix<double>::InnerIterator it(K, c); it; ++it) {
-      const int r = static_cast<int>(it.row()), ir = index[r], ic = index[c];
+      const int r = static_cast<int>(it.row()), ir = index_[r], ic = index_[c];
       if (ir < 0) continue;
       if (ic >= 0) {
         if (ir >= ic) ff.emplace_back(ir, ic, it.value());  // CHOLMOD reads the lower triangle only
@@ -214,16 +332,124 @@ Solver::Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs
     }
   Eigen::SparseMatrix<double> Kff(free_dofs(), free_dofs());
   Kff.setFromTriplets(ff.begin(), ff.end());
+  std::vector<Eigen::Triplet<double>>().swap(ff);
   K_fc_.resize(free_dofs(), static_cast<Eigen::Index>(fixed_.size()));
   K_fc_.setFromTriplets(fc.begin(), fc.end());
-  factor_->llt.compute(Kff);
+  stats_.setup_seconds = seconds_since(t0);
+  factorize(Kff);
+}
+
+Solver::Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs)
+    : n_(3 * static_cast<int>(mesh.nodes.size())), fixed_(std::move(fixed_dofs)), factor_(std::make_unique<Factor>()) {
+  const auto t0 = Clock::now();
+  number_dofs();
+  const int nn = static_cast<int>(mesh.nodes.size()), nf = free_dofs();
+  for (const auto& t : mesh.tets)
+    for (int id : t)
+      if (id < 0 || id >= nn) throw std::runtime_error("fe: element node index out of range");
+  // Node graph (each node with itself), sorted, from the elements of each node.
+  std::vector<int> ep(nn + 1, 0), elems;
+  for (const auto& t : mesh.tets)
+    for (int id : t) ++ep[id + 1];
+  for (int v = 0; v < nn; ++v) ep[v + 1] += ep[v];
+  elems.resize(ep[nn]);
+  {
+    std::vector<int> fill(ep.begin(), ep.end() - 1);
+    for (std::size_t e = 0; e < mesh.tets.size(); ++e)
+      for (int id : mesh.tets[e]) elems[fill[id]++] = static_cast<int>(e);
+  }
+  std::vector<int> np(nn + 1, 0), nbr, mark(nn, -1);
+  nbr.reserve(static_cast<std::size_t>(nn) * 30);
+  for (int v = 0; v < nn; ++v) {
+    const std::size_t start = nbr.size();
+    for (int q = ep[v]; q < ep[v + 1]; ++q)
+      for (int w : mesh.tets[elems[q]])
+        if (w >= v && mark[w] != v) mark[w] = v, nbr.push_back(w);  // the lower triangle: w >= v
+    std::sort(nbr.begin() + static_cast<std::ptrdiff_t>(start), nbr.end());
+    np[v + 1] = static_cast<int>(nbr.size());
+  }
+  std::vector<int>().swap(elems);
+  // Pattern of the free-free block's lower triangle, column by column (free dof order = full
+  // dof order, so the rows come out sorted).
+  std::vector<int> cp(nf + 1, 0), ri;
+  ri.reserve(static_cast<std::size_t>(np[nn]) * 9 / 2 + nf);
+  for (int j = 0; j < nf; ++j) {
+    const int d = free_[j], v = d / 3;
+    for (int q = np[v]; q < np[v + 1]; ++q)
+      for (int c = 0; c < 3; ++c) {
+        const int i = index_[3 * nbr[q] + c];
+        if (i >= j) ri.push_back(i);
+      }
+    cp[j + 1] = static_cast<int>(ri.size());
+  }
+  std::vector<int>().swap(nbr);
+  std::vector<double> val(ri.size(), 0.0);
+  std::vector<Eigen::Triplet<double>> fc;
+  // Element by element (the order of the former triplet assembly: the same sums).
+  std::array<int, 30> idx;
+  for (std::size_t e = 0; e < mesh.tets.size(); ++e) {
+    const auto& t = mesh.tets[e];
+    const ElementStiffness Ke = element_stiffness(element_nodes(mesh, static_cast<int>(e)), m);
+    for (int a = 0; a < 10; ++a)
+      for (int i = 0; i < 3; ++i) idx[3 * a + i] = index_[3 * t[a] + i];
+    for (int b = 0; b < 30; ++b) {
+      const int c = idx[b];
+      for (int a = 0; a < 30; ++a) {
+        const int r = idx[a];
+        if (r < 0) continue;
+        if (c < 0) {
+          fc.emplace_back(r, -1 - c, Ke(a, b));
+        } else if (r >= c) {
+          const int* lo = ri.data() + cp[c];
+          const int* hi = ri.data() + cp[c + 1];
+          val[std::lower_bound(lo, hi, r) - ri.data()] += Ke(a, b);
+        }
+      }
+    }
+  }
+  K_fc_.resize(nf, static_cast<Eigen::Index>(fixed_.size()));
+  K_fc_.setFromTriplets(fc.begin(), fc.end());
+  std::vector<Eigen::Triplet<double>>().swap(fc);
+  Eigen::Map<Eigen::SparseMatrix<double>> Kff(nf, nf, static_cast<Eigen::Index>(ri.size()), cp.data(), ri.data(), val.data());
+  stats_.setup_seconds = seconds_since(t0);
+  factorize(Kff);
+}
+
+void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff) {
+  auto t0 = Clock::now();
+  cholmod_common& c = factor_->c;
+  c.supernodal = CHOLMOD_SUPERNODAL;
+  c.final_asis = 1;  // keep the supernodal LL^T
+  c.nmethods = 1;
+  c.method[0].ordering = CHOLMOD_GIVEN;
+  c.postorder = 1;
+  cholmod_sparse A = cholmod_view_lower(Kff);
+  std::vector<int> perm = node_graph_metis_order(Kff, free_, c);
+  factor_->L = cholmod_analyze_p(&A, perm.data(), nullptr, 0, &c);
+  stats_.analyze_seconds = seconds_since(t0);
+  if (!factor_->L)
+    throw std::runtime_error("fe: CHOLMOD analysis failed (status " + std::to_string(c.status) + ")");
+  t0 = Clock::now();
+  const int ok = cholmod_factorize(&A, factor_->L, &c);
+  stats_.factor_seconds = seconds_since(t0);
+  stats_.lnz = c.lnz;
+  stats_.flops = c.fl;
+  stats_.ordering = CHOLMOD_METIS;
   ++g_factorizations;
-  if (factor_->llt.info() != Eigen::Success)
+  if (!ok || c.status != CHOLMOD_OK || factor_->L->minor < factor_->L->n)
     throw std::runtime_error("fe: CHOLMOD factorization failed (stiffness not positive definite: "
                              "is every rigid-body mode constrained?)");
 }
 
 Solver::~Solver() = default;
+
+Eigen::Map<const Eigen::MatrixXd> Solver::solve_free(const Eigen::MatrixXd& F_free) const {
+  if (F_free.rows() != free_dofs()) throw std::runtime_error("fe: free load matrix of the wrong size");
+  factor_->solve(F_free);
+  const cholmod_dense* X = factor_->X;
+  return Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(X->x), static_cast<Eigen::Index>(X->nrow),
+                                           static_cast<Eigen::Index>(X->ncol));
+}
 
 Eigen::VectorXd Solver::solve(const Eigen::VectorXd& f, const Eigen::VectorXd& u_fixed) const {
   if (f.size() != n_ || (u_fixed.size() != 0 && u_fixed.size() != n_))
@@ -236,8 +462,8 @@ Eigen::VectorXd Solver::solve(const Eigen::VectorXd& f, const Eigen::VectorXd& u
     for (std::size_t k = 0; k < fixed_.size(); ++k) u(fixed_[k]) = uc(k) = u_fixed(fixed_[k]);
     rhs -= K_fc_ * uc;
   }
-  const Eigen::VectorXd uf = factor_->llt.solve(rhs);
-  for (int i = 0; i < free_dofs(); ++i) u(free_[i]) = uf(i);
+  const auto uf = solve_free(rhs);
+  for (int i = 0; i < free_dofs(); ++i) u(free_[i]) = uf(i, 0);
   return u;
 }
 
@@ -245,7 +471,7 @@ Eigen::MatrixXd Solver::solve(const Eigen::MatrixXd& F) const {
   if (F.rows() != n_) throw std::runtime_error("fe: load matrix of the wrong size");
   Eigen::MatrixXd rhs(free_dofs(), F.cols());
   for (int i = 0; i < free_dofs(); ++i) rhs.row(i) = F.row(free_[i]);
-  const Eigen::MatrixXd uf = factor_->llt.solve(rhs);
+  const auto uf = solve_free(rhs);
   Eigen::MatrixXd U = Eigen::MatrixXd::Zero(n_, F.cols());
   for (int i = 0; i < free_dofs(); ++i) U.row(free_[i]) = uf.row(i);
   return U;

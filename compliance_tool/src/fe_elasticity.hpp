@@ -68,23 +68,45 @@ std::vector<int> dofs_of_nodes(const std::vector<int>& nodes);
 Eigen::VectorXd traction_loads(const Mesh& mesh, const std::function<bool(const Eigen::Vector3d&)>& on_face,
                                const Eigen::Vector3d& t);
 
+// CHOLMOD's name of an ordering method (Solver::Stats::ordering): "AMD", "METIS", ...
+const char* cholmod_ordering_name(int ordering);
+
 // Number of CHOLMOD factorizations done by any Solver in this process (for tests and progress).
 std::size_t cholmod_factorization_count();
 
 // K u = f with the degrees of freedom in fixed_dofs prescribed (eliminated): factorizes the
-// free-free block once with CHOLMOD (supernodal LLᵀ) at construction, then solves any number of
-// load cases. Loads on fixed dofs are ignored (they go into reactions). Throws
-// std::runtime_error if the free block is not positive definite (e.g. a rigid-body mode is left
-// unconstrained). Not copyable; solve() is const but not thread-safe (CHOLMOD workspace).
+// free-free block once with CHOLMOD (supernodal LLᵀ on the system BLAS) at construction, then
+// solves any number of load cases. The fill-reducing ordering is METIS's nested dissection of the
+// node graph (a node's free dofs, dof / 3, kept together; CHOLMOD's cholmod_metis on the
+// quotient graph, a ninth of the dof graph's edges, then cholmod_analyze_p with that order).
+// Loads on fixed dofs are ignored (they go into reactions). Throws std::runtime_error if the free
+// block is not positive definite (e.g. a rigid-body mode is left unconstrained). Not copyable;
+// the solves are const but not thread-safe (they share CHOLMOD's workspace).
 class Solver {
  public:
   Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs);
+  // The same for the stiffness of mesh (assemble_stiffness's), assembled straight into the
+  // free-free block's lower triangle (its pattern from the node graph, the element matrices added
+  // in element order: the same sums as assemble_stiffness) and the free-fixed block; no full K.
+  Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs);
   ~Solver();
   Solver(const Solver&) = delete;
   Solver& operator=(const Solver&) = delete;
 
   int dofs() const { return n_; }
   int free_dofs() const { return static_cast<int>(free_.size()); }
+  // Index of full dof d among the free dofs, -1 if it is fixed.
+  int free_index(int d) const { return index_[d] >= 0 ? index_[d] : -1; }
+
+  // What the factorization cost and what CHOLMOD chose (its Common statistics).
+  struct Stats {
+    double setup_seconds = 0;    // the free-free block (and free-fixed): split from K, or assembled
+    double analyze_seconds = 0;  // fill-reducing ordering and symbolic analysis
+    double factor_seconds = 0;   // numerical (supernodal) factorization
+    double lnz = 0, flops = 0;   // entries of L, flops of the factorization
+    int ordering = -1;           // CHOLMOD_METIS (on the node graph), ...
+  };
+  const Stats& stats() const { return stats_; }
 
   // Full displacement vector for full load vector f; u_fixed (full size, or empty for zero)
   // supplies the prescribed values on the fixed dofs.
@@ -93,13 +115,22 @@ class Solver {
   // Many load cases at once (one column each, full size), fixed dofs held at zero.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& F) const;
 
+  // Many load cases given on the free dofs (free_dofs() rows, fixed dofs held at zero): the
+  // displacements of the free dofs, in CHOLMOD's own storage, valid until the next solve (no
+  // copy of the full field: the caller reads the dofs it needs through free_index()).
+  Eigen::Map<const Eigen::MatrixXd> solve_free(const Eigen::MatrixXd& F_free) const;
+
  private:
   struct Factor;
+  void number_dofs();  // free_, fixed_ (sorted, unique), index_
+  void factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff);  // lower triangle, CSC
   int n_ = 0;
   std::vector<int> free_;   // full dof of each free dof
   std::vector<int> fixed_;  // full dof of each fixed dof
+  std::vector<int> index_;  // full dof -> free index, or -1 - fixed index
   Eigen::SparseMatrix<double> K_fc_;  // free rows, fixed columns
   std::unique_ptr<Factor> factor_;
+  Stats stats_;
 };
 
 // A node and a direction (normalized on use): a flank grid point and its surface normal.

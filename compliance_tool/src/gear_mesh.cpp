@@ -371,13 +371,14 @@ std::array<int, 2> draw_tooth(const BodyPlan& pl, const GearBodyOptions& o, cons
 }
 
 // The whole toothed outline, counter-clockwise; the ring's is reversed (it is a hole).
-void draw_outline(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to, BodyModel& m) {
+void draw_outline(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to, const ToothOutline& to_far,
+                  BodyModel& m) {
   namespace geo = gmsh::model::geo;
   const int z = pl.g.z;
   m.involute_curve.resize(z);
   std::vector<int> first_pt(z), last_pt(z);
   for (int k = 0; k < z; ++k) {
-    const std::array<int, 2> ends = draw_tooth(pl, o, to, k, m);
+    const std::array<int, 2> ends = draw_tooth(pl, o, pl.is_fine(k) ? to : to_far, k, m);
     first_pt[k] = ends[0];
     last_pt[k] = ends[1];
   }
@@ -577,7 +578,8 @@ void collect_node_sets(const BodyModel& m, const ToothOutline& to, int z,
 }
 
 // The gmsh part: model, outline, regions, extrusion, mesh, node sets.
-void mesh_body(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to, GearBodyMesh& out) {
+void mesh_body(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline& to, const ToothOutline& to_far,
+               GearBodyMesh& out) {
   GmshSession session;
   gmsh::model::add("gear_body");
   set_mesh_options(o.threads);
@@ -585,7 +587,7 @@ void mesh_body(const BodyPlan& pl, const GearBodyOptions& o, const ToothOutline&
   BodyModel m;
   m.B.z0 = pl.zs.front();
   m.B.centre = gmsh::model::geo::addPoint(0, 0, m.B.z0);
-  draw_outline(pl, o, to, m);
+  draw_outline(pl, o, to, to_far, m);
   add_regions(pl, o, m);
   extrude_stages(pl, o, m);
   match_laterals(m);
@@ -603,9 +605,11 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
   out = GearBodyMesh{};
   msg.clear();
   if (check_options(gear, o, msg) != GM_OK) return GM_ERR_PARAMETER;
-  ToothOutline to;
+  ToothOutline to, to_far;
   const int samples = std::max(8, o.samples_per_piece);
   if (build_tooth_outline(p, g, gear, samples, samples, to, msg) != GM_OK) return GM_ERR_PARAMETER;
+  const int far_samples = std::max(8, std::min(samples, o.far_samples_per_piece));
+  if (build_tooth_outline(p, g, gear, far_samples, far_samples, to_far, msg) != GM_OK) return GM_ERR_PARAMETER;
   BodyGeometry bg;
   if (body_geometry(p, g, gear, o, to, bg, out, msg) != GM_OK) return GM_ERR_PARAMETER;
   if (!o.mesh_file.empty()) {
@@ -619,7 +623,7 @@ gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, i
   out.profile_size = pl.h_t;
   const auto t_start = std::chrono::steady_clock::now();
   try {
-    mesh_body(pl, o, to, out);
+    mesh_body(pl, o, to, to_far, out);
   } catch (const std::exception& e) {
     out.nodes.clear();
     out.tets.clear();

@@ -11,13 +11,15 @@
 // ignored; anything else is an error. Body flags are in mm and give DIAMETERS.
 // Progress goes to stderr; on success one summary line goes to stdout:
 //   compliance_tool: nodes=N elements=N dofs=N grid=N tooth_sets=N loaded=N solves=N mesh_s=X
-//   locate_s=X assembly_s=X factor_s=X solve_s=X total_s=X peak_rss_MiB=X
+//   locate_s=X assembly_s=X factor_s=X solve_s=X total_s=X cpu_s=X peak_rss_MiB=X
 // Exit status 0 on success; 2 on bad usage (unknown flag, missing value, a value outside its
 // fixed range: the message names the flag, the value and the allowed range); 1 on a value that
 // does not fit the gear (e.g. a bore larger than the root circle; the message names the flag) or
 // any failure of the build (the message names the cause).
 #include <dlfcn.h>
+#include <strings.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -138,11 +140,48 @@ double peak_rss_mib() {
   return double(ru.ru_maxrss) / 1024.0;  // Linux: KiB
 }
 
+// CPU time of the process so far (user + system, all threads), s.
+double cpu_seconds() {
+  struct rusage ru {};
+  getrusage(RUSAGE_SELF, &ru);
+  return double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) + 1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+}
+
 // The BLAS under CHOLMOD (OpenBLAS if that is what is loaded): set its thread count if it has
 // the call; other BLAS builds keep their own setting.
 void set_blas_threads(int n) {
   using Fn = void (*)(int);
   if (void* f = dlsym(RTLD_DEFAULT, "openblas_set_num_threads")) reinterpret_cast<Fn>(f)(n);
+}
+
+// OpenBLAS (a DYNAMIC_ARCH build such as Debian's) picks its kernels from the CPU model when it is
+// loaded; a model it does not know (0.3.21 on newer Xeons, or a CPU model a hypervisor hides)
+// falls back to the generic SSE3 "Prescott" kernels, several times slower than the AVX2/AVX-512
+// ones the CPU runs (the factorization and the solves are BLAS-3). OPENBLAS_CORETYPE chooses the
+// kernels, but OpenBLAS reads it only when it is loaded: so if the kernels are the generic ones,
+// the CPU has AVX-512 (or AVX2) and the user did not set OPENBLAS_CORETYPE, the tool sets it and
+// runs itself again (same arguments). Anything unusual (not OpenBLAS, the exec fails) keeps going
+// as it is.
+void use_openblas_kernels_of_this_cpu(char** argv) {
+  if (std::getenv("OPENBLAS_CORETYPE")) return;
+  using Fn = char* (*)();
+  void* f = dlsym(RTLD_DEFAULT, "openblas_get_corename");
+  if (!f) return;
+  const char* core = reinterpret_cast<Fn>(f)();
+  if (!core || strcasecmp(core, "Prescott") != 0) return;
+  __builtin_cpu_init();
+  const char* want = nullptr;
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl"))
+    want = "SkylakeX";
+  else if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+    want = "Haswell";
+  char self[4096];
+  const ssize_t len = readlink("/proc/self/exe", self, sizeof self - 1);  // Linux
+  if (!want || len <= 0 || setenv("OPENBLAS_CORETYPE", want, 1) != 0) return;
+  self[len] = 0;
+  execv(self, argv);
+  unsetenv("OPENBLAS_CORETYPE");  // exec failed: go on with the kernels loaded
 }
 
 // Everything the command line says, as parsed.
@@ -418,16 +457,17 @@ int build_and_write(const Cli& c, std::chrono::steady_clock::time_point t_start)
                db.cyclic ? "cyclic" : "every tooth", db.tooth_sets());
   std::printf("compliance_tool: nodes=%d elements=%d dofs=%d grid=%d tooth_sets=%d loaded=%d solves=%d "
               "mesh_s=%.3f locate_s=%.3f assembly_s=%.3f factor_s=%.3f solve_s=%.3f total_s=%.3f "
-              "peak_rss_MiB=%.1f\n",
+              "cpu_s=%.3f peak_rss_MiB=%.1f\n",
               stats.nodes, stats.elements, stats.dofs, stats.grid, stats.tooth_sets, stats.loaded,
               stats.solves, stats.mesh_seconds, stats.locate_seconds, stats.assembly_seconds,
-              stats.factor_seconds, stats.solve_seconds, total, peak_rss_mib());
+              stats.factor_seconds, stats.solve_seconds, total, cpu_seconds(), peak_rss_mib());
   return 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  use_openblas_kernels_of_this_cpu(argv);
   const auto t_start = std::chrono::steady_clock::now();
   Cli c;
   int rc = parse_args(argc, argv, c);
