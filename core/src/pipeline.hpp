@@ -12,6 +12,7 @@
 #include "laws.hpp"
 #include "model.hpp"
 #include "resultants.hpp"
+#include "slice_merge.hpp"
 
 namespace gm {
 
@@ -24,16 +25,18 @@ struct PassMode {
   double load = 0;
 };
 
-// Detection, TE excitation and slice laws at pose kin: the number of candidates (without `all`,
-// those that can carry load), or -1 with msg set when the pose is outside the detection range.
+// Detection, TE excitation, repeated slices merged (levels 0-4, slice_merge.hpp) and slice laws
+// at pose kin: the number of candidates (without `all`, those that can carry load), or -1 with
+// msg set when the pose is outside the detection range.
 template <class T, class K>
 int prepare_slices(const gm_model& m, const K& kin, ContactSliceT<T>* slices, SliceLawT<T>* laws,
                    bool all, std::string& msg) {
   // without `all` only the slices that can carry load: those closer than the TE excitation opens
   const double emit_above = all ? -kEmitAll : te_excitation_gap(m, val(kin.phi[0]));
-  const int n = detect_contacts(m.layout, kin, slices, m.slice_capacity, msg, emit_above);
+  int n = detect_contacts(m.layout, kin, slices, m.slice_capacity, msg, emit_above);
   if (n < 0) return n;
   apply_te_excitation(m, slices, kin, n);
+  if (m.params.stiffness_level != GM_STIFFNESS_FE) n = merge_repeated_slices(slices, n);
   build_laws(m, slices, laws, n, all);
   return n;
 }
