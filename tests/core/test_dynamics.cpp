@@ -69,15 +69,26 @@ gm_result advance(Instance& inst, Drive& dr, double H) {
 }
 
 // The low-speed limit of the dynamics is the quasi-static answer at the same sliding speeds:
-// at 10 rpm under 350 N m the TE at each communication point lies within 0.05 um of the
-// quasi-static TE at that gear-1 angle, in mean and peak-to-peak, at communication steps of
-// 1e-3 and 1e-2 s, without and with friction (mu 0.4, v0 0.01 mm/s). The quasi-static reference
-// takes gear 2's speed from the run: the elastic TE rate moves the pitch point's friction
-// reversal (at 10 rpm by ~20 um of roll, 0.08 um of mean TE), which conjugate speeds would miss.
-// Level 4 without (coupled_teeth 0) and with its tooth coupling, each with and without friction.
-// Measured with the coupling (low-rank coupled solve, core/src/coupled_forces.cpp): mean and p-p
-// within 0.0003 / 0.0011 um at H = 1 ms and 0.0002 / 0.0054 um at H = 10 ms with mu = 0.4 (the
-// largest single-sample difference 0.007 um, next to the pitch point's friction reversal).
+// at 10 rpm under 350 N m, at communication steps of 1e-3 and 1e-2 s, without and with friction
+// (mu 0.4, v0 0.01 mm/s), level 4 without (coupled_teeth 0) and with its tooth coupling.
+// The reference at each communication point is the quasi-static TE at that gear-1 angle with
+// gear 2's speed from the run: the elastic TE rate moves the pitch point's friction reversal
+// (at 10 rpm by ~20 um of roll, 0.08 um of mean TE), which conjugate speeds would miss.
+// The run knows gear 2's speed only to its accuracy: dynamics.tolerance per dynamics.max_step
+// of rim speed (1e-5 m/s, ~1.4e-4 of the speed). Away from the reversal that does not matter.
+// Near it, it does: the regularized friction flips within such a change, and the reference
+// moves by up to 1.6 um (merged slices moved the run's speeds by 1e-4 and one reference by
+// 0.1 um). So each point's reference is the range of the quasi-static TE over gear 2's speed
+// within that accuracy. The reversal band is the points where that range is wider than 0.02 um.
+// Compared, each within 0.05 um:
+// * outside the band: the mean and p-p of the TE and of the reference at the run's speed;
+// * at all points: the mean and p-p of the TE and of the value in each point's range nearest
+//   to it. This keeps the TE peak at the pitch point, which lies in the band.
+// The band may span at most 10 ms of each mesh period (measured: 7 to 8 ms, 20 to 22 of 220
+// points at H = 1 ms). Measured with the coupling, mu 0.4: outside the band mean and p-p within
+// 0.0004 / 0.0025 um at H = 1 ms and 0.0005 / 0.0019 um at H = 10 ms; at all points within
+// 0.0003 / 0.0002 and 0.0005 / 0.0002 um. With mu 5 % too large in the dynamics alone, the p-p
+// outside the band is 0.06 to 0.12 um off.
 TEST(Dynamics, LowSpeedLimitIsTheQuasiStaticAnswer) {
   const std::pair<double, int> cases[] = {{0.0, 0}, {0.4, 0}, {0.0, 2}, {0.4, 2}};
   for (const auto& [mu, coupled] : cases) {
@@ -89,7 +100,10 @@ TEST(Dynamics, LowSpeedLimitIsTheQuasiStaticAnswer) {
     Instance qs(q);
     for (double H : {1e-3, 1e-2}) {
       Drive dr = start_drive(inst, 10.0, 350.0, 2e4, 100.0);
-      std::vector<double> te, ref;
+      const double domega = dr.dp.tolerance / (dr.dp.max_step * inst.rb(1));  // gear 2's speed accuracy
+      std::vector<double> te, nearest;    // all points: the TE, the value in its range nearest to it
+      std::vector<double> te_out, ref_out;  // outside the band: the TE, the reference
+      int band = 0;
       const int count = static_cast<int>(std::lround(0.32 / H));
       for (int k = 1; k <= count; ++k) {
         const gm_result r = advance(inst, dr, H);
@@ -97,10 +111,23 @@ TEST(Dynamics, LowSpeedLimitIsTheQuasiStaticAnswer) {
         gm_kinematics kq{};
         kq.phi[0] = dr.s.phi[0];
         kq.omega[0] = dr.s.omega[0];
-        kq.omega[1] = dr.s.omega[1];
         kq.load_torque = dr.load;
+        double at_run = 0, lo = INFINITY, hi = -INFINITY;
+        for (double dw : {0.0, -domega, domega}) {
+          kq.omega[1] = dr.s.omega[1] + dw;
+          const double x = qs.eval(kq).te;
+          if (dw == 0) at_run = x;
+          lo = std::min(lo, x);
+          hi = std::max(hi, x);
+        }
         te.push_back(r.te);
-        ref.push_back(qs.eval(kq).te);
+        nearest.push_back(std::clamp(r.te, lo, hi));
+        if (hi - lo > 0.02e-6) {
+          ++band;
+        } else {
+          te_out.push_back(r.te);
+          ref_out.push_back(at_run);
+        }
       }
       const auto mean = [](const std::vector<double>& x) {
         double sum = 0;
@@ -112,9 +139,14 @@ TEST(Dynamics, LowSpeedLimitIsTheQuasiStaticAnswer) {
       };
       SCOPED_TRACE("mu " + std::to_string(mu) + ", coupled_teeth " + std::to_string(coupled) +
                    ", H " + std::to_string(H));
-      EXPECT_NEAR(mean(te), mean(ref), 0.05e-6);
-      EXPECT_NEAR(pp(te), pp(ref), 0.05e-6);
-      EXPECT_GT(pp(ref), 4e-6);  // the comparison sees the mesh's TE variation (coupled: 4.6 um)
+      EXPECT_NEAR(mean(te_out), mean(ref_out), 0.05e-6);
+      EXPECT_NEAR(pp(te_out), pp(ref_out), 0.05e-6);
+      EXPECT_NEAR(mean(te), mean(nearest), 0.05e-6);
+      EXPECT_NEAR(pp(te), pp(nearest), 0.05e-6);
+      EXPECT_GT(pp(nearest), 4e-6);  // the comparison sees the mesh's TE variation (coupled: 4.6 um)
+      // the band: at most 10 ms (and one point) in each mesh period the window touches
+      const double mesh_period = 2 * kPi / (dr.omega1 * q.gear[0].teeth);
+      EXPECT_LE(band, std::ceil((count * H - 0.1) / mesh_period) * (10e-3 / H + 1));
       // energy: put in at the shaft, taken out at the brake, lost to friction; residual <= 1 %
       EXPECT_LE(std::fabs(dr.s.residual), 0.01 * dr.s.work_in);
       if (mu > 0) EXPECT_NEAR(dr.s.work_in - dr.s.work_out, dr.s.friction + dr.s.damping, 0.01 * dr.s.work_in);
@@ -148,35 +180,57 @@ TEST(Dynamics, MeshElasticEnergyIsThePotentialOfTheMoments) {
   }
 }
 
-// The pitch point's friction reversal is resolved: at the first communication point past the
-// reversal of gear 1's friction moment, the TE and the moment at tolerances 1e-8 and 1e-9 m
-// agree with those at 1e-10 m (measured: within 1e-10 m).
+// The pitch point's friction reversal is resolved: runs at tolerances 1e-8, 1e-9 and 1e-10 m
+// converge through it. All runs are compared at the same communication points (1 ms apart,
+// 20 of them); gear 1's friction moment changes sign at ~4.7 ms, and the torsional transient
+// it starts has decayed by ~12 ms.
+// * The reversal (the first point past the sign change) is at the same point in every run,
+//   within one.
+// * The TE at every point: the 1e-8 and 1e-9 runs within 10 times their tolerance of the
+//   1e-10 run (measured: 3.1 and 2.5 times), the 1e-9 run closer than the 1e-8.
+// * The moment on gear 1 at every point: the 1e-9 run within 1e-3 of the 1e-10 run's
+//   (measured: 2e-4), the 1e-8 run less close. At 1e-8 the speed accuracy (tolerance per
+//   max_step: 1e-5 m/s of rim speed) is v0 itself, so near the reversal its friction moment is
+//   up to 15 N m (4 %) off and moves with the last bits; only at the last point, after the
+//   transient, is it held to 1e-3 as well.
+// Not compared: each run at its own first point past the reversal. A change in the last bits
+// (merged slices) moved the 1e-8 run's by one point, i.e. to a different time and TE.
+// A Jacobian kept over steps (the bug noted in dynamics.cpp) puts the 1e-9 run's moment 0.37
+// to 0.61 N m off, against 0.35 allowed.
 TEST(Dynamics, PitchPointReversalConvergesWithTheTolerance) {
   Instance inst(analytical(0.4));
   const double H = 1e-3;
-  std::vector<double> te, moment;
-  for (double tol : {1e-8, 1e-9, 1e-10}) {
+  const int count = 20;
+  const double tols[3] = {1e-8, 1e-9, 1e-10};
+  // the friction moment on gear 1: its moment beyond the normal forces' -r_b1 F_n (spur); it
+  // changes sign where the sliding reverses
+  const auto friction = [&](const gm_result& r) { return r.moment[0][2] + inst.rb(0) * r.normal_force; };
+  std::vector<gm_result> run[3];
+  int past[3];  // each run's first point past the sign change
+  for (int i = 0; i < 3; ++i) {
     Drive dr = start_drive(inst, 10.0, 350.0, 2e4, 100.0);
-    dr.dp.tolerance = tol;
-    // the friction moment on gear 1: its moment beyond the normal forces' -r_b1 F_n (spur); it
-    // changes sign where the sliding reverses
-    const auto friction = [&](const gm_result& r) { return r.moment[0][2] + inst.rb(0) * r.normal_force; };
-    gm_result r = advance(inst, dr, H), past{};
-    bool reversed = false;
-    for (int k = 2; k <= 200 && !reversed; ++k) {
-      const gm_result next = advance(inst, dr, H);
-      reversed = (friction(next) > 0) != (friction(r) > 0);
-      if (reversed) past = next;  // the first communication point past the reversal
-      r = next;
+    dr.dp.tolerance = tols[i];
+    for (int k = 0; k < count; ++k) run[i].push_back(advance(inst, dr, H));
+    past[i] = -1;
+    for (int k = 1; k < count && past[i] < 0; ++k)
+      if ((friction(run[i][k]) > 0) != (friction(run[i][k - 1]) > 0)) past[i] = k;
+    ASSERT_GT(past[i], 0) << "no friction reversal within " << count << " ms at tolerance " << tols[i];
+  }
+  double te_diff[2] = {0, 0}, moment_diff[2] = {0, 0};  // the largest over all points
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE("tolerance " + std::to_string(tols[i]));
+    EXPECT_LE(std::abs(past[i] - past[2]), 1);
+    for (int k = 0; k < count; ++k) {
+      te_diff[i] = std::max(te_diff[i], std::fabs(run[i][k].te - run[2][k].te));
+      moment_diff[i] = std::max(moment_diff[i], std::fabs(run[i][k].moment[0][2] - run[2][k].moment[0][2]));
     }
-    ASSERT_TRUE(reversed) << "no friction reversal within 0.2 s";
-    te.push_back(past.te);
-    moment.push_back(past.moment[0][2]);
+    EXPECT_LT(te_diff[i], 10 * tols[i]);
+    const gm_result &last = run[i][count - 1], &last_ref = run[2][count - 1];
+    EXPECT_LT(std::fabs(last.moment[0][2] - last_ref.moment[0][2]), 1e-3 * std::fabs(last_ref.moment[0][2]));
   }
-  for (int i = 0; i < 2; ++i) {  // each tolerance against the finest
-    EXPECT_LT(std::fabs(te[i] - te[2]), 0.01e-6) << "tolerance 1e-" << 8 + i;
-    EXPECT_LT(std::fabs(moment[i] - moment[2]), 1e-3 * std::fabs(moment[2])) << "tolerance 1e-" << 8 + i;
-  }
+  EXPECT_LT(moment_diff[1], 1e-3 * std::fabs(run[2][past[2]].moment[0][2]));
+  EXPECT_LT(te_diff[1], te_diff[0]);
+  EXPECT_LT(moment_diff[1], moment_diff[0]);
 }
 
 // A state copy continues bit for bit (the dynamics' state is gm_dynamics_state alone), and an
