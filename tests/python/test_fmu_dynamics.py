@@ -45,16 +45,36 @@ def start_values(fmu_path, mu):
 
 def judge(fmu_path, mu, t, te, angle1, speed1, speed2, energy):
     """TE against the quasi-static TE at the brake's constant load (not the run's own mesh
-    moment, which an element without mass would reproduce by construction)."""
+    moment, which an element without mass would reproduce by construction), at the run's gear
+    angles and speeds. The run knows gear 2's speed only to its accuracy, dynamics.tolerance per
+    dynamics.max_step of rim speed (about 1.4e-4 of the speed); at the pitch point's friction
+    reversal the regularized friction (v0 0.01 mm/s) flips within such a change and the
+    quasi-static TE jumps by up to 0.1 um with it, so a verdict on those points would depend on
+    the run's last bits. Each point's reference is therefore the range of the quasi-static TE
+    over gear 2's speed within that accuracy; the reversal band is where the range is wider
+    than 0.02 um (as tests/core/test_dynamics.cpp, LowSpeedLimitIsTheQuasiStaticAnswer).
+    Outside the band the mean and p-p agree with the reference at the run's speed within
+    0.05 um. Inside it the run also carries the reversal's own transient (gear 2's speed moves
+    by up to 5 % there at h = 10 ms, which no quasi-static answer has): each point within
+    0.25 um of its range (measured: 0.17 um at worst). The band may span at most 10 ms per mesh
+    period."""
     settled = t > 0.1
     with quasi_static(fmu_path, mu) as qs:
-        ref = np.array([qs_te(qs, a, w1, w2) for a, w1, w2 in
+        p = qs.get(["dynamics.tolerance", "dynamics.max_step", "gear2.base_diameter", "gear1.teeth"])
+        dw = p["dynamics.tolerance"] / (p["dynamics.max_step"] * p["gear2.base_diameter"] / 2)
+        ref = np.array([[qs_te(qs, a, w1, w2 + d) for d in (0.0, -dw, dw)] for a, w1, w2 in
                         zip(angle1[settled], speed1[settled], speed2[settled])])
     te = te[settled]
     assert np.all(np.isfinite(te))
-    assert np.ptp(ref) > 4e-6  # the comparison sees the mesh's TE variation (level 4: 4.7 um)
-    assert abs(te.mean() - ref.mean()) < 0.05e-6
-    assert abs(np.ptp(te) - np.ptp(ref)) < 0.05e-6
+    at_run, lo, hi = ref[:, 0], ref.min(axis=1), ref.max(axis=1)
+    band = hi - lo > 0.02e-6
+    assert np.ptp(at_run) > 4e-6  # the comparison sees the mesh's TE variation (level 4: 4.7 um)
+    assert abs(te[~band].mean() - at_run[~band].mean()) < 0.05e-6
+    assert abs(np.ptp(te[~band]) - np.ptp(at_run[~band])) < 0.05e-6
+    assert np.all(np.maximum(lo - te, te - hi) < 0.25e-6)
+    h = t[1] - t[0]
+    mesh_period = 2 * math.pi / (W1 * p["gear1.teeth"])
+    assert band.sum() <= math.ceil((t[settled][-1] - 0.1) / mesh_period) * (10e-3 / h + 1)
     assert abs(energy["energy.residual"]) <= 0.01 * energy["energy.work_in"]
 
 
