@@ -56,3 +56,19 @@ def test_batch_runs_scenes_times_torques_times_variations(fmu_path, tmp_path):
 def test_bad_variation_is_named():
     with pytest.raises(ValueError, match="model.damping"):
         batch.parse_variation("model.damping=a,b")
+
+
+def test_report_plots_variations_that_lost_a_case(tmp_path):
+    """A case that failed leaves its variation's curve one torque short: the report plots each
+    curve over its own torques (the clean-clone CI of 9f5728f crashed there: x and y of
+    different lengths)."""
+    from gearmesh import batch
+
+    def row(mu, torque):
+        return {"scene": "s", "torque_Nm": torque, "model.friction_coefficient": mu,
+                "mean_te_m": 1e-5, "ptp_te_m": 1e-6, "order1_m": 1e-7 * torque, "order2_m": 1e-8}
+
+    summary = [row(0.0, t) for t in (50.0, 200.0, 350.0)] + [row(0.4, t) for t in (50.0, 350.0)]
+    report = batch.write_report(tmp_path, summary)
+    assert report.is_file() and (tmp_path / "s_orders.png").stat().st_size > 0
+    assert "model.friction_coefficient" in report.read_text()

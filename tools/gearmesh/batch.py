@@ -164,15 +164,15 @@ def write_report(out: pathlib.Path, summary: list[dict]) -> pathlib.Path:
     for scene in sorted({r["scene"] for r in summary}):
         rows = [r for r in summary if r["scene"] == scene]
         variations = sorted({tuple((k, r[k]) for k in r if k not in fixed) for r in rows})
-        curves, torques = {}, None
+        curves = {}
         for var in variations:
             sel = sorted((r for r in rows if all(r[k] == v for k, v in var)),
                          key=lambda r: r["torque_Nm"])
-            torques = [r["torque_Nm"] for r in sel]
+            torques = [r["torque_Nm"] for r in sel]  # each curve its own: a failed case is missing
             label = ", ".join(f"{k} {v:g}" for k, v in var) or "base"
-            curves[f"{label}: order 1"] = [r["order1_m"] * 1e6 for r in sel]
-            curves[f"{label}: order 2"] = [r["order2_m"] * 1e6 for r in sel]
-        plot(out / f"{scene}_orders.png", torques, curves, "torque (N m)",
+            curves[f"{label}: order 1"] = (torques, [r["order1_m"] * 1e6 for r in sel])
+            curves[f"{label}: order 2"] = (torques, [r["order2_m"] * 1e6 for r in sel])
+        plot(out / f"{scene}_orders.png", None, curves, "torque (N m)",
              "mesh order amplitude (um)", f"{scene}: batch")
         lines += [f"![{scene}]({scene}_orders.png)", ""]
     report = out / "batch_report.md"

@@ -117,14 +117,17 @@ def run(client, cases: list[Case], generic_fmu: pathlib.Path, out: pathlib.Path,
     with tqdm(total=skipped + len(todo), initial=skipped, desc="batch", unit="case") as bar:
         for future in as_completed(futures):
             ident, case = futures[future]
-            if future.status == "finished":
-                _write_json(done / f"{ident}.json", {"case": label(case), "rows": future.result()})
-                finished.append(ident)
-            else:
-                exc = future.exception()
+            try:
+                # a result lost with its worker after the task finished is computed again: wait
+                # for it rather than read the status of the moment ("lost")
+                rows = future.result()
+            except Exception as exc:  # the case's own error, after its retry
                 errors[label(case)] = f"{type(exc).__name__}: {exc}"
                 bar.write(f"gearmesh: case {label(case)} failed after {RETRIES} retry: "
                           f"{errors[label(case)]}")
+            else:
+                _write_json(done / f"{ident}.json", {"case": label(case), "rows": rows})
+                finished.append(ident)
             bar.update()
             future.release()
     rows = []

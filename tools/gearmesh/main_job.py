@@ -30,6 +30,7 @@ def write_table(path: pathlib.Path, columns: dict) -> None:
 
 
 def plot(path: pathlib.Path, x, ys: dict, xlabel: str, ylabel: str, title: str) -> None:
+    """ys: label -> y over x, or label -> (x, y) for a curve with its own abscissae."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -37,7 +38,8 @@ def plot(path: pathlib.Path, x, ys: dict, xlabel: str, ylabel: str, title: str) 
 
     fig, ax = plt.subplots(figsize=(7, 4))
     for label, y in ys.items():
-        ax.plot(x, y, label=label)
+        xs, y = y if isinstance(y, tuple) else (x, y)
+        ax.plot(xs, y, label=label)
     ax.set(xlabel=xlabel, ylabel=ylabel, title=title)
     ax.grid(True, alpha=0.3)
     if len(ys) > 1:
