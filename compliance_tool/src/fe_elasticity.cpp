@@ -224,18 +224,18 @@ struct Solver::Factor {
 
 namespace {
 
-// A view of the lower triangle A (CSC, sorted, int indices) as CHOLMOD's symmetric matrix.
-cholmod_sparse cholmod_view_lower(Eigen::Ref<Eigen::SparseMatrix<double>>& A) {
+// The lower triangle of a symmetric n x n matrix (CSC, sorted, int indices: column starts p,
+// row indices i, values x, or none for a pattern) as a CHOLMOD view; nothing is copied.
+cholmod_sparse cholmod_lower_view(std::size_t n, std::size_t nzmax, int* p, int* i, double* x) {
   cholmod_sparse s{};
-  s.nrow = static_cast<std::size_t>(A.rows());
-  s.ncol = static_cast<std::size_t>(A.cols());
-  s.nzmax = static_cast<std::size_t>(A.nonZeros());
-  s.p = A.outerIndexPtr();
-  s.i = A.innerIndexPtr();
-  s.x = A.valuePtr();
+  s.nrow = s.ncol = n;
+  s.nzmax = nzmax;
+  s.p = p;
+  s.i = i;
+  s.x = x;
   s.stype = -1;
   s.itype = CHOLMOD_INT;
-  s.xtype = CHOLMOD_REAL;
+  s.xtype = x ? CHOLMOD_REAL : CHOLMOD_PATTERN;
   s.dtype = CHOLMOD_DOUBLE;
   s.sorted = 1;
   s.packed = 1;
@@ -268,18 +268,9 @@ std::vector<int> node_graph_metis_order(const Eigen::Ref<Eigen::SparseMatrix<dou
     std::sort(rows.begin() + static_cast<std::ptrdiff_t>(start), rows.end());
     p[g + 1] = static_cast<int>(rows.size());
   }
-  cholmod_sparse G{};
-  G.nrow = G.ncol = static_cast<std::size_t>(ng);
-  G.nzmax = std::max<std::size_t>(1, rows.size());
-  rows.resize(G.nzmax);
-  G.p = p.data();
-  G.i = rows.data();
-  G.stype = -1;
-  G.itype = CHOLMOD_INT;
-  G.xtype = CHOLMOD_PATTERN;
-  G.dtype = CHOLMOD_DOUBLE;
-  G.sorted = 1;
-  G.packed = 1;
+  rows.resize(std::max<std::size_t>(1, rows.size()));
+  cholmod_sparse G = cholmod_lower_view(static_cast<std::size_t>(ng), rows.size(), p.data(),
+                                        rows.data(), nullptr);
   std::vector<int> gperm(ng);
   if (!cholmod_metis(&G, nullptr, 0, 1, gperm.data(), &c))
     throw std::runtime_error("fe: CHOLMOD's METIS ordering failed (status " + std::to_string(c.status) + ")");
@@ -423,7 +414,9 @@ void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff) {
   c.nmethods = 1;
   c.method[0].ordering = CHOLMOD_GIVEN;
   c.postorder = 1;
-  cholmod_sparse A = cholmod_view_lower(Kff);
+  cholmod_sparse A = cholmod_lower_view(static_cast<std::size_t>(Kff.rows()),
+                                        static_cast<std::size_t>(Kff.nonZeros()),
+                                        Kff.outerIndexPtr(), Kff.innerIndexPtr(), Kff.valuePtr());
   std::vector<int> perm = node_graph_metis_order(Kff, free_, c);
   factor_->L = cholmod_analyze_p(&A, perm.data(), nullptr, 0, &c);
   stats_.analyze_seconds = seconds_since(t0);

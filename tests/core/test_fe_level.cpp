@@ -496,30 +496,5 @@ TEST(FeLevel, QuasiStaticAgreesWithThePlainSolveAtItsTeOpenAndWedged) {
   gm_model_params base = fe_paper(5);
   base.coupled_teeth = 2;
   const SmoothFe fe(base, "flanks5");
-  gm_model_params pp = fe.p;
-  pp.quasi_static = 0;
-  Instance quasi(fe.p), plain(pp);
-  const double torque = 300;
-  for (const double shift : {0.0, 100e-6}) {
-    for (int s = 0; s < 4; ++s) {
-      gm_kinematics k{};
-      k.phi[0] = quasi.geo().p_bt / quasi.rb(0) * (s + 0.5) / 4;
-      k.u[1][0] = -shift;
-      k.load_torque = torque;
-      const gm_result rq = quasi.eval(k);
-      k.load_torque = 0;
-      k.phi[1] = (rq.te - quasi.rb(0) * k.phi[0]) / quasi.rb(1);
-      const gm_result rp = plain.eval(k);
-      EXPECT_EQ(rq.flank, shift == 0 ? 1 : 3) << s;
-      EXPECT_EQ(rp.flank, rq.flank) << s;
-      EXPECT_LT(rq.solver_residual, fe.p.solver_tolerance) << s;
-      const double f = std::fabs(rq.normal_force);
-      EXPECT_NEAR(rp.normal_force, rq.normal_force, 1e-7 * f) << s;
-      for (int a = 0; a < 3; ++a) {
-        EXPECT_NEAR(rp.force[1][a], rq.force[1][a], 1e-7 * f) << s << " " << a;
-        EXPECT_NEAR(rp.moment[1][a], rq.moment[1][a], 1e-7 * f * quasi.rb(1)) << s << " " << a;
-      }
-      EXPECT_NEAR(rp.stiffness, rq.stiffness, 1e-6 * rq.stiffness) << s;
-    }
-  }
+  gm_test::expect_quasi_static_equals_plain_at_its_te(fe.p);
 }

@@ -64,6 +64,38 @@ struct Instance {
   }
 };
 
+// Quasi-static mode under 300 N m agrees with the plain solve at its solved TE: the same flanks
+// in contact, forces, moments and stiffness, at four positions over a pitch, with the flank
+// the load closes alone in contact (open) and with gear 2 moved 100 um towards gear 1 so that
+// both flanks touch (wedged). p: a quasi-static model.
+inline void expect_quasi_static_equals_plain_at_its_te(const gm_model_params& p) {
+  gm_model_params pp = p;
+  pp.quasi_static = 0;
+  Instance quasi(p), plain(pp);
+  for (const double shift : {0.0, 100e-6}) {
+    for (int s = 0; s < 4; ++s) {
+      gm_kinematics k{};
+      k.phi[0] = quasi.geo().p_bt / quasi.rb(0) * (s + 0.5) / 4;
+      k.u[1][0] = -shift;
+      k.load_torque = 300;
+      const gm_result rq = quasi.eval(k);
+      k.load_torque = 0;
+      k.phi[1] = (rq.te - quasi.rb(0) * k.phi[0]) / quasi.rb(1);
+      const gm_result rp = plain.eval(k);
+      EXPECT_EQ(rq.flank, shift == 0 ? 1 : 3) << s;
+      EXPECT_EQ(rp.flank, rq.flank) << s;
+      EXPECT_LT(rq.solver_residual, p.solver_tolerance) << s;
+      const double f = std::fabs(rq.normal_force);
+      EXPECT_NEAR(rp.normal_force, rq.normal_force, 1e-7 * f) << s;
+      for (int a = 0; a < 3; ++a) {
+        EXPECT_NEAR(rp.force[1][a], rq.force[1][a], 1e-7 * f) << s << " " << a;
+        EXPECT_NEAR(rp.moment[1][a], rq.moment[1][a], 1e-7 * f * quasi.rb(1)) << s << " " << a;
+      }
+      EXPECT_NEAR(rp.stiffness, rq.stiffness, 1e-6 * rq.stiffness) << s;
+    }
+  }
+}
+
 // The paper's gear set A (the core's defaults).
 inline gm_model_params paper() {
   gm_model_params p;
