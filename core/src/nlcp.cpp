@@ -297,16 +297,20 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
       // solve; else a Newton factorization.
       // The same rule for the last Newton factorization of this solve: after a Newton step the
       // rate is ~K |F_k - F_k-1|, which is also the rate of a chord step on that matrix.
+      // A quasi-static solve's first step for a new lambda also takes the factorization its
+      // last slope or Newton step made of this C, when the free set is the same (newton_current_).
       const bool chord = rate <= kChordRate && r * rate <= 0.5 * res.tolerance;
-      on_tangent = same_as_tangent(m) && (res.iterations == 0 || (on_tangent && chord));
-      on_newton = !on_tangent && on_newton && chord && same_as_newton(m);
+      const bool first = res.iterations == 0;
+      on_tangent = same_as_tangent(m) && (first || (on_tangent && chord));
+      on_newton = !on_tangent && newton_current_ && same_as_newton(m) &&
+                  ((first && options_.reuse_tangent) || (on_newton && chord));
       if (on_tangent) {
         solve_factored(tangent_, tangent_inv_, m);
       } else if (on_newton) {
         solve_factored(newton_, newton_inv_, m);
       } else {
         fault = factor_and_solve(C, m, slope_), ++res.factorizations;
-        on_newton = fault.position < 0;
+        on_newton = newton_current_ = fault.position < 0;
         newton_m_ = m;
         newton_index_.head(m) = free_.head(m);
       }
@@ -383,6 +387,7 @@ NlcpResult NlcpSolver::solve(const ConstMat& C, const ConstVec& delta, const Loc
     res.residual = kInf;
     return res;
   }
+  newton_current_ = false;
   tangent_usable_ = options_.reuse_tangent && tangent_n_ == delta.size() &&
                     force == tangent_force_.head(tangent_n_);
   tangent_n_ = -1;  // one use
@@ -407,6 +412,7 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
   }
   if (m == 0) return true;
   if (factor(C, m, trial_).position >= 0) return false;
+  newton_current_ = false;
   newton_.swap(tangent_);  // keep it for the next solve (reuse_tangent); swaps storage only
   newton_inv_.swap(tangent_inv_);
   tangent_index_.head(m) = free_.head(m);
@@ -424,7 +430,7 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
 // Returns 0 (and m = 0) if no weighted unknown is in J; fault as from factor_and_solve.
 double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
                                      const Eigen::Ref<const Eigen::VectorXd>& F, double tol,
-                                     int& m, Fault& fault) {
+                                     int& m, Fault& fault, bool& factored) {
   const int n = static_cast<int>(weights.size());
   bool weighted = false;
   m = 0;
@@ -436,11 +442,23 @@ double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
     }
   }
   fault = Fault{};
+  factored = false;
   if (!weighted) {
     m = 0;
     return 0;
   }
-  fault = factor_and_solve(C, m, slope_);
+  // The slope only steers the update of lambda (and its first-order force predictor), so the
+  // factorization of an earlier iterate of this C on the same set serves: the safeguarded
+  // Newton on lambda keeps its stopping test, the slope's error only slows it.
+  factored = !(options_.reuse_tangent && newton_current_ && same_as_newton(m));
+  if (factored) {
+    fault = factor_and_solve(C, m, slope_);
+    newton_current_ = fault.position < 0;
+    newton_m_ = m;
+    newton_index_.head(m) = free_.head(m);
+  } else {
+    solve_factored(newton_, newton_inv_, m);
+  }
   double slope = 0;
   for (int a = 0; a < m; ++a) slope += weights[free_[a]] * rhs_[a];
   return slope;
@@ -546,6 +564,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   }
   if (!std::isfinite(lambda)) lambda = 0;
   // the first inner solve may take its first step on the kept tangent, as in solve()
+  newton_current_ = false;
   tangent_usable_ = options_.reuse_tangent && tangent_n_ == n && force == tangent_force_.head(n);
   tangent_n_ = -1;
   // (counted as an iteration: it is a Newton step of the KKT system)
@@ -573,8 +592,9 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
     const double mismatch = weights.dot(force) - total_force;
     int m = 0;
     Fault fault;
-    const double slope = total_force_slope(C, weights, force, inner.tolerance, m, fault);
-    res.factorizations += m > 0;
+    bool factored = false;
+    const double slope = total_force_slope(C, weights, force, inner.tolerance, m, fault, factored);
+    res.factorizations += factored;
     if (fault.position >= 0) {
       res.status = NlcpStatus::bad_input;
       res.index = free_[fault.position];

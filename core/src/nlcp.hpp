@@ -61,6 +61,9 @@ struct NlcpOptions {
   // solve_total() from such an answer first takes one Newton step of the KKT system (forces and
   // lambda) with that factorization (counted as an iteration), so that its first lambda is
   // nearly the answer's.
+  // Within solve_total() the same rule reuses the factorization of this C that an earlier lambda
+  // made (its last slope, or a Newton step) for the first step of the next lambda and for a
+  // slope on the same set (the slope only steers the update of lambda).
   // Saves one or two factorizations per call. false: factorize at every iteration.
   bool reuse_tangent = true;
   // Check that C is symmetric (and finite) on every call, an O(n^2) pass over both triangles.
@@ -162,7 +165,7 @@ class NlcpSolver {
                      double total_force, Eigen::Ref<Eigen::VectorXd> force, double& lambda);
   double total_force_slope(const ConstMat& C, const ConstVec& weights,
                            const Eigen::Ref<const Eigen::VectorXd>& F, double tol, int& m,
-                           Fault& fault);
+                           Fault& fault, bool& factored);
 
   int capacity_;
   NlcpOptions options_;
@@ -187,6 +190,8 @@ class NlcpSolver {
   Eigen::VectorXi free_;      // indices of the free unknowns
   Eigen::VectorXi newton_index_;  // the free set newton_ was last factorized for (in iterate)
   int newton_m_ = -1;             // its size
+  bool newton_current_ = false;   // newton_ is of this call's C (solve, solve_total), made at an
+                                  // earlier iterate (slope_ there) on newton_index_
   // The factorization kept by loaded_row_sums for the next solve (reuse_tangent).
   Eigen::MatrixXd tangent_;        // its LLT (lower), packed on tangent_index_[0..tangent_m_)
   Eigen::VectorXd tangent_inv_;    // 1/L_jj of tangent_
