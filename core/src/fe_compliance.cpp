@@ -302,8 +302,11 @@ std::size_t FeAssembly::cached_values() const {
 
 // The strip of face interval [lo, hi] on gear g, added if new (then every chunk of the gear is
 // dropped and this call computes directly); -1 if the table is full (a face interval changed).
-int FeAssembly::strip_of(const FeView& m, int g, double lo, double hi) {
+int FeAssembly::strip_of(const FeView& m, int g, double lo, double hi, int hint) {
   Gear& G = gear_[g];
+  if (hint < int(G.strips.size()) && G.strips[std::size_t(hint)].lo == lo &&
+      G.strips[std::size_t(hint)].hi == hi)
+    return hint;
   for (std::size_t s = 0; s < G.strips.size(); ++s)
     if (G.strips[s].lo == lo && G.strips[s].hi == hi) return int(s);
   if (int(G.strips.size()) >= m.layout.slices * (may_flip_face(m, g) ? 2 : 1)) return -1;
@@ -410,9 +413,16 @@ GM_FE_STAGE void FeAssembly::locate_spots(const FeView& m, const ContactSlice* s
       for (int a = 0; a < n && !full; ++a) {
         const ContactSlice& s = slices[index[a]];
         Spot& p = G.spots[std::size_t(a)];
-        roll_spot(db.roll, s.roll[g], p.roll_node, p.roll_weight);
+        const Spot* prev = a > 0 ? &G.spots[std::size_t(a) - 1] : nullptr;
+        if (prev && s.roll[g] == slices[index[a - 1]].roll[g]) {  // an aligned spur pair's slices
+          p.roll_node = prev->roll_node;
+          p.roll_weight = prev->roll_weight;
+        } else {
+          roll_spot(db.roll, s.roll[g], p.roll_node, p.roll_weight);
+        }
         const double face = face_position(m, g, s, uz[g]);
-        p.strip = strip_of(m, g, face - 0.5 * s.width, face + 0.5 * s.width);
+        // a tooth pair's slices usually follow the strips one by one: try the next one first
+        p.strip = strip_of(m, g, face - 0.5 * s.width, face + 0.5 * s.width, prev ? prev->strip + 1 : 0);
         p.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
         full = p.strip < 0;
       }
@@ -448,7 +458,7 @@ GM_FE_STAGE void FeAssembly::classify_groups(int ng) {
 // for a uniform group pair from the cache: the same terms for every entry, in the
 // general order of add_cached.
 GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const GroupPair& q,
-                                         Eigen::MatrixXd& C) {
+                                         bool assign, Eigen::MatrixXd& C) {
   Gear& G = gear_[g];
   const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
   const int S = int(G.strips.size());
@@ -470,7 +480,9 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
     }
   }
   for (int t = 0; t < nt; ++t) v[t] = B.pool.data() + at[t];  // pool no longer grows
-  if (nt == 4 && q.b_consecutive[g]) {
+  const bool fast = nt == 4 && q.b_consecutive[g];
+  if (assign && !fast) zero_entries(q, C);
+  if (fast) {
     // group b's strips are consecutive: each column segment C(b0.., a) reads a contiguous run
     // of every chunk (the same terms in the same order)
     const int s0 = G.spots[std::size_t(b0)].strip;
@@ -485,7 +497,7 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
         e += w[1] * v1[k];
         e += w[2] * v2[k];
         e += w[3] * v3[k];
-        col[k] += e;
+        col[k] = assign ? e : col[k] + e;
       }
     }
     return;
@@ -562,6 +574,12 @@ GM_FE_STAGE void FeAssembly::add_direct(const FeView& m, int g, const Block& B, 
   }
 }
 
+// The entries of a group pair (upper triangle) set to 0.
+GM_FE_STAGE void FeAssembly::zero_entries(const GroupPair& q, Eigen::MatrixXd& C) {
+  for (int a = q.a0; a < q.a1; ++a)
+    for (int b = q.b0; b < std::min(q.b1, a + 1); ++b) C(b, a) = 0;
+}
+
 // Blocks of teeth that left the candidates: dropped (a cyclic database has few blocks, kept).
 GM_FE_STAGE void FeAssembly::drop_unused_blocks(const FeView& m) {
   for (int g = 0; g < 2; ++g)
@@ -589,21 +607,23 @@ void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int
         q.b_consecutive[g] = consecutive_[std::size_t(g * ng + gb)];
       }
       const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
-      for (int a = a0; a < a1; ++a)
-        for (int b = b0; b < std::min(b1, a + 1); ++b) C(b, a) = 0;
+      bool assigned = false;  // the entries hold a first gear's part (else they are zeroed)
       for (int g = 0; g < 2; ++g) {
         Gear& G = gear_[g];
         const int slot = slot_of(m, g, slices[index[a0]], G.spots[std::size_t(a0)],
                                  slices[index[b0]], G.spots[std::size_t(b0)]);
         if (slot < 0) continue;
         Block& B = G.blocks[std::size_t(slot)];
+        if (!assigned && (G.direct || !q.uniform[g])) zero_entries(q, C);
         if (G.direct)
           add_direct(m, g, B, q, C);
         else if (q.uniform[g])
-          add_uniform(m, g, B, q, C);
+          add_uniform(m, g, B, q, !assigned, C);
         else
           add_cached(m, g, B, q, C);
+        assigned = true;
       }
+      if (!assigned) zero_entries(q, C);
       for (int a = a0; a < a1; ++a)
         for (int b = b0; b < std::min(b1, a + 1); ++b) C(a, b) = C(b, a);
     }

@@ -117,7 +117,7 @@ class FeAssembly {
     std::vector<Spot> spots;      // per candidate of the call
     bool direct = true;           // this call computes strip values directly
   };
-  int strip_of(const FeView& m, int g, double lo, double hi);
+  int strip_of(const FeView& m, int g, double lo, double hi, int hint);  // hint: tried first
   void clear_chunks(Gear& G);
   int slot_of(const FeView& m, int g, const ContactSlice& si, const Spot& pi,
               const ContactSlice& sj, const Spot& pj);
@@ -135,7 +135,11 @@ class FeAssembly {
     int a0 = 0, a1 = 0, b0 = 0, b1 = 0;
     bool uniform[2] = {false, false}, b_consecutive[2] = {false, false};
   };
-  void add_uniform(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
+  // assign: the entries are set (zeroed first when the terms are not the four-chunk run), not
+  // added to
+  void add_uniform(const FeView& m, int g, Block& B, const GroupPair& q, bool assign,
+                   Eigen::MatrixXd& C);
+  static void zero_entries(const GroupPair& q, Eigen::MatrixXd& C);
   void add_cached(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
   void add_direct(const FeView& m, int g, const Block& B, const GroupPair& q, Eigen::MatrixXd& C) const;
   void drop_unused_blocks(const FeView& m);
