@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "fe_solve.hpp"
 #include "inputs.hpp"
@@ -26,6 +27,8 @@ gm_status plain_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, i
   return GM_OK;
 }
 
+constexpr int kMaxPasses = 6;  // quasi-static passes per evaluation
+
 // Quasi-static mode (docs/physics.md §6): gear 2's spin follows from the load torque. Detect at
 // the TE estimate, solve the load balance for the rigid approach lambda, move there, and repeat
 // while the move changes what detection sees (tip edges); the estimate carries over calls.
@@ -35,17 +38,19 @@ gm_status quasi_static_solve(const gm_model& m, gm_data& d, double phi1_in, doub
   const MeshLayout& L = m.layout;
   const bool fe = coupled_solve(m);
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
-  const PassMode mode{true, true, kin.load_torque / rb2};  // load: the TE coordinate's force, N
+  PassMode mode{true, true, kin.load_torque / rb2};  // load: the TE coordinate's force, N
+  const double settled = std::max(m.params.solver_tolerance, 1e-12 * L.base_pitch);  // m
   te = fe ? predicted_te(d, phi1_in, kin.load_torque) : d.te_estimate;
-  for (int pass = 0; pass < 6; ++pass) {
+  for (int pass = 0; pass < kMaxPasses; ++pass) {
     kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + phi2_offset;
+    mode.next_pass_above = pass + 1 < kMaxPasses ? settled : std::numeric_limits<double>::infinity();
     ForceSolve fs;
     const gm_status st = solve_pass(m, d, kin, mode, n, fs);  // detection redone every pass
     if (st != GM_OK) return st;
     r.solver_iterations += fs.iterations;
     r.solver_residual = fs.residual;
     te += fs.lambda;
-    if (std::fabs(fs.lambda) <= std::max(m.params.solver_tolerance, 1e-12 * L.base_pitch)) break;
+    if (std::fabs(fs.lambda) <= settled) break;
   }
   kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + phi2_offset;
   d.te_estimate = te;

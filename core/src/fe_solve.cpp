@@ -221,11 +221,15 @@ NlcpResult fe_solve_wedged(gm_data& d, int na, double lambda0, ForceSolve& out) 
   return res;
 }
 
-// Forces, and each loaded slice's tangent stiffness: row sums of (C_AA + diag f'_A)^-1, so
-// that their sum is the mesh stiffness under a uniform approach.
-void fe_store(gm_data& d, int na) {
+// Forces, and (tangent) each loaded slice's tangent stiffness: row sums of
+// (C_AA + diag f'_A)^-1, so that their sum is the mesh stiffness under a uniform approach.
+// Without: the solve's last factorization is kept for the next solve instead, where it has one.
+void fe_store(gm_data& d, int na, bool tangent) {
   const auto Cn = d.fe_compliance.topLeftCorner(na, na);
-  d.nlcp->loaded_row_sums(Cn, d.fe_force.head(na), d.fe_work.head(na));
+  if (!tangent && d.nlcp->keep_last_factorization(d.fe_force.head(na)))
+    d.fe_work.head(na).setZero();
+  else
+    d.nlcp->loaded_row_sums(Cn, d.fe_force.head(na), d.fe_work.head(na));
   for (int a = 0; a < na; ++a) {
     d.forces[d.fe_index[a]] = d.fe_force[a];
     d.slice_stiffness[d.fe_index[a]] = d.fe_work[a];
@@ -235,7 +239,7 @@ void fe_store(gm_data& d, int na) {
 }  // namespace
 
 ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool all,
-                    bool quasi, double load) {
+                    bool quasi, double load, double next_pass_above) {
   ForceSolve out;
   const ContactSlice* S = d.slices.data();
   int na = fe_select(d, n, all);
@@ -289,7 +293,7 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
                                                  "converge; raise model.solver_max_iterations";
     return out;
   }
-  fe_store(d, na);
+  fe_store(d, na, !(quasi && std::fabs(out.lambda) > next_pass_above));
   return out;
 }
 

@@ -234,8 +234,10 @@ bool NlcpSolver::same_as_newton(int m) const {
   return true;
 }
 
-bool NlcpSolver::same_as_tangent(int m) const {
-  if (!tangent_usable_ || m != tangent_m_) return false;
+bool NlcpSolver::same_as_tangent(int m) const { return tangent_usable_ && on_tangent_set(m); }
+
+bool NlcpSolver::on_tangent_set(int m) const {
+  if (m != tangent_m_) return false;
   for (int a = 0; a < m; ++a)
     if (free_[a] != tangent_index_[a]) return false;
   return true;
@@ -387,7 +389,7 @@ NlcpResult NlcpSolver::solve(const ConstMat& C, const ConstVec& delta, const Loc
     res.residual = kInf;
     return res;
   }
-  newton_current_ = false;
+  newton_current_ = tangent_related_ = false;
   tangent_usable_ = options_.reuse_tangent && tangent_n_ == delta.size() &&
                     force == tangent_force_.head(tangent_n_);
   tangent_n_ = -1;  // one use
@@ -412,7 +414,7 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
   }
   if (m == 0) return true;
   if (factor(C, m, trial_).position >= 0) return false;
-  newton_current_ = false;
+  newton_current_ = tangent_related_ = false;
   newton_.swap(tangent_);  // keep it for the next solve (reuse_tangent); swaps storage only
   newton_inv_.swap(tangent_inv_);
   tangent_index_.head(m) = free_.head(m);
@@ -421,6 +423,25 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
   tangent_m_ = m;
   solve_factored(tangent_, tangent_inv_, m);
   for (int a = 0; a < m; ++a) row_sums[free_[a]] = rhs_[a];
+  return true;
+}
+
+bool NlcpSolver::keep_last_factorization(const ConstVec& F) {
+  const int n = static_cast<int>(F.size());
+  tangent_n_ = -1;
+  if (!options_.reuse_tangent || !newton_current_ || n != answer_n_ || F != answer_.head(n))
+    return false;
+  int m = 0;
+  for (int i = 0; i < n; ++i)
+    if (F[i] > 0) free_[m++] = i;
+  if (m == 0 || !same_as_newton(m)) return false;
+  newton_current_ = tangent_related_ = false;
+  newton_.swap(tangent_);
+  newton_inv_.swap(tangent_inv_);
+  tangent_index_.head(m) = free_.head(m);
+  tangent_force_.head(n) = F;
+  tangent_n_ = n;
+  tangent_m_ = m;
   return true;
 }
 
@@ -450,14 +471,19 @@ double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
   // The slope only steers the update of lambda (and its first-order force predictor), so the
   // factorization of an earlier iterate of this C on the same set serves: the safeguarded
   // Newton on lambda keeps its stopping test, the slope's error only slows it.
-  factored = !(options_.reuse_tangent && newton_current_ && same_as_newton(m));
-  if (factored) {
+  // So does the tangent this solve started from (the previous answer's, of a nearby C).
+  const bool reuse = options_.reuse_tangent;
+  factored = false;
+  if (reuse && newton_current_ && same_as_newton(m)) {
+    solve_factored(newton_, newton_inv_, m);
+  } else if (reuse && tangent_related_ && on_tangent_set(m)) {
+    solve_factored(tangent_, tangent_inv_, m);
+  } else {
+    factored = true;
     fault = factor_and_solve(C, m, slope_);
     newton_current_ = fault.position < 0;
     newton_m_ = m;
     newton_index_.head(m) = free_.head(m);
-  } else {
-    solve_factored(newton_, newton_inv_, m);
   }
   double slope = 0;
   for (int a = 0; a < m; ++a) slope += weights[free_[a]] * rhs_[a];
@@ -566,6 +592,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
   // the first inner solve may take its first step on the kept tangent, as in solve()
   newton_current_ = false;
   tangent_usable_ = options_.reuse_tangent && tangent_n_ == n && force == tangent_force_.head(n);
+  tangent_related_ = tangent_usable_;
   tangent_n_ = -1;
   // (counted as an iteration: it is a Newton step of the KKT system)
   if (tangent_usable_ && predict_total(C, delta0, weights, total_force, force, lambda))

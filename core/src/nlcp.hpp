@@ -62,8 +62,8 @@ struct NlcpOptions {
   // lambda) with that factorization (counted as an iteration), so that its first lambda is
   // nearly the answer's.
   // Within solve_total() the same rule reuses the factorization of this C that an earlier lambda
-  // made (its last slope, or a Newton step) for the first step of the next lambda and for a
-  // slope on the same set (the slope only steers the update of lambda).
+  // made (its last slope, or a Newton step) for the first step of the next lambda, and that one
+  // or the kept tangent for a slope on the same set (the slope only steers the update of lambda).
   // Saves one or two factorizations per call. false: factorize at every iteration.
   bool reuse_tangent = true;
   // Check that C is symmetric (and finite) on every call, an O(n^2) pass over both triangles.
@@ -135,6 +135,13 @@ class NlcpSolver {
                        const Eigen::Ref<const Eigen::VectorXd>& force,
                        Eigen::Ref<Eigen::VectorXd> row_sums);
 
+  // Instead of loaded_row_sums, for a caller that needs no tangent of this answer (a quasi-static
+  // pass that another pass follows): keep the factorization the solve last made of this C on
+  // the loaded set (at an earlier iterate) for the next solve's first step, as loaded_row_sums
+  // keeps its own. false (nothing kept) when reuse_tangent is off, force is not the last answer
+  // or there is no such factorization; the caller then calls loaded_row_sums.
+  bool keep_last_factorization(const Eigen::Ref<const Eigen::VectorXd>& force);
+
  private:
   using ConstMat = Eigen::Ref<const Eigen::MatrixXd>;
   using ConstVec = Eigen::Ref<const Eigen::VectorXd>;
@@ -155,6 +162,7 @@ class NlcpSolver {
   void solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv_diagonal, int m);
   Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
   bool same_as_tangent(int m) const;
+  bool on_tangent_set(int m) const;  // free_[0..m) is tangent_index_[0..tangent_m_)
   bool same_as_newton(int m) const;
   static const char* fault_message(const Fault& fault);
   NlcpResult iterate(const ConstMat& C, const ConstVec& delta, Eigen::Ref<Eigen::VectorXd> F);
@@ -200,6 +208,7 @@ class NlcpSolver {
   int tangent_n_ = -1;             // its number of unknowns; -1: none
   int tangent_m_ = 0;
   bool tangent_usable_ = false;    // this solve started from tangent_force_
+  bool tangent_related_ = false;   // solve_total: it did (tangent_ stays valid for its slopes)
   double phi_ = 0;            // Phi at the last evaluated F, J
 };
 

@@ -5,6 +5,7 @@
 //   (resultants.hpp). The pass functions are inline: gm_evaluate is the hot path.
 #pragma once
 
+#include <limits>
 #include <string>
 
 #include "contact_forces.hpp"
@@ -23,6 +24,9 @@ struct PassMode {
   bool all = false;
   bool quasi = false;
   double load = 0;
+  // quasi: a solved rigid approach |lambda| above this (m) is followed by another pass
+  // (evaluate.cpp), which replaces this pass's slice stiffness (level 5 then skips it)
+  double next_pass_above = std::numeric_limits<double>::infinity();
 };
 
 // Detection, TE excitation, repeated slices merged (levels 0-4, slice_merge.hpp) and slice laws
@@ -59,7 +63,7 @@ inline ForceSolve solve_forces(const gm_model& m, gm_data& d, const gm_kinematic
     if (!r.fallback) return r.solve;
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
   }
-  if (fe) return fe_solve(m, d, kin, n, mode.all, mode.quasi, mode.load);
+  if (fe) return fe_solve(m, d, kin, n, mode.all, mode.quasi, mode.load, mode.next_pass_above);
   if (mode.quasi)
     return solve_separable_total(d.laws.data(), d.slices.data(), d.balance.data(), n, mode.load,
                                  0.0, tol, max_it, d.approach.data(), d.forces.data(),
