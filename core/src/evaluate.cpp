@@ -64,7 +64,9 @@ gm_status quasi_static_solve(const gm_model& m, gm_data& d, double phi1_in, doub
 void store_resultants(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n,
                       gm_result& r) {
   ResultT<double> rt;
-  r.elastic_energy = elastic_energy(d.slices.data(), d.laws.data(), d.forces.data(), n);
+  r.elastic_energy = std::isnan(d.fe_energy)
+                         ? elastic_energy(d.slices.data(), d.laws.data(), d.forces.data(), n)
+                         : d.fe_energy;
   resultants(m, d.slices.data(), d.forces.data(), d.slice_stiffness.data(), kin, n, rt);
   for (int i = 0; i < 2; ++i) {
     for (int a = 0; a < 3; ++a) {

@@ -230,10 +230,20 @@ void fe_store(gm_data& d, int na, bool tangent) {
     d.fe_work.head(na).setZero();
   else
     d.nlcp->loaded_row_sums(Cn, d.fe_force.head(na), d.fe_work.head(na));
+  // U = sum_i [F_i (Delta_i + f_i)/2 - P_i] (resultants.hpp, elastic_energy) from the laws the
+  // solve holds at its answer, at the final approaches
+  double energy = 0;
   for (int a = 0; a < na; ++a) {
-    d.forces[d.fe_index[a]] = d.fe_force[a];
-    d.slice_stiffness[d.fe_index[a]] = d.fe_work[a];
+    const int i = d.fe_index[a];
+    const double F = d.fe_force[a];
+    d.forces[i] = F;
+    d.slice_stiffness[i] = d.fe_work[a];
+    if (F > 0) {
+      const LocalLawJet& law = d.nlcp->law_at_answer(a);
+      energy += 0.5 * F * (d.approach[i] + law.approach) - law.energy;
+    }
   }
+  d.fe_energy = energy;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include <limits>
 #include <memory>
 
 #include <Eigen/Core>
@@ -63,6 +64,9 @@ struct gm_data {
   gm::CoupledWorkspace coupled;          // level 4 coupled: the low-rank solve (coupled_forces.hpp)
   std::vector<long long> fe_key, fe_prev_key;  // slice identities (warm start if unchanged)
   int fe_prev_n = -1;                    // solved slices of the previous call (-1: none)
+  // elastic energy of the coupled solve's answer from the laws it holds there (fe_solve.cpp),
+  // J; NaN: this evaluation has none (resultants.hpp's elastic_energy computes it)
+  double fe_energy = std::numeric_limits<double>::quiet_NaN();
   gm::FeAssembly fe_assembly;            // cached face sums of the databases (derived data)
   Eigen::MatrixXd fe_dual_c;             // derivative: dC between the loaded slices, m/N
   Eigen::VectorXd fe_saved_force;        // derivative: the warm start, restored afterwards

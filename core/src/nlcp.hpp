@@ -135,6 +135,9 @@ class NlcpSolver {
                        const Eigen::Ref<const Eigen::VectorXd>& force,
                        Eigen::Ref<Eigen::VectorXd> row_sums);
 
+  // The local law's f_i, f'_i, f''_i and P_i at the last answer (solve, solve_total), i < its n.
+  const LocalLawJet& law_at_answer(int i) const { return jet_[i]; }
+
   // Instead of loaded_row_sums, for a caller that needs no tangent of this answer (a quasi-static
   // pass that another pass follows): keep the factorization the solve last made of this C on
   // the loaded set (at an earlier iterate) for the next solve's first step, as loaded_row_sums

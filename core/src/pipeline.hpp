@@ -52,6 +52,7 @@ inline ForceSolve solve_forces(const gm_model& m, gm_data& d, const gm_kinematic
   const bool fe = coupled_solve(m);  // level 5, level 4 with tooth coupling
   const double tol = m.params.solver_tolerance;
   const int max_it = m.params.solver_max_iterations;
+  d.fe_energy = std::numeric_limits<double>::quiet_NaN();  // fe_solve's answer sets it
   if (fe || !mode.quasi)  // the separable quasi-static solve writes the approaches itself
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
   if (fe && m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL) {

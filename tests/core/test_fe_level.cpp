@@ -498,3 +498,46 @@ TEST(FeLevel, QuasiStaticAgreesWithThePlainSolveAtItsTeOpenAndWedged) {
   const SmoothFe fe(base, "flanks5");
   gm_test::expect_quasi_static_equals_plain_at_its_te(fe.p);
 }
+
+// Level 5's elastic energy comes from the laws the coupled solve holds at its answer
+// (fe_solve.cpp, fe_store), not from the laws evaluated again: it equals
+// U = sum_i [F_i (Delta_i + f_i(F_i))/2 - P_i(F_i)] (resultants.hpp) recomputed here from the
+// solved slices with hertz.cpp's evaluate_local_law, plain and quasi-static (final approaches),
+// at poses with one and with two pairs in contact. (The potential property dU/dphi = -M of
+// level 0's test does not hold here: C and the Hertz radii move with the roll, which adds
+// -F^T dC F/2 and -dP/dR' dR' terms, ~3e-5 of the moment with this database.)
+double recomputed_energy(const gm_data& d) {
+  double u = 0;
+  for (int a = 0; a < d.fe_prev_n; ++a) {
+    const int i = d.fe_index[std::size_t(a)];
+    const double F = d.forces[std::size_t(i)];
+    if (!(F > 0)) continue;
+    const gm::LocalLawValue law = gm::evaluate_local_law(d.laws[std::size_t(i)].local, F);
+    u += 0.5 * F * (d.slices[std::size_t(i)].approach + law.approach) - law.energy;
+  }
+  return u;
+}
+
+TEST(FeLevel, ElasticEnergyIsTheSolvedSlicesEnergy) {
+  gm_model_params p = fe_paper(5);
+  p.quasi_static = 0;
+  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;  // for the databases' tooth sections
+  const FeFiles files = fe_files(p, "energy", Coupling{0.4, 0.2});
+  const gm_model_params p5 = at_level5(p, files);
+  gm_model_params pq = p5;
+  pq.quasi_static = 1;
+  Instance plain(p5), quasi(pq);
+  int pairs_seen[3] = {0, 0, 0};
+  for (double phi1 : {0.0, 0.013, 0.031, 0.05}) {
+    const gm_result r = plain.at(8e-6, phi1);
+    ASSERT_GT(r.elastic_energy, 0);
+    ++pairs_seen[std::min(r.pairs_in_contact, 2)];
+    EXPECT_NEAR(r.elastic_energy, recomputed_energy(*plain.d), 1e-12 * r.elastic_energy) << phi1;
+    const gm_result rq = quasi.loaded(phi1, 300);
+    EXPECT_NEAR(rq.elastic_energy, recomputed_energy(*quasi.d), 1e-12 * rq.elastic_energy) << phi1;
+    const gm_result rp = plain.at(rq.te, phi1);
+    EXPECT_NEAR(rq.elastic_energy, rp.elastic_energy, 1e-8 * rp.elastic_energy) << phi1;
+  }
+  EXPECT_GT(pairs_seen[1], 0);
+  EXPECT_GT(pairs_seen[2], 0);
+}
