@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <functional>
 #include <memory>
+#include <utility>
 #include <vector>
 
 namespace gm::fe {
@@ -88,7 +89,12 @@ class Solver {
   // The same for the stiffness of mesh (assemble_stiffness's), assembled straight into the
   // free-free block's lower triangle (its pattern from the node graph, the element matrices added
   // in element order: the same sums as assemble_stiffness) and the free-fixed block; no full K.
-  Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs);
+  // last_nodes (optional): nodes whose free dofs are ordered after all the others (METIS orders
+  // the rest): loads on them reach only the factor's trailing block, so solve_sparse's forward
+  // solve is a small dense one (the trailing block of L is the Cholesky factor of the Schur
+  // complement on them). Meant for a few thousand dofs at most (that block is dense).
+  Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs,
+         const std::vector<int>& last_nodes = {});
   ~Solver();
   Solver(const Solver&) = delete;
   Solver& operator=(const Solver&) = delete;
@@ -105,6 +111,7 @@ class Solver {
     double factor_seconds = 0;   // numerical (supernodal) factorization
     double lnz = 0, flops = 0;   // entries of L, flops of the factorization
     int ordering = -1;           // CHOLMOD_METIS (on the node graph), ...
+    int last_dofs = 0;           // free dofs ordered last (the constructor's last_nodes)
   };
   const Stats& stats() const { return stats_; }
 
@@ -120,10 +127,21 @@ class Solver {
   // copy of the full field: the caller reads the dofs it needs through free_index()).
   Eigen::Map<const Eigen::MatrixXd> solve_free(const Eigen::MatrixXd& F_free) const;
 
+  // Many load cases with sparse loads, only some responses wanted: the displacements of the free
+  // dofs `wanted` (row i: free dof wanted[i]) under the loads F_free (free_dofs() x cases, fixed
+  // dofs held at zero). The supernodal triangular solves run only where they matter: forward
+  // through the supernodes on the paths from the loaded columns to the root of the elimination
+  // tree (the rest of L^-1 F is zero), backward through those on the paths from the wanted
+  // columns (nothing else feeds them); the same operations as a full solve on those supernodes.
+  Eigen::MatrixXd solve_sparse(const Eigen::SparseMatrix<double>& F_free, const std::vector<int>& wanted) const;
+  // Share of L's entries the last solve_sparse went through, forward and backward (each 0..1).
+  std::pair<double, double> last_sparse_share() const;
+
  private:
   struct Factor;
   void number_dofs();  // free_, fixed_ (sorted, unique), index_
-  void factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff);  // lower triangle, CSC
+  void factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff,
+                 const std::vector<int>& last_nodes = {});  // lower triangle, CSC
   int n_ = 0;
   std::vector<int> free_;   // full dof of each free dof
   std::vector<int> fixed_;  // full dof of each fixed dof
