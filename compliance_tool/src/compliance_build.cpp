@@ -712,22 +712,6 @@ void solve_set(Build& B, const fe::Solver& solver, std::size_t si, int total, in
   if (!B.unloaded.empty()) reduce_unloaded(B, S, blocks);
 }
 
-// The nodes the loads act on (every load set's), to be ordered last in the factorization: then a
-// load reaches only the factor's trailing block (its forward solve is a small dense one) and the
-// solves are backward ones through the supernodes the readings need (fe::Solver::solve_sparse).
-// That block is dense, (3 n)^2 / 2 entries for n nodes: none beyond kMaxLastNodes (then the
-// ordering is METIS's on the whole graph and the forward solves run through the loads' paths).
-constexpr std::size_t kMaxLastNodes = 2000;  // 6000 dofs: 18 M entries, 144 MB
-std::vector<int> last_nodes(const Build& B) {
-  std::vector<int> nodes;
-  for (const LoadSet& ls : B.sets)
-    for (int j : B.loaded) probe_nodes((*ls.surf)[j], nodes);
-  std::sort(nodes.begin(), nodes.end());
-  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-  if (nodes.size() > kMaxLastNodes) nodes.clear();
-  return nodes;
-}
-
 // 5.-6. Assemble, clamp the bore, factorize; the solves of every load set.
 gm_status solve_all(Build& B) {
   BuildStats& stats = B.stats;
@@ -738,9 +722,8 @@ gm_status solve_all(Build& B) {
   B.result.resize(B.sets.size());
   try {
     B.say("assembling and factorizing (CHOLMOD, " + std::to_string(stats.dofs) + " dofs) ...");
-    // assembled straight into the free-free block (no full K), then factorized with the loaded
-    // nodes last (see last_nodes)
-    const fe::Solver solver(B.fm, mat, fe::dofs_of_nodes(B.body.clamped_nodes), last_nodes(B));
+    // assembled straight into the free-free block (no full K), then factorized
+    const fe::Solver solver(B.fm, mat, fe::dofs_of_nodes(B.body.clamped_nodes));
     const fe::Solver::Stats& fs = solver.stats();
     stats.assembly_seconds = fs.setup_seconds;
     stats.factor_seconds = fs.analyze_seconds + fs.factor_seconds;
@@ -749,7 +732,7 @@ gm_status solve_all(Build& B) {
       s << "  assembly " << stats.assembly_seconds << " s, factorization " << stats.factor_seconds
         << " s (ordering " << fe::cholmod_ordering_name(fs.ordering) << " and analysis "
         << fs.analyze_seconds << " s, numerical " << fs.factor_seconds << " s; lnz " << fs.lnz << ", "
-        << fs.flops << " flops; " << fs.last_dofs << " loaded dofs ordered last)";
+        << fs.flops << " flops)";
       B.say(s.str());
     }
     const auto t0 = Clock::now();

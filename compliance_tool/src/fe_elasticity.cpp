@@ -354,44 +354,11 @@ cholmod_sparse cholmod_lower_view(std::size_t n, std::size_t nzmax, int* p, int*
   return s;
 }
 
-// METIS's nested dissection (through CHOLMOD) of the node graph restricted to the groups `keep`
-// (ascending): their order, as groups. Kff, group, first: as in node_graph_metis_order.
-std::vector<int> metis_on_groups(const Eigen::Ref<Eigen::SparseMatrix<double>>& Kff, const std::vector<int>& group,
-                                 const std::vector<int>& first, const std::vector<int>& keep, cholmod_common& c) {
-  const int ng = static_cast<int>(first.size()) - 1, nk = static_cast<int>(keep.size());
-  if (nk == 0) return {};
-  std::vector<int> local(ng, -1);  // group -> its index among keep
-  for (int q = 0; q < nk; ++q) local[keep[q]] = q;
-  // Lower triangle of the graph (no diagonal), column by column with a marker.
-  std::vector<int> p(nk + 1, 0), rows, mark(nk, -1);
-  rows.reserve(static_cast<std::size_t>(Kff.nonZeros() / 6 + nk));
-  for (int q = 0; q < nk; ++q) {
-    const std::size_t start = rows.size();
-    for (int j = first[keep[q]]; j < first[keep[q] + 1]; ++j)
-      for (Eigen::Ref<Eigen::SparseMatrix<double>>::InnerIterator it(Kff, j); it; ++it) {
-        const int h = local[group[it.row()]];
-        if (h > q && mark[h] != q) mark[h] = q, rows.push_back(h);
-      }
-    std::sort(rows.begin() + static_cast<std::ptrdiff_t>(start), rows.end());
-    p[q + 1] = static_cast<int>(rows.size());
-  }
-  rows.resize(std::max<std::size_t>(1, rows.size()));
-  cholmod_sparse G = cholmod_lower_view(static_cast<std::size_t>(nk), rows.size(), p.data(),
-                                        rows.data(), nullptr);
-  std::vector<int> order(nk);
-  if (!cholmod_metis(&G, nullptr, 0, 1, order.data(), &c))
-    throw std::runtime_error("fe: CHOLMOD's METIS ordering failed (status " + std::to_string(c.status) + ")");
-  for (int& q : order) q = keep[q];
-  return order;
-}
-
 // Fill-reducing order of the free dofs: METIS (through CHOLMOD) on the graph of their nodes
 // (group of free dof i: its full dof / 3), each node's free dofs then together in ascending order.
-// The nodes marked in last_node (indexed by node; empty: none) come after all the others,
-// ascending, and METIS orders the graph without them.
 // Kff: the free-free block's lower triangle (CSC), free: full dof of each free dof (ascending).
 std::vector<int> node_graph_metis_order(const Eigen::Ref<Eigen::SparseMatrix<double>>& Kff, const std::vector<int>& free,
-                                        const std::vector<char>& last_node, cholmod_common& c) {
+                                        cholmod_common& c) {
   const int nf = static_cast<int>(free.size());
   std::vector<int> group(nf), first;  // group of each free dof; first free dof of each group
   for (int i = 0; i < nf; ++i) {
@@ -400,13 +367,25 @@ std::vector<int> node_graph_metis_order(const Eigen::Ref<Eigen::SparseMatrix<dou
   }
   const int ng = static_cast<int>(first.size());
   first.push_back(nf);
-  std::vector<int> keep, last;
+  // Lower triangle of the node graph (no diagonal), column by column with a marker.
+  std::vector<int> p(ng + 1, 0), rows, mark(ng, -1);
+  rows.reserve(static_cast<std::size_t>(Kff.nonZeros() / 6 + ng));
   for (int g = 0; g < ng; ++g) {
-    const std::size_t node = static_cast<std::size_t>(free[first[g]] / 3);
-    (node < last_node.size() && last_node[node] ? last : keep).push_back(g);
+    const std::size_t start = rows.size();
+    for (int j = first[g]; j < first[g + 1]; ++j)
+      for (Eigen::Ref<Eigen::SparseMatrix<double>>::InnerIterator it(Kff, j); it; ++it) {
+        const int h = group[it.row()];
+        if (h > g && mark[h] != g) mark[h] = g, rows.push_back(h);
+      }
+    std::sort(rows.begin() + static_cast<std::ptrdiff_t>(start), rows.end());
+    p[g + 1] = static_cast<int>(rows.size());
   }
-  std::vector<int> gperm = metis_on_groups(Kff, group, first, keep, c);
-  gperm.insert(gperm.end(), last.begin(), last.end());
+  rows.resize(std::max<std::size_t>(1, rows.size()));
+  cholmod_sparse G = cholmod_lower_view(static_cast<std::size_t>(ng), rows.size(), p.data(),
+                                        rows.data(), nullptr);
+  std::vector<int> gperm(ng);
+  if (!cholmod_metis(&G, nullptr, 0, 1, gperm.data(), &c))
+    throw std::runtime_error("fe: CHOLMOD's METIS ordering failed (status " + std::to_string(c.status) + ")");
   std::vector<int> perm;
   perm.reserve(nf);
   for (int g : gperm)
@@ -463,7 +442,7 @@ Solver::Solver(const Eigen::SparseMatrix<double>& K, std::vector<int> fixed_dofs
   factorize(Kff);
 }
 
-Solver::Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs, const std::vector<int>& last_nodes)
+Solver::Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs)
     : n_(3 * static_cast<int>(mesh.nodes.size())), fixed_(std::move(fixed_dofs)), factor_(std::make_unique<Factor>()) {
   const auto t0 = Clock::now();
   number_dofs();
@@ -536,10 +515,10 @@ Solver::Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs,
   std::vector<Eigen::Triplet<double>>().swap(fc);
   Eigen::Map<Eigen::SparseMatrix<double>> Kff(nf, nf, static_cast<Eigen::Index>(ri.size()), cp.data(), ri.data(), val.data());
   stats_.setup_seconds = seconds_since(t0);
-  factorize(Kff, last_nodes);
+  factorize(Kff);
 }
 
-void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff, const std::vector<int>& last_nodes) {
+void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff) {
   auto t0 = Clock::now();
   cholmod_common& c = factor_->c;
   c.supernodal = CHOLMOD_SUPERNODAL;
@@ -550,13 +529,7 @@ void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff, const std::v
   cholmod_sparse A = cholmod_lower_view(static_cast<std::size_t>(Kff.rows()),
                                         static_cast<std::size_t>(Kff.nonZeros()),
                                         Kff.outerIndexPtr(), Kff.innerIndexPtr(), Kff.valuePtr());
-  std::vector<char> last_node(static_cast<std::size_t>(n_ / 3), 0);
-  for (int v : last_nodes) {
-    if (v < 0 || v >= n_ / 3) throw std::runtime_error("fe: last node out of range");
-    last_node[static_cast<std::size_t>(v)] = 1;
-  }
-  for (int d : free_) stats_.last_dofs += last_node[static_cast<std::size_t>(d / 3)];
-  std::vector<int> perm = node_graph_metis_order(Kff, free_, last_node, c);
+  std::vector<int> perm = node_graph_metis_order(Kff, free_, c);
   factor_->L = cholmod_analyze_p(&A, perm.data(), nullptr, 0, &c);
   stats_.analyze_seconds = seconds_since(t0);
   if (!factor_->L)

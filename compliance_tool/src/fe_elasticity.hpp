@@ -89,12 +89,7 @@ class Solver {
   // The same for the stiffness of mesh (assemble_stiffness's), assembled straight into the
   // free-free block's lower triangle (its pattern from the node graph, the element matrices added
   // in element order: the same sums as assemble_stiffness) and the free-fixed block; no full K.
-  // last_nodes (optional): nodes whose free dofs are ordered after all the others (METIS orders
-  // the rest): loads on them reach only the factor's trailing block, so solve_sparse's forward
-  // solve is a small dense one (the trailing block of L is the Cholesky factor of the Schur
-  // complement on them). Meant for a few thousand dofs at most (that block is dense).
-  Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs,
-         const std::vector<int>& last_nodes = {});
+  Solver(const Mesh& mesh, const Material& m, std::vector<int> fixed_dofs);
   ~Solver();
   Solver(const Solver&) = delete;
   Solver& operator=(const Solver&) = delete;
@@ -111,7 +106,6 @@ class Solver {
     double factor_seconds = 0;   // numerical (supernodal) factorization
     double lnz = 0, flops = 0;   // entries of L, flops of the factorization
     int ordering = -1;           // CHOLMOD_METIS (on the node graph), ...
-    int last_dofs = 0;           // free dofs ordered last (the constructor's last_nodes)
   };
   const Stats& stats() const { return stats_; }
 
@@ -140,8 +134,7 @@ class Solver {
  private:
   struct Factor;
   void number_dofs();  // free_, fixed_ (sorted, unique), index_
-  void factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff,
-                 const std::vector<int>& last_nodes = {});  // lower triangle, CSC
+  void factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff);  // lower triangle, CSC
   int n_ = 0;
   std::vector<int> free_;   // full dof of each free dof
   std::vector<int> fixed_;  // full dof of each fixed dof
