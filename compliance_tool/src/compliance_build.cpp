@@ -731,7 +731,8 @@ gm_status solve_all(Build& B) {
       std::ostringstream s;
       s << "  assembly " << stats.assembly_seconds << " s, factorization " << stats.factor_seconds
         << " s (ordering " << fe::cholmod_ordering_name(fs.ordering) << " and analysis "
-        << fs.analyze_seconds << " s, numerical " << fs.factor_seconds << " s; lnz " << fs.lnz << ", "
+        << fs.analyze_seconds << " s, numerical " << fs.factor_seconds << " s; lnz " << fs.lnz
+        << ", stored " << fs.stored << ", "
         << fs.flops << " flops)";
       B.say(s.str());
     }

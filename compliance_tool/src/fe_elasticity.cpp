@@ -539,6 +539,7 @@ void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff) {
   stats_.factor_seconds = seconds_since(t0);
   stats_.lnz = c.lnz;
   stats_.flops = c.fl;
+  stats_.stored = static_cast<double>(factor_->L->xsize);
   stats_.ordering = CHOLMOD_METIS;
   ++g_factorizations;
   if (!ok || c.status != CHOLMOD_OK || factor_->L->minor < factor_->L->n)

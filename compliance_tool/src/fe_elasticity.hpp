@@ -105,6 +105,8 @@ class Solver {
     double analyze_seconds = 0;  // fill-reducing ordering and symbolic analysis
     double factor_seconds = 0;   // numerical (supernodal) factorization
     double lnz = 0, flops = 0;   // entries of L, flops of the factorization
+    double stored = 0;           // values L holds (its supernodes' trapezoids, with the zeros
+                                 // of relaxed amalgamation): 8 bytes each
     int ordering = -1;           // CHOLMOD_METIS (on the node graph), ...
   };
   const Stats& stats() const { return stats_; }
