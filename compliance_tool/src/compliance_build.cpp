@@ -688,10 +688,13 @@ void solve_set(Build& B, const fe::Solver& solver, std::size_t si, int total, in
   blocks.assign(nd, std::vector<double>(std::size_t(n_grid) * n_grid, 0.0));
   std::vector<int> row;
   const std::vector<int> wanted = read_dofs(B, ls, solver, row);
+  if (B.o.full_solves) std::iota(row.begin(), row.end(), 0);  // U holds every free dof
   Eigen::MatrixXd S(n_grid, nL);
   for (int c0 = 0; c0 < nL; c0 += batch) {
     const int nb = std::min(batch, nL - c0);
-    const Eigen::MatrixXd U = solver.solve_sparse(load_block(B, ls, solver, c0, nb), wanted);
+    const Eigen::SparseMatrix<double> F = load_block(B, ls, solver, c0, nb);
+    const Eigen::MatrixXd U = B.o.full_solves ? Eigen::MatrixXd(solver.solve_free(Eigen::MatrixXd(F)))
+                                              : solver.solve_sparse(F, wanted);
     for (int c = 0; c < nb; ++c) {
       const int j = loaded[c0 + c];
       for (int d = 0; d < nd; ++d)
