@@ -175,19 +175,27 @@ class Locator {
 // Reading (or load) at a point: the displacement (or force) along n, distributed on the nodes of
 // the element containing the point with the TET10 shape functions (a point load anywhere is the
 // transpose of this reading: consistent nodal forces N_a(x) n).
-// U: the free dofs' displacements (fe::Solver::solve_free), column c; fixed dofs are zero.
-double reading(const Probe& pr, const fe::Solver& solver, const Eigen::Map<const Eigen::MatrixXd>& U, int c) {
+// U: displacements of some free dofs (fe::Solver::solve_sparse), row[f] the row of free dof f
+// (-1: not there, read as zero), column c; fixed dofs are zero.
+double reading(const Probe& pr, const fe::Solver& solver, const Eigen::MatrixXd& U,
+               const std::vector<int>& row, int c) {
   double w = 0;
   for (int a = 0; a < 10; ++a) {
     if (pr.weight[a] == 0) continue;
     Eigen::Vector3d u;
     for (int i = 0; i < 3; ++i) {
       const int f = solver.free_index(3 * pr.nodes[a] + i);
-      u(i) = f >= 0 ? U(f, c) : 0.0;
+      u(i) = f >= 0 && row[f] >= 0 ? U(row[f], c) : 0.0;
     }
     w += pr.weight[a] * pr.n.dot(u);
   }
   return w;
+}
+
+// The nodes a probe weighs (nonzero shape function value), appended to out.
+void probe_nodes(const Probe& pr, std::vector<int>& out) {
+  for (int a = 0; a < 10; ++a)
+    if (pr.weight[a] != 0) out.push_back(pr.nodes[a]);
 }
 
 std::string eta_text(double elapsed, double done, double total) {
@@ -632,6 +640,43 @@ void reduce_unloaded(const Build& B, const Eigen::MatrixXd& S, std::vector<std::
 
 // 6. One load set's solves: its loaded columns in batches, then the unloaded ones. done: the
 // solves so far (progress), of total; t0: when the solves started.
+// The free dofs a load set's readings need (its depth probes, and its surface probes if some
+// grid points are not loaded), ascending; row: free dof -> its index there, or -1.
+std::vector<int> read_dofs(const Build& B, const LoadSet& ls, const fe::Solver& solver, std::vector<int>& row) {
+  std::vector<int> nodes, dofs;
+  for (const auto* probes : ls.depth)
+    for (const Probe& pr : *probes) probe_nodes(pr, nodes);
+  if (!B.unloaded.empty())
+    for (const Probe& pr : *ls.surf) probe_nodes(pr, nodes);
+  row.assign(std::size_t(solver.free_dofs()), -1);
+  for (int v : nodes)
+    for (int i = 0; i < 3; ++i) {
+      const int f = solver.free_index(3 * v + i);
+      if (f >= 0) row[f] = 0;
+    }
+  for (int f = 0; f < solver.free_dofs(); ++f)
+    if (row[f] == 0) row[f] = int(dofs.size()), dofs.push_back(f);
+  return dofs;
+}
+
+// Loads of the cases loaded[c0 .. c0 + nb) of a load set on the free dofs (a clamped node takes
+// none): unit forces along n, on the nodes of the element at the point (see reading()).
+Eigen::SparseMatrix<double> load_block(const Build& B, const LoadSet& ls, const fe::Solver& solver, int c0, int nb) {
+  std::vector<Eigen::Triplet<double>> t;
+  for (int c = 0; c < nb; ++c) {
+    const Probe& lp = (*ls.surf)[B.loaded[c0 + c]];
+    for (int a = 0; a < 10; ++a)
+      if (lp.weight[a] != 0)
+        for (int i = 0; i < 3; ++i) {
+          const int f = solver.free_index(3 * lp.nodes[a] + i);
+          if (f >= 0) t.emplace_back(f, c, lp.weight[a] * lp.n(i));
+        }
+  }
+  Eigen::SparseMatrix<double> F(solver.free_dofs(), nb);
+  F.setFromTriplets(t.begin(), t.end());  // duplicates summed
+  return F;
+}
+
 void solve_set(Build& B, const fe::Solver& solver, std::size_t si, int total, int& done,
                Clock::time_point t0) {
   const LoadSet& ls = B.sets[si];
@@ -641,33 +686,30 @@ void solve_set(Build& B, const fe::Solver& solver, std::size_t si, int total, in
   const int batch = (nL + batches - 1) / std::max(1, batches);  // even batches
   auto& blocks = B.result[si];
   blocks.assign(nd, std::vector<double>(std::size_t(n_grid) * n_grid, 0.0));
-  Eigen::MatrixXd S(n_grid, nL), F;
+  std::vector<int> row;
+  const std::vector<int> wanted = read_dofs(B, ls, solver, row);
+  if (B.o.full_solves) std::iota(row.begin(), row.end(), 0);  // U holds every free dof
+  Eigen::MatrixXd S(n_grid, nL);
   for (int c0 = 0; c0 < nL; c0 += batch) {
     const int nb = std::min(batch, nL - c0);
-    F.setZero(solver.free_dofs(), nb);  // loads on the free dofs (a clamped node takes none)
-    for (int c = 0; c < nb; ++c) {
-      const Probe& lp = (*ls.surf)[loaded[c0 + c]];
-      for (int a = 0; a < 10; ++a)
-        if (lp.weight[a] != 0)
-          for (int i = 0; i < 3; ++i) {
-            const int f = solver.free_index(3 * lp.nodes[a] + i);
-            if (f >= 0) F(f, c) += lp.weight[a] * lp.n(i);
-          }
-    }
-    const Eigen::Map<const Eigen::MatrixXd> U = solver.solve_free(F);
+    const Eigen::SparseMatrix<double> F = load_block(B, ls, solver, c0, nb);
+    const Eigen::MatrixXd U = B.o.full_solves ? Eigen::MatrixXd(solver.solve_free(Eigen::MatrixXd(F)))
+                                              : solver.solve_sparse(F, wanted);
     for (int c = 0; c < nb; ++c) {
       const int j = loaded[c0 + c];
       for (int d = 0; d < nd; ++d)
         for (int k = 0; k < n_grid; ++k)
-          blocks[d][std::size_t(k) * n_grid + j] = reading((*ls.depth[d])[k], solver, U, c) / kMm;  // m/N
+          blocks[d][std::size_t(k) * n_grid + j] = reading((*ls.depth[d])[k], solver, U, row, c) / kMm;  // m/N
       if (!B.unloaded.empty())
-        for (int k = 0; k < n_grid; ++k) S(k, c0 + c) = reading((*ls.surf)[k], solver, U, c);
+        for (int k = 0; k < n_grid; ++k) S(k, c0 + c) = reading((*ls.surf)[k], solver, U, row, c);
     }
     done += nb;
     std::ostringstream s;
     s << "  solves " << done << "/" << total;
     if (B.sets.size() > 1) s << " (tooth " << ls.t << (ls.f ? " flank B" : "") << ")";
-    s << ", " << eta_text(seconds_since(t0), done, total);
+    const auto share = solver.last_sparse_share();
+    s << ", " << eta_text(seconds_since(t0), done, total) << " (through " << std::lround(100 * share.first)
+      << " % of L forward, " << std::lround(100 * share.second) << " % backward)";
     B.say(s.str());
   }
   if (!B.unloaded.empty()) reduce_unloaded(B, S, blocks);
@@ -692,7 +734,8 @@ gm_status solve_all(Build& B) {
       std::ostringstream s;
       s << "  assembly " << stats.assembly_seconds << " s, factorization " << stats.factor_seconds
         << " s (ordering " << fe::cholmod_ordering_name(fs.ordering) << " and analysis "
-        << fs.analyze_seconds << " s, numerical " << fs.factor_seconds << " s; lnz " << fs.lnz << ", "
+        << fs.analyze_seconds << " s, numerical " << fs.factor_seconds << " s; lnz " << fs.lnz
+        << ", stored " << fs.stored << ", "
         << fs.flops << " flops)";
       B.say(s.str());
     }

@@ -81,6 +81,8 @@ struct BuildOptions {
   bool every_tooth = false;    // load every distinct tooth even on a cyclic body (cyclic = 0)
   double load_fraction = 1.0;  // share of the flank grid loaded, (0, 1]; the rest from the
                                // reduction space (see the header comment)
+  bool full_solves = false;    // CHOLMOD's solves of the whole field instead of the sparse ones
+                               // (fe::Solver::solve_sparse): the reference the tests compare with
   std::string note;            // appended to the database note
   std::string write_mesh;      // if set: the body mesh used is also written there (gmsh .msh),
                                // e.g. to inspect it or to edit it and feed it back as mesh_file

@@ -9,6 +9,15 @@
 #include <stdexcept>
 #include <string>
 
+// The BLAS under CHOLMOD (Fortran interface), for solve_sparse's supernodal solves.
+extern "C" {
+void dgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
+            const double* alpha, const double* a, const int* lda, const double* b, const int* ldb,
+            const double* beta, double* c, const int* ldc);
+void dtrsm_(const char* side, const char* uplo, const char* transa, const char* diag, const int* m,
+            const int* n, const double* alpha, const double* a, const int* lda, double* b, const int* ldb);
+}
+
 namespace gm::fe {
 
 namespace {
@@ -220,7 +229,110 @@ struct Solver::Factor {
     if (!cholmod_solve2(CHOLMOD_A, L, &B, nullptr, &X, nullptr, &Y, &E, &c))
       throw std::runtime_error("fe: CHOLMOD solve failed (status " + std::to_string(c.status) + ")");
   }
+
+  // solve_sparse's view of the supernodal factor (filled by index() on first use): the supernode
+  // of each column, each supernode's parent in the elimination tree (-1: a root), and the
+  // position of each free dof in the factor's order (the inverse of L->Perm).
+  std::vector<int> super_of, parent, iperm;
+  std::pair<double, double> share{0.0, 0.0};  // of the last solve_sparse: forward, backward
+  const int* super() const { return static_cast<const int*>(L->super); }
+  const int* pi() const { return static_cast<const int*>(L->pi); }
+  const int* px() const { return static_cast<const int*>(L->px); }
+  const int* rows() const { return static_cast<const int*>(L->s); }
+  const double* lx() const { return static_cast<const double*>(L->x); }
+  int nsuper() const { return static_cast<int>(L->nsuper); }
+  void index();
+  std::vector<char> paths(const std::vector<int>& cols) const;
+  double entries(const std::vector<char>& on) const;
+  void forward(double* X, int nb, const std::vector<int>& pos, const std::vector<char>& on) const;
+  void backward(double* X, int nb, const std::vector<int>& pos, const std::vector<char>& on) const;
 };
+
+void Solver::Factor::index() {
+  if (!super_of.empty()) return;
+  if (!L->is_super || !L->is_ll || L->xtype != CHOLMOD_REAL)
+    throw std::runtime_error("fe: solve_sparse needs CHOLMOD's supernodal LL^T factor");
+  const int n = static_cast<int>(L->n), ns = nsuper();
+  const int* perm = static_cast<const int*>(L->Perm);
+  super_of.assign(n, 0);
+  parent.assign(ns, -1);
+  iperm.assign(n, 0);
+  for (int k = 0; k < n; ++k) iperm[perm[k]] = k;
+  for (int s = 0; s < ns; ++s)
+    for (int j = super()[s]; j < super()[s + 1]; ++j) super_of[j] = s;
+  for (int s = 0; s < ns; ++s) {
+    const int nscol = super()[s + 1] - super()[s];
+    if (pi()[s + 1] - pi()[s] > nscol) parent[s] = super_of[rows()[pi()[s] + nscol]];
+  }
+}
+
+// The supernodes of the columns cols (in the factor's order) and all their ancestors: where a
+// forward solve with loads on cols is not zero, or what a backward solve for cols reads.
+std::vector<char> Solver::Factor::paths(const std::vector<int>& cols) const {
+  std::vector<char> on(parent.size(), 0);
+  for (int j : cols) on[super_of[j]] = 1;
+  for (std::size_t s = 0; s < on.size(); ++s)  // a parent comes after its children
+    if (on[s] && parent[s] >= 0) on[parent[s]] = 1;
+  return on;
+}
+
+// Entries of L in the supernodes marked on (as stored: each supernode's full trapezoid).
+double Solver::Factor::entries(const std::vector<char>& on) const {
+  double sum = 0;
+  for (int s = 0; s < nsuper(); ++s)
+    if (on[s]) sum += double(pi()[s + 1] - pi()[s]) * double(super()[s + 1] - super()[s]);
+  return sum;
+}
+
+// X: the cases as rows (nb x columns, column-major: a column's nb values together), column j of
+// the factor at X + nb pos[j] (a supernode's columns are consecutive). Forward: L y = b on the
+// supernodes marked on, ascending: each one's diagonal block (TRSM), then its update of the rows
+// below (GEMM into a workspace, subtracted at those rows).
+void Solver::Factor::forward(double* X, int nb, const std::vector<int>& pos, const std::vector<char>& on) const {
+  const double one = 1.0, zero = 0.0;
+  std::vector<double> E;
+  for (int s = 0; s < nsuper(); ++s) {
+    if (!on[s]) continue;
+    const int k1 = super()[s], nscol = super()[s + 1] - k1, nsrow = pi()[s + 1] - pi()[s];
+    const int nr = nsrow - nscol;
+    const double* Ls = lx() + px()[s];
+    double* C = X + std::size_t(nb) * std::size_t(pos[k1]);
+    dtrsm_("R", "L", "T", "N", &nb, &nscol, &one, Ls, &nsrow, C, &nb);  // y^T L_ss^T = b^T
+    if (nr == 0) continue;
+    E.resize(std::size_t(nb) * std::size_t(nr));
+    dgemm_("N", "T", &nb, &nr, &nscol, &one, C, &nb, Ls + nscol, &nsrow, &zero, E.data(), &nb);
+    const int* r = rows() + pi()[s] + nscol;
+    for (int q = 0; q < nr; ++q) {
+      double* dst = X + std::size_t(nb) * std::size_t(pos[r[q]]);
+      const double* src = E.data() + std::size_t(nb) * q;
+      for (int c = 0; c < nb; ++c) dst[c] -= src[c];
+    }
+  }
+}
+
+// Backward: L^T x = y on the supernodes marked on, descending: gather the rows below (already
+// solved), subtract their contribution (GEMM), then the diagonal block (TRSM).
+void Solver::Factor::backward(double* X, int nb, const std::vector<int>& pos, const std::vector<char>& on) const {
+  const double one = 1.0, minus_one = -1.0;
+  std::vector<double> E;
+  for (int s = nsuper() - 1; s >= 0; --s) {
+    if (!on[s]) continue;
+    const int k1 = super()[s], nscol = super()[s + 1] - k1, nsrow = pi()[s + 1] - pi()[s];
+    const int nr = nsrow - nscol;
+    const double* Ls = lx() + px()[s];
+    double* C = X + std::size_t(nb) * std::size_t(pos[k1]);
+    if (nr > 0) {
+      E.resize(std::size_t(nb) * std::size_t(nr));
+      const int* r = rows() + pi()[s] + nscol;
+      for (int q = 0; q < nr; ++q) {
+        const double* src = X + std::size_t(nb) * std::size_t(pos[r[q]]);
+        std::copy(src, src + nb, E.data() + std::size_t(nb) * q);
+      }
+      dgemm_("N", "N", &nb, &nscol, &nr, &minus_one, E.data(), &nb, Ls + nscol, &nsrow, &one, C, &nb);
+    }
+    dtrsm_("R", "L", "N", "N", &nb, &nscol, &one, Ls, &nsrow, C, &nb);  // x^T L_ss = y^T
+  }
+}
 
 namespace {
 
@@ -427,6 +539,7 @@ void Solver::factorize(Eigen::Ref<Eigen::SparseMatrix<double>> Kff) {
   stats_.factor_seconds = seconds_since(t0);
   stats_.lnz = c.lnz;
   stats_.flops = c.fl;
+  stats_.stored = static_cast<double>(factor_->L->xsize);
   stats_.ordering = CHOLMOD_METIS;
   ++g_factorizations;
   if (!ok || c.status != CHOLMOD_OK || factor_->L->minor < factor_->L->n)
@@ -443,6 +556,42 @@ Eigen::Map<const Eigen::MatrixXd> Solver::solve_free(const Eigen::MatrixXd& F_fr
   return Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(X->x), static_cast<Eigen::Index>(X->nrow),
                                            static_cast<Eigen::Index>(X->ncol));
 }
+
+Eigen::MatrixXd Solver::solve_sparse(const Eigen::SparseMatrix<double>& F_free, const std::vector<int>& wanted) const {
+  if (F_free.rows() != free_dofs()) throw std::runtime_error("fe: free load matrix of the wrong size");
+  Factor& f = *factor_;
+  f.index();
+  const int nb = static_cast<int>(F_free.cols());
+  std::vector<int> loaded_cols, wanted_cols;
+  for (int c = 0; c < F_free.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(F_free, c); it; ++it) loaded_cols.push_back(f.iperm[it.row()]);
+  for (int w : wanted) {
+    if (w < 0 || w >= free_dofs()) throw std::runtime_error("fe: wanted dof out of range");
+    wanted_cols.push_back(f.iperm[w]);
+  }
+  const std::vector<char> fwd = f.paths(loaded_cols), bwd = f.paths(wanted_cols);
+  // Storage for the columns of the supernodes either solve touches, in the factor's order.
+  std::vector<int> pos(static_cast<std::size_t>(free_dofs()), -1);
+  int count = 0;
+  for (int s = 0; s < f.nsuper(); ++s)
+    if (fwd[s] || bwd[s])
+      for (int j = f.super()[s]; j < f.super()[s + 1]; ++j) pos[j] = count++;
+  std::vector<double> X(std::size_t(nb) * std::size_t(count), 0.0);
+  for (int c = 0; c < F_free.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(F_free, c); it; ++it)
+      X[std::size_t(nb) * std::size_t(pos[f.iperm[it.row()]]) + std::size_t(c)] += it.value();
+  f.forward(X.data(), nb, pos, fwd);
+  f.backward(X.data(), nb, pos, bwd);
+  const double total = f.entries(std::vector<char>(static_cast<std::size_t>(f.nsuper()), 1));
+  f.share = {f.entries(fwd) / total, f.entries(bwd) / total};
+  Eigen::MatrixXd U(static_cast<Eigen::Index>(wanted.size()), nb);
+  for (std::size_t i = 0; i < wanted.size(); ++i)
+    for (int c = 0; c < nb; ++c)
+      U(static_cast<Eigen::Index>(i), c) = X[std::size_t(nb) * std::size_t(pos[wanted_cols[i]]) + std::size_t(c)];
+  return U;
+}
+
+std::pair<double, double> Solver::last_sparse_share() const { return factor_->share; }
 
 Eigen::VectorXd Solver::solve(const Eigen::VectorXd& f, const Eigen::VectorXd& u_fixed) const {
   if (f.size() != n_ || (u_fixed.size() != 0 && u_fixed.size() != n_))

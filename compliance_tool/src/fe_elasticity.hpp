@@ -14,6 +14,7 @@
 #include <cstddef>
 #include <functional>
 #include <memory>
+#include <utility>
 #include <vector>
 
 namespace gm::fe {
@@ -104,6 +105,8 @@ class Solver {
     double analyze_seconds = 0;  // fill-reducing ordering and symbolic analysis
     double factor_seconds = 0;   // numerical (supernodal) factorization
     double lnz = 0, flops = 0;   // entries of L, flops of the factorization
+    double stored = 0;           // values L holds (its supernodes' trapezoids, with the zeros
+                                 // of relaxed amalgamation): 8 bytes each
     int ordering = -1;           // CHOLMOD_METIS (on the node graph), ...
   };
   const Stats& stats() const { return stats_; }
@@ -119,6 +122,16 @@ class Solver {
   // displacements of the free dofs, in CHOLMOD's own storage, valid until the next solve (no
   // copy of the full field: the caller reads the dofs it needs through free_index()).
   Eigen::Map<const Eigen::MatrixXd> solve_free(const Eigen::MatrixXd& F_free) const;
+
+  // Many load cases with sparse loads, only some responses wanted: the displacements of the free
+  // dofs `wanted` (row i: free dof wanted[i]) under the loads F_free (free_dofs() x cases, fixed
+  // dofs held at zero). The supernodal triangular solves run only where they matter: forward
+  // through the supernodes on the paths from the loaded columns to the root of the elimination
+  // tree (the rest of L^-1 F is zero), backward through those on the paths from the wanted
+  // columns (nothing else feeds them); the same operations as a full solve on those supernodes.
+  Eigen::MatrixXd solve_sparse(const Eigen::SparseMatrix<double>& F_free, const std::vector<int>& wanted) const;
+  // Share of L's entries the last solve_sparse went through, forward and backward (each 0..1).
+  std::pair<double, double> last_sparse_share() const;
 
  private:
   struct Factor;

@@ -197,6 +197,26 @@ TEST(ComplianceBuild, NeighbourCouplingIsSmallerAndPositive) {
 // Load fraction 0.6: 21 of the 35 grid points loaded, the other columns from the reduction space
 // (and, inside the profile, from the shifted roll neighbours): against the full database of the
 // same mesh.
+// The sparse solves (fe::Solver::solve_sparse: only the supernodes the loads reach and the
+// readings need) give the database CHOLMOD's solves of the whole field give, to rounding.
+TEST(ComplianceBuild, SparseSolvesMatchFullSolves) {
+  const Built& sparse = built();
+  const Built full = variant([](Built& b) { b.o.full_solves = true; }, "full solves");
+  ASSERT_EQ(full.db.blocks.size(), sparse.db.blocks.size());
+  double cmax = 0, worst = 0;
+  for (const auto& B : full.db.blocks)
+    for (double v : B) cmax = std::max(cmax, std::fabs(v));
+  for (std::size_t bi = 0; bi < full.db.blocks.size(); ++bi) {
+    ASSERT_EQ(full.db.blocks[bi].size(), sparse.db.blocks[bi].size());
+    for (std::size_t i = 0; i < full.db.blocks[bi].size(); ++i)
+      worst = std::max(worst, std::fabs(sparse.db.blocks[bi][i] - full.db.blocks[bi][i]));
+  }
+  std::printf("[sparse solves] max |C_sparse - C_full| / max |C| = %.2g over %zu blocks\n", worst / cmax,
+              full.db.blocks.size());
+  ASSERT_GT(cmax, 0);
+  EXPECT_LT(worst / cmax, 1e-12);
+}
+
 TEST(ComplianceBuild, LoadFractionAgainstFullDatabase) {
   const Built& full = built();
   const Built f = variant([](Built& b) { b.o.load_fraction = 0.6; }, "fraction 0.6");
