@@ -24,6 +24,9 @@ constexpr double kMinPivotRatio = 1e-12; // L_jj^2/H_jj below this: row j numeri
 constexpr double kSingularPivot = 1e-8;  // |L_jj^2| below this H_jj: singular, not indefinite
 constexpr double kSymmetryTol = 1e-9;    // |C_ij - C_ji| <= this sqrt(C_ii C_jj)
 constexpr double kChordRate = 1e-2;      // a kept-tangent step is repeated only below this rate
+constexpr int kSeriesTerms = 3;          // loaded_row_sums' corrections on an earlier factorization
+constexpr double kSeriesRate = 0.1;      // ... given up at a slower contraction
+constexpr double kSeriesTolerance = 1e-12;  // ... estimated remainder relative to the row sums
 
 
 }  // namespace
@@ -33,6 +36,7 @@ NlcpSolver::NlcpSolver(int capacity, const NlcpOptions& options)
       options_(options),
       newton_(capacity_, capacity_),
       newton_inv_(capacity_),
+      newton_diag_(capacity_),
       cf_(capacity_),
       g_(capacity_),
       kernel_(capacity_),
@@ -170,6 +174,7 @@ NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::Vect
     else
       for (int a = b; a < m; ++a) Hb[a] = Cb[free_[a]];
     Hb[b] += slope[free_[b]];
+    newton_diag_[b] = slope[free_[b]];
   }
   for (int j = 0; j < m; ++j) {  // left-looking: column j minus L_jk times column k, k < j
     double* __restrict Hj = H + j * ld;
@@ -408,12 +413,16 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
   for (int i = 0; i < n; ++i) {
     if (F[i] > 0) {
       trial_[i] = jet_[i].slope;  // (trial_ is free scratch between solves)
-      rhs_[m] = 1;
       free_[m++] = i;
     }
   }
   if (m == 0) return true;
-  if (factor(C, m, trial_).position >= 0) return false;
+  const bool series = options_.reuse_tangent && newton_current_ && same_as_newton(m) &&
+                      row_sums_by_series(m);
+  if (!series) {
+    for (int a = 0; a < m; ++a) rhs_[a] = 1;
+    if (factor(C, m, trial_).position >= 0) return false;
+  }
   newton_current_ = tangent_related_ = false;
   newton_.swap(tangent_);  // keep it for the next solve (reuse_tangent); swaps storage only
   newton_inv_.swap(tangent_inv_);
@@ -421,9 +430,49 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
   tangent_force_.head(n) = F;
   tangent_n_ = n;
   tangent_m_ = m;
-  solve_factored(tangent_, tangent_inv_, m);
+  if (!series) solve_factored(tangent_, tangent_inv_, m);
   for (int a = 0; a < m; ++a) row_sums[free_[a]] = rhs_[a];
   return true;
+}
+
+// x = (H + D)^-1 1 on the loaded set from newton_ = LLT of H, the Newton matrix of an earlier
+// iterate of this C on the same set: H + D is the tangent at the answer, D = diag(f'(F) -
+// newton_diag_) (the laws' slopes moved with the last step). Neumann series
+// x = sum_k (-H^-1 D)^k H^-1 1, each term one solve; it stops when the estimated remainder
+// |t_k| rho/(1 - rho) (rho = |t_k|/|t_k-1|) is below kSeriesTolerance |x| (1e-12: far below
+// the solve's own tolerance on the forces), and gives up (false: factorize instead) when rho
+// exceeds kSeriesRate or kSeriesTerms corrections do not reach it. Leaves x in rhs_.
+bool NlcpSolver::row_sums_by_series(int m) {
+  double* x = c_trial_.data();  // (free scratch between solves, as step_)
+  double* jump = step_.data();  // D
+  for (int a = 0; a < m; ++a) {
+    jump[a] = trial_[free_[a]] - newton_diag_[a];
+    rhs_[a] = 1;
+  }
+  solve_factored(newton_, newton_inv_, m);
+  double size = 0, last = 0;
+  for (int a = 0; a < m; ++a) {
+    x[a] = rhs_[a];
+    size = std::max(size, std::abs(x[a]));
+  }
+  last = size;
+  for (int k = 0; k < kSeriesTerms; ++k) {
+    for (int a = 0; a < m; ++a) rhs_[a] *= -jump[a];
+    solve_factored(newton_, newton_inv_, m);
+    double term = 0;
+    for (int a = 0; a < m; ++a) {
+      x[a] += rhs_[a];
+      term = std::max(term, std::abs(rhs_[a]));
+    }
+    const double rate = last > 0 ? term / last : 0;
+    if (!(rate <= kSeriesRate)) return false;
+    if (term * rate / (1 - rate) <= kSeriesTolerance * size) {
+      for (int a = 0; a < m; ++a) rhs_[a] = x[a];
+      return true;
+    }
+    last = term;
+  }
+  return false;
 }
 
 bool NlcpSolver::keep_last_factorization(const ConstVec& F) {

@@ -130,6 +130,9 @@ class NlcpSolver {
   // uniform approach; their sum is the mesh stiffness) to row_sums[i], i in A, and 0 elsewhere.
   // Returns false (row_sums all 0) if force is not this solver's last answer or C_AA + diag f'_A
   // is not numerically positive definite.
+  // With reuse_tangent, when the solve's last factorization (an earlier iterate's, same C) is on
+  // A, K 1 is summed from it as a Neumann series in the change of the laws' slopes (to an
+  // estimated 1e-12 of K 1; else A's own factorization), and that factorization is kept.
   // Keeps the factorization for the next solve (see NlcpOptions::reuse_tangent).
   bool loaded_row_sums(const Eigen::Ref<const Eigen::MatrixXd>& compliance,
                        const Eigen::Ref<const Eigen::VectorXd>& force,
@@ -164,6 +167,7 @@ class NlcpSolver {
   Fault factor(const ConstMat& C, int m, const Eigen::VectorXd& slope);
   void solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv_diagonal, int m);
   Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
+  bool row_sums_by_series(int m);
   bool same_as_tangent(int m) const;
   bool on_tangent_set(int m) const;  // free_[0..m) is tangent_index_[0..tangent_m_)
   bool same_as_newton(int m) const;
@@ -183,6 +187,7 @@ class NlcpSolver {
   Eigen::MatrixXd newton_;    // storage of H_II = C_II + diag(f'_I) (m x m packed with leading
                               // dimension m, the free unknowns' order); its LLT in place
   Eigen::VectorXd newton_inv_;  // 1/L_jj of newton_ (multiplies in the substitutions)
+  Eigen::VectorXd newton_diag_; // the slopes factor() added to newton_'s diagonal, per position
   Eigen::VectorXd cf_;        // C F, m
   Eigen::VectorXd g_;         // g(F), m
   std::vector<LocalLawKernel> kernel_;  // the laws of the current solve
