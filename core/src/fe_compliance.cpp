@@ -513,11 +513,69 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
   }
 }
 
-// The same for a cached, non-uniform group pair (helical, tilted): the chunk offsets read
-// inline (a chunk is computed only when new; the pool may then grow, so no pointer into it is
-// kept across that call).
+// The same for a cached, non-uniform group pair (helical, tilted). The roll nodes the two
+// groups' candidates touch span a few nodes each: every chunk of those node pairs is resolved
+// first (computed when new; the pool may then grow, so pointers are taken only afterwards),
+// then each entry is four weighted values, summed in add_direct's order (a zero weight, where
+// a candidate sits on a node, multiplies a finite value of a neighbouring chunk and adds 0).
+// A span wider than kMaxSpan nodes takes the entry-by-entry lookup.
 GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const GroupPair& q,
                                         Eigen::MatrixXd& C) {
+  Gear& G = gear_[g];
+  const int S = int(G.strips.size());
+  const int nrr = int(m.compliance[g].roll.size());
+  int lo[2], hi[2];  // node spans of group a (0) and group b (1)
+  for (int side = 0; side < 2; ++side) {
+    const int c0 = side ? q.b0 : q.a0, c1 = side ? q.b1 : q.a1;
+    lo[side] = nrr;
+    hi[side] = -1;
+    for (int c = c0; c < c1; ++c) {
+      const Spot& p = G.spots[std::size_t(c)];
+      lo[side] = std::min(lo[side], p.roll_node);
+      hi[side] = std::max(hi[side], std::min(p.roll_node + 1, nrr - 1));
+    }
+  }
+  const int span_a = hi[0] - lo[0] + 1, span_b = hi[1] - lo[1] + 1;
+  if (span_a > kMaxSpan || span_b > kMaxSpan) {
+    add_cached_lookup(m, g, B, q, C);
+    return;
+  }
+  int at[kMaxSpan * kMaxSpan];
+  for (int ia = 0; ia < span_a; ++ia)
+    for (int ib = 0; ib < span_b; ++ib) {
+      int& o = at[ia * span_b + ib];
+      o = B.chunk[std::size_t(lo[0] + ia) * std::size_t(nrr) + std::size_t(lo[1] + ib)];
+      if (o < 0) o = chunk_at(m, g, B, lo[0] + ia, lo[1] + ib);
+    }
+  const double* v[kMaxSpan * kMaxSpan];
+  for (int k = 0; k < span_a * span_b; ++k) v[k] = B.pool.data() + at[k];  // pool no longer grows
+  for (int a = q.a0; a < q.a1; ++a) {
+    const Spot& pa = G.spots[std::size_t(a)];
+    const double ra0 = pa.roll_weight, ra1 = 1 - pa.roll_weight;
+    const int ia0 = pa.roll_node - lo[0];
+    const int ia1 = pa.roll_node + 1 < nrr ? ia0 + 1 : ia0;  // one node: ra1 = 0 there
+    const double* const* va0 = v + ia0 * span_b;
+    const double* const* va1 = v + ia1 * span_b;
+    const int row = pa.strip * S;
+    for (int b = q.b0; b < std::min(q.b1, a + 1); ++b) {
+      const Spot& pb = G.spots[std::size_t(b)];
+      const double rb0 = pb.roll_weight, rb1 = 1 - pb.roll_weight;
+      const int ib0 = pb.roll_node - lo[1];
+      const int ib1 = pb.roll_node + 1 < nrr ? ib0 + 1 : ib0;
+      const int off = row + pb.strip;
+      double e = 0;
+      e += ra0 * rb0 * va0[ib0][off];
+      e += ra0 * rb1 * va0[ib1][off];
+      e += ra1 * rb0 * va1[ib0][off];
+      e += ra1 * rb1 * va1[ib1][off];
+      C(b, a) += e;
+    }
+  }
+}
+
+// add_cached entry by entry: the chunk offsets read inline.
+GM_FE_STAGE void FeAssembly::add_cached_lookup(const FeView& m, int g, Block& B, const GroupPair& q,
+                                               Eigen::MatrixXd& C) {
   Gear& G = gear_[g];
   const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
   const int S = int(G.strips.size());

@@ -141,6 +141,8 @@ class FeAssembly {
                    Eigen::MatrixXd& C);
   static void zero_entries(const GroupPair& q, Eigen::MatrixXd& C);
   void add_cached(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
+  void add_cached_lookup(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
+  static constexpr int kMaxSpan = 12;  // roll nodes a group may span for add_cached's table
   void add_direct(const FeView& m, int g, const Block& B, const GroupPair& q, Eigen::MatrixXd& C) const;
   void drop_unused_blocks(const FeView& m);
 
