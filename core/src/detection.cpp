@@ -458,7 +458,7 @@ void approach_too_large(const MeshLayout& L, int sigma, const T& approach_t, std
 
 template <class T, class K>
 int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int capacity,
-                std::string& msg, double emit_above) {
+                std::string& msg, double emit_above, bool merge_repeats) {
   GM_AD_USING;
   if (!spins_in_range(kin, msg)) return -1;
   SliceFrame<T> F;
@@ -478,6 +478,11 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
   mo.omega[1] = Vec3<T>(kin.w[1][0], kin.w[1][1], kin.omega[1]);
   mo.vc[0] = Vec3<T>(kin.v[0][0], kin.v[0][1], kin.v[0][2]);
   mo.vc[1] = Vec3<T>(kin.v[1][0], kin.v[1][1], kin.v[1][2]);
+  // every slice of a pair repeats its first (the contact velocities alike too: no tilt rate
+  // between the gears, by value): one slice of the summed width at the mean face position
+  const bool one_per_pair = merge_repeats && uniform && !micro && L.slices > 1 &&
+                            val(mo.omega[0].x()) == val(mo.omega[1].x()) &&
+                            val(mo.omega[0].y()) == val(mo.omega[1].y());
 
   int count = 0, pair = 0;
   for (int sigma = 1; sigma >= -1; sigma -= 2) {
@@ -547,6 +552,12 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
         c.pair = pair;
         first = count - 1;
         emitted = true;
+        if (one_per_pair) {
+          const ContactSliceT<T> one = c;
+          shift_slice(one, mo, T(F.zlo + (0.5 * L.slices) * F.width), c.approach, c);
+          c.width = one.width * double(L.slices);
+          break;
+        }
       }
       pair += emitted;
     }
@@ -557,13 +568,13 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
 }  // namespace
 
 int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
-                    std::string& msg, double emit_above) {
-  return detect_impl<double>(L, kin, out, capacity, msg, emit_above);
+                    std::string& msg, double emit_above, bool merge_repeats) {
+  return detect_impl<double>(L, kin, out, capacity, msg, emit_above, merge_repeats);
 }
 
 int detect_contacts(const MeshLayout& L, const KinematicsT<Dual>& kin, ContactSliceT<Dual>* out,
-                    int capacity, std::string& msg, double emit_above) {
-  return detect_impl<Dual>(L, kin, out, capacity, msg, emit_above);
+                    int capacity, std::string& msg, double emit_above, bool merge_repeats) {
+  return detect_impl<Dual>(L, kin, out, capacity, msg, emit_above, merge_repeats);
 }
 
 }  // namespace gm

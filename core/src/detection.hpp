@@ -106,12 +106,17 @@ int slice_capacity(const MeshLayout& L);
 // their number, or -1 with msg set when the pose is outside the detection range. Slices whose
 // normal approach is at most `emit_above` (m) are left out: a plain solve needs only the slices
 // that can carry load (emit_above = the gap the TE excitation adds), the quasi-static one all.
+// merge_repeats: a tooth pair whose slices would all repeat the first (aligned spur, no
+// micro-geometry, no tilt rate between the gears) is returned as ONE slice of their summed width
+// at their mean face position, as merge_repeated_slices (slice_merge.hpp) would make of them
+// (levels 0-4, whose laws are linear in the width).
 int detect_contacts(const MeshLayout& L, const gm_kinematics& kin, ContactSlice* out, int capacity,
-                    std::string& msg, double emit_above = -kEmitAll);
+                    std::string& msg, double emit_above = -kEmitAll, bool merge_repeats = false);
 
 // The same with derivatives along one input direction (gm_directional_derivative): the same
 // candidates, in the same order, as the double evaluation at the values of kin.
 int detect_contacts(const MeshLayout& L, const KinematicsT<Dual>& kin, ContactSliceT<Dual>* out,
-                    int capacity, std::string& msg, double emit_above = -kEmitAll);
+                    int capacity, std::string& msg, double emit_above = -kEmitAll,
+                    bool merge_repeats = false);
 
 }  // namespace gm

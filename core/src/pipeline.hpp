@@ -37,10 +37,12 @@ int prepare_slices(const gm_model& m, const K& kin, ContactSliceT<T>* slices, Sl
                    bool all, std::string& msg) {
   // without `all` only the slices that can carry load: those closer than the TE excitation opens
   const double emit_above = all ? -kEmitAll : te_excitation_gap(m, val(kin.phi[0]));
-  int n = detect_contacts(m.layout, kin, slices, m.slice_capacity, msg, emit_above);
+  // levels 0-4: repeated slices merged (slice_merge.hpp), an aligned spur pair's by detection
+  const bool merge = m.params.stiffness_level != GM_STIFFNESS_FE;
+  int n = detect_contacts(m.layout, kin, slices, m.slice_capacity, msg, emit_above, merge);
   if (n < 0) return n;
   apply_te_excitation(m, slices, kin, n);
-  if (m.params.stiffness_level != GM_STIFFNESS_FE) n = merge_repeated_slices(slices, n);
+  if (merge) n = merge_repeated_slices(slices, n);
   build_laws(m, slices, laws, n, all);
   return n;
 }

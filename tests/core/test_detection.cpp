@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "detection.hpp"
+#include "dual.hpp"
+#include "slice_merge.hpp"
 #include "gearmesh/internal/geometry.hpp"
 #include "params.hpp"
 #include "test_support.hpp"
@@ -187,6 +189,103 @@ TEST(Detection, SlicesSplitTheAxialOverlap) {
   EXPECT_NEAR(total, 0.0165, 1e-15);
   EXPECT_NEAR(f.slices[0].point.z(), -0.005 + 0.0165 / 8, 1e-15);
   EXPECT_NEAR(f.slices[3].point.z(), 0.0115 - 0.0165 / 8, 1e-15);
+}
+
+// Detection's own merge of an aligned spur pair (merge_repeats, levels 0-4) against
+// merge_repeated_slices (slice_merge.hpp) of the slice-by-slice detection: the same slices with
+// the same values and, over dual numbers, derivatives (a seed moving every input, the axial
+// positions included), at poses over a pitch with spin and translation rates. With a tilt rate
+// between the gears (the contact velocities then vary over the face) or lead crowning (so do
+// the approaches) detection merges nothing itself: the count before merge_repeated_slices is
+// the slice-by-slice one.
+std::pair<double, double> value_slope(double x) { return {x, 0.0}; }
+std::pair<double, double> value_slope(const gm::Dual& x) { return {x.v, x.d}; }
+
+template <class T>
+void expect_same_slices(const std::vector<gm::ContactSliceT<T>>& a,
+                        const std::vector<gm::ContactSliceT<T>>& b, const std::string& where) {
+  ASSERT_EQ(a.size(), b.size()) << where;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const auto& x = a[i];
+    const auto& y = b[i];
+    EXPECT_EQ(x.flank, y.flank) << where;
+    EXPECT_EQ(x.pair, y.pair) << where;
+    EXPECT_EQ(x.tooth[0], y.tooth[0]) << where;
+    EXPECT_EQ(x.tooth[1], y.tooth[1]) << where;
+    const T fx[] = {x.approach, x.width, x.roll[0], x.roll[1], x.approach_rate,
+                    x.sliding_velocity, x.te_gain, x.path_position, x.point.x(), x.point.y(),
+                    x.point.z(), x.normal.x(), x.normal.y(), x.tangent.x(), x.tangent.y()};
+    const T fy[] = {y.approach, y.width, y.roll[0], y.roll[1], y.approach_rate,
+                    y.sliding_velocity, y.te_gain, y.path_position, y.point.x(), y.point.y(),
+                    y.point.z(), y.normal.x(), y.normal.y(), y.tangent.x(), y.tangent.y()};
+    for (std::size_t k = 0; k < sizeof fx / sizeof fx[0]; ++k) {
+      const auto [vx, dx] = value_slope(fx[k]);
+      const auto [vy, dy] = value_slope(fy[k]);
+      EXPECT_NEAR(vx, vy, 1e-12 * std::abs(vy) + 1e-18) << where << " field " << k;
+      EXPECT_NEAR(dx, dy, 1e-12 * std::abs(dy) + 1e-18) << where << " field " << k;
+    }
+  }
+}
+
+template <class T, class K>
+std::vector<gm::ContactSliceT<T>> detected(const gm::MeshLayout& L, const K& k, bool merge,
+                                           int& before) {
+  std::vector<gm::ContactSliceT<T>> out(gm::slice_capacity(L));
+  std::string msg;
+  before = gm::detect_contacts(L, k, out.data(), static_cast<int>(out.size()), msg, -gm::kEmitAll,
+                               merge);
+  EXPECT_GE(before, 0) << msg;
+  out.resize(std::size_t(gm::merge_repeated_slices(out.data(), std::max(before, 0))));
+  return out;
+}
+
+void check_detection_merge(const gm_model_params& p, bool tilt_rate, bool merges) {
+  const Pair pr = make_pair(p);
+  const int steps = 7;
+  for (int s = 0; s < steps; ++s) {
+    gm_kinematics k{};
+    k.phi[0] = 2 * kPi / p.gear[0].teeth * s / steps + 0.01;
+    k.phi[1] = phi2_for(pr.L, 4e-6, k.phi[0]);
+    k.omega[0] = 150;
+    k.omega[1] = -150 * pr.g.gear[0].d_b / pr.g.gear[1].d_b;
+    k.v[0][0] = 0.02;
+    k.v[1][1] = -0.01;
+    k.u[1][2] = 1e-5;
+    if (tilt_rate) k.w[0][0] = 0.5;
+    const std::string where = "pose " + std::to_string(s);
+    int by_slice = 0, by_pair = 0;
+    const auto ref = detected<double>(pr.L, k, false, by_slice);
+    const auto one = detected<double>(pr.L, k, true, by_pair);
+    expect_same_slices(one, ref, where);
+    EXPECT_EQ(by_pair < by_slice, merges) << where;
+    gm::KinematicsT<gm::Dual> kd;
+    for (int g = 0; g < 2; ++g) {
+      for (int a = 0; a < 3; ++a) {
+        kd.u[g][a] = gm::Dual(k.u[g][a], 1e-6 * (a + 1));
+        kd.v[g][a] = gm::Dual(k.v[g][a], 0.1 * (g + 1));
+      }
+      for (int a = 0; a < 2; ++a) {
+        kd.r[g][a] = gm::Dual(k.r[g][a], 0.0);  // a tilt would make the slices differ
+        kd.w[g][a] = gm::Dual(k.w[g][a], 0.3 * (a + 1));
+      }
+      kd.phi[g] = gm::Dual(k.phi[g], 1e-3 * (g + 1));
+      kd.omega[g] = gm::Dual(k.omega[g], 2.0 * (g + 1));
+    }
+    kd.load_torque = gm::Dual(0.0);
+    const auto ref_d = detected<gm::Dual>(pr.L, kd, false, by_slice);
+    const auto one_d = detected<gm::Dual>(pr.L, kd, true, by_pair);
+    expect_same_slices(one_d, ref_d, where + " (dual)");
+  }
+}
+
+TEST(Detection, MergedAlignedSpurPairsMatchTheSliceBySliceMerge) {
+  gm_model_params p = paper_pair();
+  p.slices = 10;
+  check_detection_merge(p, false, true);
+  check_detection_merge(p, true, false);  // a tilt rate between the gears
+  for (auto& g : p.gear)
+    for (auto& f : g.flank) f.lead_crowning = 5e-6;
+  check_detection_merge(p, false, false);
 }
 
 }  // namespace
