@@ -308,17 +308,26 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
 }
 
 // Level 5 quasi-static: the TE to detect at first. The solved TE is a smooth function of gear
-// 1's angle between mesh events, so it is extrapolated linearly from the last two solves when
-// they were made at the same load torque and this step is no longer than twice theirs; else
-// the last solved TE. Only where the pass loop starts: the answer is the same fixed point (to
-// the pass loop's tolerance), reached with fewer solver iterations and passes.
+// 1's angle between mesh events, so it is extrapolated from the last solves made at the same load
+// torque when this step is no longer than twice the last one: by the parabola through the last
+// three (their steps alike within a factor of 4), else the line through the last two; else the
+// last solved TE. Only where the pass loop starts: the answer is the same fixed point (to the
+// pass loop's tolerance), reached with fewer solver iterations and passes.
 double predicted_te(gm_data& d, double phi, double load_torque) {
   gm_data::TeHistory& h = d.te_history;
   if (d.fe_prev_n < 0) h.n = 0;  // reset or restored state: cold
   if (h.n < 2 || h.load[0] != load_torque || h.load[1] != load_torque) return d.te_estimate;
   const double step = h.phi[0] - h.phi[1];
   if (step == 0 || std::fabs(phi - h.phi[0]) > 2 * std::fabs(step)) return d.te_estimate;
-  return d.te_estimate + (h.te[0] - h.te[1]) / step * (phi - h.phi[0]);
+  const double slope = (h.te[0] - h.te[1]) / step;
+  double te = d.te_estimate + slope * (phi - h.phi[0]);
+  const double before = h.phi[1] - h.phi[2];
+  if (h.n == 3 && h.load[2] == load_torque && before != 0 && before * step > 0 &&
+      std::fabs(before) <= 4 * std::fabs(step) && std::fabs(step) <= 4 * std::fabs(before)) {
+    const double curvature = (slope - (h.te[1] - h.te[2]) / before) / (h.phi[0] - h.phi[2]);
+    te += curvature * (phi - h.phi[0]) * (phi - h.phi[1]);
+  }
+  return te;
 }
 
 void record_te(gm_data& d, double phi, double te, double load_torque) {
@@ -327,13 +336,15 @@ void record_te(gm_data& d, double phi, double te, double load_torque) {
     h.te[0] = te;
     return;
   }
-  h.phi[1] = h.phi[0];
-  h.te[1] = h.te[0];
-  h.load[1] = h.load[0];
+  for (int k = 2; k > 0; --k) {
+    h.phi[k] = h.phi[k - 1];
+    h.te[k] = h.te[k - 1];
+    h.load[k] = h.load[k - 1];
+  }
   h.phi[0] = phi;
   h.te[0] = te;
   h.load[0] = load_torque;
-  h.n = std::min(h.n + 1, 2);
+  h.n = std::min(h.n + 1, 3);
 }
 
 }  // namespace gm

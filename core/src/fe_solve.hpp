@@ -19,7 +19,7 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
                     bool quasi, double load,
                     double next_pass_above = std::numeric_limits<double>::infinity());
 
-// Level 5 quasi-static: the TE to detect at first (extrapolated from the last two solves).
+// Level 5 quasi-static: the TE to detect at first (extrapolated from the last three solves).
 double predicted_te(gm_data& d, double phi, double load_torque);
 
 // Level 5 quasi-static: record a solved TE at gear 1's angle phi and the load torque.

@@ -45,12 +45,12 @@ struct gm_data {
   std::vector<double> forces;            // normal slice forces, N, same capacity
   std::vector<double> slice_stiffness;   // tangent stiffness of each slice, N/m
   double te_estimate = 0;                // quasi-static: last solved TE (warm start), m
-  // Level 5 quasi-static: the last two solved (gear 1 angle, TE, load torque), newest first, from
+  // Level 5 quasi-static: the last three solved (gear 1 angle, TE, load torque), newest first, from
   // which the next call's TE estimate is extrapolated. Derived data: valid only while the
   // coupled solve's warm start is (fe_prev_n >= 0), so a reset or restored state starts from
   // te_estimate alone.
   struct TeHistory {
-    double phi[2] = {0, 0}, te[2] = {0, 0}, load[2] = {0, 0};  // rad, m, N m
+    double phi[3] = {0, 0, 0}, te[3] = {0, 0, 0}, load[3] = {0, 0, 0};  // rad, m, N m
     int n = 0;                                                // entries held
   } te_history;
   // level 5 (FE): the coupled solve's workspace, sized to the slice capacity at creation

@@ -14,6 +14,7 @@
 
 #include "gearmesh/internal/compliance_db.hpp"
 #include "fe_compliance.hpp"
+#include "fe_solve.hpp"
 #include "fe_synthetic.hpp"
 #include "tooth_coupling.hpp"
 #include "gearmesh/gearmesh.h"
@@ -481,6 +482,43 @@ TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
   msg = refusal(with_database(p, f, 1, soft, "values_step.gcdb", path));
   EXPECT_NE(msg.find("gear2.compliance: roll[1] = "), std::string::npos) << msg;
   EXPECT_NE(msg.find("at least 1e-09 m after the previous value"), std::string::npos) << msg;
+}
+
+// The quasi-static start TE (fe_solve.cpp, predicted_te) from the solved history: exact for a
+// parabola in gear 1's angle once three solves at the same torque are held (steps alike within
+// 4x), the line through the last two otherwise (two solves, unequal steps, another torque
+// before), the last TE after a step more than twice the last one or a restored state.
+TEST(FeLevel, QuasiStaticStartTeIsTheParabolaThroughTheLastThreeSolves) {
+  gm_model_params p = fe_paper(3);
+  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+  const FeFiles files = fe_files(p, "predict", Coupling{0.4, 0.2});
+  Instance in(at_level5(p, files));
+  gm_data& d = *in.d;
+  const auto te_of = [](double phi) { return 3e-6 + 2e-5 * phi - 4e-3 * phi * phi; };
+  const auto record = [&](double phi, double torque) {
+    d.te_estimate = te_of(phi);
+    gm::record_te(d, phi, d.te_estimate, torque);
+  };
+  d.fe_prev_n = 0;  // a warm solver: the history is valid
+  record(0.010, 300);
+  record(0.011, 300);
+  const double line = te_of(0.011) + (te_of(0.011) - te_of(0.010)) / 0.001 * 0.001;
+  EXPECT_NEAR(gm::predicted_te(d, 0.012, 300), line, 1e-18);  // two solves: the line
+  record(0.012, 300);
+  EXPECT_NEAR(gm::predicted_te(d, 0.0133, 300), te_of(0.0133), 1e-18);  // three: exact
+  EXPECT_EQ(gm::predicted_te(d, 0.016, 300), te_of(0.012));  // more than twice the last step
+  record(0.0125, 300);  // a step of 0.5 after 1 (within 4x): still the parabola
+  EXPECT_NEAR(gm::predicted_te(d, 0.013, 300), te_of(0.013), 1e-18);
+  record(0.01255, 300);  // 0.05 after 0.5: 10x apart, the line through the last two
+  const double line2 = te_of(0.01255) + (te_of(0.01255) - te_of(0.0125)) / 0.00005 * 0.00005;
+  EXPECT_NEAR(gm::predicted_te(d, 0.0126, 300), line2, 1e-18);
+  record(0.0127, 250);  // another torque
+  EXPECT_EQ(gm::predicted_te(d, 0.0128, 300), te_of(0.0127));
+  record(0.0128, 250);
+  EXPECT_NEAR(gm::predicted_te(d, 0.0129, 250),
+              te_of(0.0128) + (te_of(0.0128) - te_of(0.0127)) / 0.0001 * 0.0001, 1e-18);
+  d.fe_prev_n = -1;  // reset or restored state
+  EXPECT_EQ(gm::predicted_te(d, 0.0129, 250), te_of(0.0128));
 }
 
 }  // namespace
