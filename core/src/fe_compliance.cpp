@@ -422,7 +422,11 @@ GM_FE_STAGE void FeAssembly::locate_spots(const FeView& m, const ContactSlice* s
         }
         const double face = face_position(m, g, s, uz[g]);
         // a tooth pair's slices usually follow the strips one by one: try the next one first
-        p.strip = strip_of(m, g, face - 0.5 * s.width, face + 0.5 * s.width, prev ? prev->strip + 1 : 0);
+        const double lo = face - 0.5 * s.width, hi = face + 0.5 * s.width;
+        const int next = prev ? prev->strip + 1 : 0;
+        const bool hit = next < int(G.strips.size()) && G.strips[std::size_t(next)].lo == lo &&
+                         G.strips[std::size_t(next)].hi == hi;
+        p.strip = hit ? next : strip_of(m, g, lo, hi, next);
         p.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
         full = p.strip < 0;
       }

@@ -98,8 +98,8 @@ def main(argv: list[str] | None = None) -> int:
                        "level 5's FE variants (mesh coarse/fine, flank grid loaded at 70/50 %%), every "
                        "reference torque (default)")
     p_acc.add_argument("--build-databases", action="store_true", help="full: build level 5's "
-                       "missing compliance databases first (cached; about 40 s and 3 GiB per gear "
-                       "at the default mesh, 4 min and 8.5 GiB for mesh-fine)")
+                       "missing compliance databases first (cached; about 11 s and 1 GiB per gear "
+                       "at the default mesh, 1 min and 5.2 GiB for mesh-fine)")
     p_acc.add_argument("--reference", type=pathlib.Path, help="folder of the "
                        "<scene>.reference_fe.summary.csv (2-D) and <scene>.reference_fe3d.summary.csv "
                        "(3-D) files (default: reference/ next to each scene)")
