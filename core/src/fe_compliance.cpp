@@ -263,6 +263,7 @@ void FeAssembly::reserve(const FeView& m, int capacity) {
     const ComplianceDb& db = m.compliance[g];
     const std::size_t strips = std::size_t(m.layout.slices) * (may_flip_face(m, g) ? 2 : 1);
     const std::size_t nr = db.roll.size();
+    span_at_.reserve(std::max(span_at_.capacity(), nr * nr));
     G.spots.resize(std::max(G.spots.size(), c));
     G.strips.reserve(strips);
     G.shares.reserve(strips * db.face.size());
@@ -302,11 +303,8 @@ std::size_t FeAssembly::cached_values() const {
 
 // The strip of face interval [lo, hi] on gear g, added if new (then every chunk of the gear is
 // dropped and this call computes directly); -1 if the table is full (a face interval changed).
-int FeAssembly::strip_of(const FeView& m, int g, double lo, double hi, int hint) {
+int FeAssembly::strip_of(const FeView& m, int g, double lo, double hi) {
   Gear& G = gear_[g];
-  if (hint < int(G.strips.size()) && G.strips[std::size_t(hint)].lo == lo &&
-      G.strips[std::size_t(hint)].hi == hi)
-    return hint;
   for (std::size_t s = 0; s < G.strips.size(); ++s)
     if (G.strips[s].lo == lo && G.strips[s].hi == hi) return int(s);
   if (int(G.strips.size()) >= m.layout.slices * (may_flip_face(m, g) ? 2 : 1)) return -1;
@@ -426,7 +424,7 @@ GM_FE_STAGE void FeAssembly::locate_spots(const FeView& m, const ContactSlice* s
         const int next = prev ? prev->strip + 1 : 0;
         const bool hit = next < int(G.strips.size()) && G.strips[std::size_t(next)].lo == lo &&
                          G.strips[std::size_t(next)].hi == hi;
-        p.strip = hit ? next : strip_of(m, g, lo, hi, next);
+        p.strip = hit ? next : strip_of(m, g, lo, hi);
         p.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
         full = p.strip < 0;
       }
@@ -522,7 +520,6 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
 // first (computed when new; the pool may then grow, so pointers are taken only afterwards),
 // then each entry is four weighted values, summed in add_direct's order (a zero weight, where
 // a candidate sits on a node, multiplies a finite value of a neighbouring chunk and adds 0).
-// A span wider than kMaxSpan nodes takes the entry-by-entry lookup.
 GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const GroupPair& q,
                                         Eigen::MatrixXd& C) {
   Gear& G = gear_[g];
@@ -540,26 +537,22 @@ GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const 
     }
   }
   const int span_a = hi[0] - lo[0] + 1, span_b = hi[1] - lo[1] + 1;
-  if (span_a > kMaxSpan || span_b > kMaxSpan) {
-    add_cached_lookup(m, g, B, q, C);
-    return;
-  }
-  int at[kMaxSpan * kMaxSpan];
+  if (span_at_.size() < std::size_t(span_a * span_b)) span_at_.resize(std::size_t(span_a * span_b));
+  int* at = span_at_.data();  // chunk offsets in B.pool, [node a - lo][node b - lo]
   for (int ia = 0; ia < span_a; ++ia)
     for (int ib = 0; ib < span_b; ++ib) {
       int& o = at[ia * span_b + ib];
       o = B.chunk[std::size_t(lo[0] + ia) * std::size_t(nrr) + std::size_t(lo[1] + ib)];
       if (o < 0) o = chunk_at(m, g, B, lo[0] + ia, lo[1] + ib);
     }
-  const double* v[kMaxSpan * kMaxSpan];
-  for (int k = 0; k < span_a * span_b; ++k) v[k] = B.pool.data() + at[k];  // pool no longer grows
+  const double* pool = B.pool.data();  // it no longer grows
   for (int a = q.a0; a < q.a1; ++a) {
     const Spot& pa = G.spots[std::size_t(a)];
     const double ra0 = pa.roll_weight, ra1 = 1 - pa.roll_weight;
     const int ia0 = pa.roll_node - lo[0];
     const int ia1 = pa.roll_node + 1 < nrr ? ia0 + 1 : ia0;  // one node: ra1 = 0 there
-    const double* const* va0 = v + ia0 * span_b;
-    const double* const* va1 = v + ia1 * span_b;
+    const int* va0 = at + ia0 * span_b;
+    const int* va1 = at + ia1 * span_b;
     const int row = pa.strip * S;
     for (int b = q.b0; b < std::min(q.b1, a + 1); ++b) {
       const Spot& pb = G.spots[std::size_t(b)];
@@ -568,43 +561,10 @@ GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const 
       const int ib1 = pb.roll_node + 1 < nrr ? ib0 + 1 : ib0;
       const int off = row + pb.strip;
       double e = 0;
-      e += ra0 * rb0 * va0[ib0][off];
-      e += ra0 * rb1 * va0[ib1][off];
-      e += ra1 * rb0 * va1[ib0][off];
-      e += ra1 * rb1 * va1[ib1][off];
-      C(b, a) += e;
-    }
-  }
-}
-
-// add_cached entry by entry: the chunk offsets read inline.
-GM_FE_STAGE void FeAssembly::add_cached_lookup(const FeView& m, int g, Block& B, const GroupPair& q,
-                                               Eigen::MatrixXd& C) {
-  Gear& G = gear_[g];
-  const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
-  const int S = int(G.strips.size());
-  const int nrr = int(m.compliance[g].roll.size());
-  const int nr = std::min(2, nrr);
-  for (int a = a0; a < a1; ++a) {
-    const Spot& pa = G.spots[std::size_t(a)];
-    const double ras[2] = {pa.roll_weight, 1 - pa.roll_weight};
-    for (int b = b0; b < std::min(b1, a + 1); ++b) {
-      const Spot& pb = G.spots[std::size_t(b)];
-      const double rbs[2] = {pb.roll_weight, 1 - pb.roll_weight};
-      const int off = pa.strip * S + pb.strip;
-      double e = 0;
-      for (int al = 0; al < nr; ++al) {
-        const double ra = ras[al];
-        if (ra == 0) continue;
-        const int* row = B.chunk.data() + std::size_t(pa.roll_node + al) * std::size_t(nrr);
-        for (int be = 0; be < nr; ++be) {
-          const double rb = rbs[be];
-          if (rb == 0) continue;
-          int at = row[pb.roll_node + be];
-          if (at < 0) at = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
-          e += ra * rb * B.pool[std::size_t(at + off)];
-        }
-      }
+      e += ra0 * rb0 * pool[va0[ib0] + off];
+      e += ra0 * rb1 * pool[va0[ib1] + off];
+      e += ra1 * rb0 * pool[va1[ib0] + off];
+      e += ra1 * rb1 * pool[va1[ib1] + off];
       C(b, a) += e;
     }
   }

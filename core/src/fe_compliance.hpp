@@ -117,7 +117,7 @@ class FeAssembly {
     std::vector<Spot> spots;      // per candidate of the call
     bool direct = true;           // this call computes strip values directly
   };
-  int strip_of(const FeView& m, int g, double lo, double hi, int hint);  // hint: tried first
+  int strip_of(const FeView& m, int g, double lo, double hi);
   void clear_chunks(Gear& G);
   int slot_of(const FeView& m, int g, const ContactSlice& si, const Spot& pi,
               const ContactSlice& sj, const Spot& pj);
@@ -141,8 +141,6 @@ class FeAssembly {
                    Eigen::MatrixXd& C);
   static void zero_entries(const GroupPair& q, Eigen::MatrixXd& C);
   void add_cached(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
-  void add_cached_lookup(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
-  static constexpr int kMaxSpan = 12;  // roll nodes a group may span for add_cached's table
   void add_direct(const FeView& m, int g, const Block& B, const GroupPair& q, Eigen::MatrixXd& C) const;
   void drop_unused_blocks(const FeView& m);
 
@@ -151,6 +149,7 @@ class FeAssembly {
                                   // flank) -> first candidate, and n after the last
   std::vector<char> uniform_;     // (gear, group) -> its candidates share roll node and weight
   std::vector<char> consecutive_; // (gear, group) -> its candidates' strips are consecutive
+  std::vector<int> span_at_;      // add_cached: chunk offsets over the node pairs two groups span
 };
 
 }  // namespace gm

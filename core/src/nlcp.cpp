@@ -434,13 +434,7 @@ bool NlcpSolver::loaded_row_sums(const ConstMat& C, const ConstVec& F,
     for (int a = 0; a < m; ++a) rhs_[a] = 1;
     if (factor(C, m, trial_).position >= 0) return false;
   }
-  newton_current_ = tangent_related_ = false;
-  newton_.swap(tangent_);  // keep it for the next solve (reuse_tangent); swaps storage only
-  newton_inv_.swap(tangent_inv_);
-  tangent_index_.head(m) = free_.head(m);
-  tangent_force_.head(n) = F;
-  tangent_n_ = n;
-  tangent_m_ = m;
+  keep_newton_as_tangent(F, m);
   if (!series) solve_factored(tangent_, tangent_inv_, m);
   for (int a = 0; a < m; ++a) row_sums[free_[a]] = rhs_[a];
   return true;
@@ -461,12 +455,12 @@ bool NlcpSolver::row_sums_by_series(int m) {
     rhs_[a] = 1;
   }
   solve_factored(newton_, newton_inv_, m);
-  double size = 0, last = 0;
+  double size = 0;
   for (int a = 0; a < m; ++a) {
     x[a] = rhs_[a];
     size = std::max(size, std::abs(x[a]));
   }
-  last = size;
+  double last = size;
   for (int k = 0; k < kSeriesTerms; ++k) {
     for (int a = 0; a < m; ++a) rhs_[a] *= -jump[a];
     solve_factored(newton_, newton_inv_, m);
@@ -495,6 +489,14 @@ bool NlcpSolver::keep_last_factorization(const ConstVec& F) {
   for (int i = 0; i < n; ++i)
     if (F[i] > 0) free_[m++] = i;
   if (m == 0 || !same_as_newton(m)) return false;
+  keep_newton_as_tangent(F, m);
+  return true;
+}
+
+// newton_ (on free_[0..m), the loaded set of answer F) becomes the tangent kept for the next
+// solve (reuse_tangent); swaps storage only.
+void NlcpSolver::keep_newton_as_tangent(const ConstVec& F, int m) {
+  const int n = static_cast<int>(F.size());
   newton_current_ = tangent_related_ = false;
   newton_.swap(tangent_);
   newton_inv_.swap(tangent_inv_);
@@ -502,7 +504,6 @@ bool NlcpSolver::keep_last_factorization(const ConstVec& F) {
   tangent_force_.head(n) = F;
   tangent_n_ = n;
   tangent_m_ = m;
-  return true;
 }
 
 // Slope of w^T F(lambda): w_J^T H_JJ^-1 w_J over J = loaded unknowns and the unknowns with
@@ -533,7 +534,6 @@ double NlcpSolver::total_force_slope(const ConstMat& C, const ConstVec& weights,
   // Newton on lambda keeps its stopping test, the slope's error only slows it.
   // So does the tangent this solve started from (the previous answer's, of a nearby C).
   const bool reuse = options_.reuse_tangent;
-  factored = false;
   if (reuse && newton_current_ && same_as_newton(m)) {
     solve_factored(newton_, newton_inv_, m);
   } else if (reuse && tangent_related_ && on_tangent_set(m)) {

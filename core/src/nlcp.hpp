@@ -168,6 +168,7 @@ class NlcpSolver {
   void solve_factored(const Eigen::MatrixXd& L, const Eigen::VectorXd& inv_diagonal, int m);
   Fault factor_and_solve(const ConstMat& C, int m, const Eigen::VectorXd& slope);
   bool row_sums_by_series(int m);
+  void keep_newton_as_tangent(const ConstVec& F, int m);
   bool same_as_tangent(int m) const;
   bool on_tangent_set(int m) const;  // free_[0..m) is tangent_index_[0..tangent_m_)
   bool same_as_newton(int m) const;
