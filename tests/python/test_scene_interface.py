@@ -63,7 +63,10 @@ def test_torsional_lists_the_spins_and_the_mesh_outputs(set_a_fmus):
                                    "mesh.load_torque", "gear1.torque", "gear2.torque",
                                    "gear1.shaft_phi", "gear2.shaft_phi", "gear1.shaft_omega",
                                    "gear2.shaft_omega"}
-    assert names(fmu, "output") == set(TORSIONAL_OUTPUTS) | {
+    # the large-step mode's energy account is there for a master to check the integration by
+    energy = {f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
+                                      "damping", "parametric", "residual")}
+    assert names(fmu, "output") == set(TORSIONAL_OUTPUTS) | energy | {
         f"gear{i}.{x}" for i in (1, 2) for x in ("angle", "speed", "shaft_torque")}
     parameters = names(fmu, "parameter")
     fixed = load_scene(SET_A).parameters
@@ -102,6 +105,28 @@ def test_a_fixed_mode_narrows_the_interface(tmp_path, fmu_path):
     with GearMeshFMU(out) as f:  # the fixed mode acts: gear 2's spin is solved for the load
         f.step({"gear1.omega": W1, "gear2.omega": -W1, "mesh.load_torque": 200.0})
         assert f.get(["gear2.mz"])["gear2.mz"] == pytest.approx(-200.0, rel=1e-6)  # the contact on gear 2 balances its load
+
+
+def test_a_large_step_scene_lists_its_energy_account(tmp_path, fmu_path):
+    """The torsional FMU of a large-step scene lists the energy account, and it closes: a drive
+    torque against a brake through the mesh, energy in = energy out + stored + lost."""
+    scene = scene_with(tmp_path, '[fmu]\nmode = "large_step"\n')
+    out = tmp_path / "ls.fmu"
+    interface, _ = write_scene_fmu(scene, fmu_path, out)
+    assert interface == "torsional"
+    assert validate_fmu(str(out)) == []
+    account = ["energy.kinetic", "energy.elastic", "energy.initial", "energy.work_in", "energy.work_out",
+               "energy.friction", "energy.damping", "energy.parametric", "energy.residual"]
+    assert set(account) <= names(out, "output")
+    with GearMeshFMU(out) as f:
+        for _ in range(20):
+            f.step({"gear1.torque": 100.0, "gear2.torque": 100.0}, 1e-3)
+        e = f.get(account)
+    assert e["energy.work_in"] > 0
+    balance = (e["energy.work_in"] - e["energy.work_out"] - (e["energy.kinetic"] + e["energy.elastic"] - e["energy.initial"])
+               - e["energy.friction"] - e["energy.damping"] - e["energy.parametric"])
+    assert balance == pytest.approx(e["energy.residual"], abs=1e-12 + 1e-9 * e["energy.work_in"])
+    assert abs(e["energy.residual"]) <= 1e-2 * e["energy.work_in"]
 
 
 def test_tunable_keeps_a_scene_parameter_listed(tmp_path, fmu_path):

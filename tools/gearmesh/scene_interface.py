@@ -3,7 +3,8 @@
 
 * torsional: the spins in (angles and speeds, and what the scene's modes add: gear 2's load in
   the quasi-static mode, torques and shaft ends in the large-step mode); the gear torques, TE,
-  mesh force, flank in contact and the losses out;
+  mesh force, flank in contact and the losses out (and in the large-step mode the spins, shaft
+  torques and the energy account);
 * planar: torsional plus the gear centres' in-plane motion in (ux, uy, vx, vy) and the in-plane
   contact forces out (fx, fy);
 * full: every variable of the generic FMU.
@@ -33,8 +34,13 @@ MODE_INPUTS = {
     "large_step": [f"gear{i}.{x}" for i in GEARS
                    for x in ("phi", "omega", "torque", "shaft_phi", "shaft_omega")],
 }
+# the large-step mode's energy account (docs/dynamics.md, "Energy account"): a master checks with it
+# that the integration inside the FMU neither makes nor loses more energy than it reports
+ENERGY_OUTPUTS = [f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
+                                          "damping", "parametric", "residual")]
 MODE_OUTPUTS = {"prescribed": [], "quasi_static": [],
-                "large_step": [f"gear{i}.{x}" for i in GEARS for x in ("angle", "speed", "shaft_torque")]}
+                "large_step": [f"gear{i}.{x}" for i in GEARS for x in ("angle", "speed", "shaft_torque")]
+                + ENERGY_OUTPUTS}
 TORSIONAL_OUTPUTS = ["gear1.mz", "gear2.mz", "mesh.te", "mesh.te_angle", "mesh.normal_force",
                      "mesh.flank", "mesh.friction_power", "mesh.damping_power"]
 PLANAR_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("ux", "uy", "vx", "vy")]
