@@ -30,6 +30,8 @@ constexpr int kMaxNewton = 10;
 // (Dynamics.UndampedMeshDoesNotGainEnergy). Below 1e-4 the answers no longer move.
 constexpr double kNewtonFraction = 1e-4;
 constexpr double kEventFraction = 0.25;   // error allowed over a step where the contact changed
+constexpr double kStaleContraction = 0.05;  // a first Newton contraction above this: new Jacobian
+constexpr int kJacobianAge = 20;            // accepted steps on one Jacobian at most
 
 // A state (spins) with what the equations give there, at time t into the call.
 struct Point {
@@ -51,6 +53,7 @@ struct Stepper {
   const gm_kinematics& pose;
   const gm_dynamics_inputs& in;
   double a_phi[2][2] = {}, a_omega[2][2] = {};  // d(accel)/d(phi), d(accel)/d(omega) at the step start
+  double contraction = 0;  // the largest first Newton contraction of the stages since it was reset
 
   double far_angle(int i, double t) const { return in.shaft_phi[i] + in.shaft_omega[i] * t; }
 
@@ -137,7 +140,11 @@ struct Stepper {
         size = std::max(size, rb[i] * hd * std::fabs(g[i]));  // the residual as rim motion, m
       }
       if (!std::isfinite(size)) break;
-      if (it > 0 && size <= kNewtonFraction * p.tolerance) return GM_OK;
+      if (it == 1) contraction = std::max(contraction, size / previous);
+      if (it > 0 && size <= kNewtonFraction * p.tolerance) {
+        if (it > 2) contraction = INFINITY;  // slow: the Jacobian is taken anew for the next step
+        return GM_OK;
+      }
       if (it >= 3 && size > 0.9 * previous) break;  // not contracting
       previous = size;
       if (!newton_solve(hd, g)) break;
@@ -145,6 +152,25 @@ struct Stepper {
       omega[1] -= g[1];
     }
     return GM_ERR_SOLVER;
+  }
+
+  // The mesh mode at the step start: the speeds v = J^-1 g along which the gears move apart on
+  // the line of action (g = d(TE)/d(phi) = (r_b1, s r_b2), TE rate g v), and its frequency from
+  // the Jacobian, q'' = -omega_n^2 q along phi = v q (0 without contact).
+  struct MeshMode {
+    double g[2], v[2], gv, omega_n;
+  };
+  MeshMode mesh_mode() const {
+    MeshMode mode;
+    mode.g[0] = m.layout.base_radius[0];
+    mode.g[1] = m.layout.sign * m.layout.base_radius[1];
+    for (int i = 0; i < 2; ++i) mode.v[i] = mode.g[i] / p.inertia[i];
+    mode.gv = mode.g[0] * mode.v[0] + mode.g[1] * mode.v[1];
+    double stiffness = 0;  // -g A_phi v / g v
+    for (int i = 0; i < 2; ++i)
+      for (int j = 0; j < 2; ++j) stiffness -= mode.g[i] * a_phi[i][j] * mode.v[j] / mode.gv;
+    mode.omega_n = stiffness > 0 && std::isfinite(stiffness) ? std::sqrt(stiffness) : 0.0;
+    return mode;
   }
 
   // The filtered error of a step of h from x1 over stages x2, x3, as a fraction of the tolerance.
@@ -160,12 +186,23 @@ struct Stepper {
     double r[2];
     for (int i = 0; i < 2; ++i) r[i] = e_omega[i] + hd * (a_phi[i][0] * e_phi[0] + a_phi[i][1] * e_phi[1]);
     if (!newton_solve(hd, r)) return INFINITY;
-    // a speed error counts by the rim motion it makes over the longest step
     double fraction = 0;
+    for (int i = 0; i < 2; ++i)
+      fraction = std::max(fraction, rb[i] * std::fabs(e_phi[i] + hd * r[i]) / p.tolerance);
+    // A speed error counts by the rim motion it makes, split by mode. In the mesh mode (the
+    // gears moving apart on the line of action, speeds along v = J^-1 g, g = d(TE)/d(phi) =
+    // (r_b1, s r_b2)) it becomes a TE oscillation of amplitude |g e| / omega_n, omega_n the
+    // mode's frequency from the Jacobian: the error in the mode's energy norm (without contact,
+    // the rim motion over the longest step). In the rest, the gears' common rotation, it
+    // persists: the rim motion over the longest step. Counted over the longest step, the mesh
+    // mode's speed error would set the step at 17 times the TE error (set A, 1000 rpm).
+    const MeshMode mode = mesh_mode();
+    const double te_rate = mode.g[0] * r[0] + mode.g[1] * r[1];
+    const double te_time = mode.omega_n > 0 ? std::min(p.max_step, 1.0 / mode.omega_n) : p.max_step;
+    fraction = std::max(fraction, std::fabs(te_rate) * te_time / p.tolerance);
     for (int i = 0; i < 2; ++i) {
-      const double phi_error = e_phi[i] + hd * r[i];
-      fraction = std::max({fraction, rb[i] * std::fabs(phi_error) / p.tolerance,
-                           rb[i] * std::fabs(r[i]) * p.max_step / p.tolerance});
+      const double common = r[i] - te_rate / mode.gv * mode.v[i];
+      fraction = std::max(fraction, rb[i] * std::fabs(common) * p.max_step / p.tolerance);
     }
     return std::isfinite(fraction) ? fraction : INFINITY;
   }
@@ -328,10 +365,16 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   (jump > 0 ? s.work_in : s.work_out) += std::fabs(jump);
   s.steps = s.rejected = 0;
   double t = 0, h = std::clamp(s.step, p.min_step, p.max_step);
-  // The Jacobian (Newton matrix and error filter) is taken at every step's start: kept over
-  // steps, a stale one let the filtered error pass steps across the friction reversal (A_omega
-  // changes by orders of magnitude there), 0.14 um off the quasi-static p-p TE at mu 0.4.
-  bool jacobian_current = false;  // at x1
+  // The Jacobian (Newton matrix and error filter) is kept over steps while it stays good: taken
+  // anew after a step over which the contact changed, after a stage's first Newton correction
+  // left more than kStaleContraction of its residual (with the Jacobian of the state the first
+  // correction leaves little more than the stage's nonlinearity; a Jacobian from the other side
+  // of the friction reversal, where A_omega changes by orders of magnitude, leaves most of it),
+  // after kJacobianAge steps, and before a rejected step is retried. Kept regardless, a stale
+  // one let the filtered error pass steps across the friction reversal, 0.14 um off the
+  // quasi-static p-p TE at mu 0.4 (Dynamics.PitchPointReversalConvergesWithTheTolerance).
+  bool jacobian_current = false;
+  int jacobian_age = 0;  // accepted steps since it was taken
   while (t < duration) {
     if (s.steps + s.rejected >= GM_DYNAMICS_MAX_INTERNAL_STEPS) {
       d.message = "large-step dynamics: " + std::to_string(GM_DYNAMICS_MAX_INTERNAL_STEPS) +
@@ -348,7 +391,9 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     if (!jacobian_current) {
       if ((status = st.jacobian(x1)) != GM_OK) return status;
       jacobian_current = true;
+      jacobian_age = 0;
     }
+    st.contraction = 0;
     double fraction = INFINITY;
     status = st.step(t, h_try, x1, x2, x3, &fraction);
     if (status == GM_ERR_INPUT) return status;
@@ -358,12 +403,14 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       account(h_try, x1, x2, x3, s);
       t = h_try >= remaining ? duration : t + h_try;
       x1 = x3;
-      jacobian_current = false;
+      ++jacobian_age;
+      jacobian_current = !event && st.contraction <= kStaleContraction && jacobian_age < kJacobianAge;
       ++s.steps;
       h = std::min(p.max_step, std::max(h, h_try) * step_factor(fraction / allowed));
       continue;
     }
     ++s.rejected;
+    jacobian_current = jacobian_current && jacobian_age == 0;
     const bool newton_failed = status != GM_OK;
     h = h_try * (newton_failed ? 0.25 : std::min(0.5, step_factor(fraction / allowed)));
     if (h < p.min_step) {
