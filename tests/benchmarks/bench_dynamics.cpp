@@ -118,10 +118,13 @@ void run(double mu, double rpm, double H) {
     us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count() / c);
   }
   std::sort(us.begin(), us.end());
-  std::printf("mu %.1f  %6.0f rpm  H %-6g  %8.1f us per step (IQR %.1f-%.1f)  %6.2f internal steps, %5.2f rejected"
-              "  = %6.0f x gm_evaluate (%.2f us)\n",
-              mu, rpm, H, us[2], us[1], us[3], double(steps) / comm, double(rejected) / comm, us[2] * 1e3 / base,
-              base * 1e-3);
+  const int teeth = gm_model_parameters(u.m)->gear[0].teeth;
+  const double mesh_period = 2 * kPi / (rpm * 2 * kPi / 60 * teeth), internal = double(steps) / comm;
+  std::printf("mu %.1f  %5.0f rpm  H %-6g  %8.1f us per step (IQR %.1f-%.1f)  %7.2f internal steps, %6.2f rejected"
+              "  = %6.0f x gm_evaluate (%.2f us); %5.1f x gm_evaluate per internal step, %6.1f internal steps per mesh"
+              " period, %6.3f s wall per s\n",
+              mu, rpm, H, us[2], us[1], us[3], internal, double(rejected) / comm, us[2] * 1e3 / base, base * 1e-3,
+              us[2] * 1e3 / base / internal, internal * mesh_period / H, us[2] * 1e-6 / H);
   gm_data_free(u.d);
   gm_model_free(u.m);
 }
@@ -183,7 +186,7 @@ int main() {
     for (double rpm : {10.0, 1000.0}) undamped(level, rpm);
   std::printf("large-step mode, set A level 4, 10 slices, 350 N m: cost per communication step\n");
   for (double mu : {0.0, 0.4})
-    for (double rpm : {10.0, 1000.0})
+    for (double rpm : {10.0, 1000.0, 3000.0, 6000.0})
       for (double H : {1e-4, 1e-3, 1e-2}) run(mu, rpm, H);
   return 0;
 }

@@ -155,6 +155,18 @@ def test_case_checks_can_fail():
     assert stability.judge(roll, _run(rollback_gap=0.0))[0]
 
 
+def test_undamped_checks_can_fail():
+    """An undamped case is judged by the energy the run made against its largest energy (not
+    the work in, which balanced torques make large) and by the growth of its peak force."""
+    undamped = select(["undamped_10rpm"])[0]
+    calm = dict(case="undamped_10rpm", mode="large_step", work_in=600.0, largest_energy=0.05)
+    assert stability.judge(undamped, _run(residual=+0.01, **calm))[0]             # lost: allowed
+    ok, _, text = stability.judge(undamped, _run(residual=-0.006, **calm))        # 1 % of the work in
+    assert not ok and "energy made" in text
+    ok, _, text = stability.judge(undamped, _run(force=np.r_[np.full(25, 1e3), np.full(25, 2e3)], **calm))
+    assert not ok and "grew" in text
+
+
 def test_largest_stable_step():
     mk = lambda h, ok: stability.Row("c", "m", h, ok, ok, None, 0, 0, 0, 0, 0, 0, 0, 0, "")
     rows = [mk(1e-5, True), mk(1e-4, True), mk(1e-3, False), mk(1e-2, True)]

@@ -77,6 +77,8 @@ class Case:
     fe_scene: str = ""                              # level 5: scene text whose databases to build
     quick: bool = False                             # in the CI subset
     reference_step: float = 0.0                     # s, the TE reference's step (0: the default)
+    modes: tuple = ()                               # the modes the case runs in (empty: all)
+    undamped: bool = False                          # judged by the undamped rules (gearmesh.stability)
 
 
 def driven_pair(case: Case, geo: Geometry, te0: float) -> GearPair:
@@ -128,6 +130,16 @@ def free_pair(case: Case, geo: Geometry, te0: float) -> GearPair:
     w1 = 100 * RPM
     return GearPair(J1=case.J[0], J2=case.J[1],
                     x0=(0.0, w1, geo.phi2(-geo.backlash / 2, 0.0), geo.ratio * w1))
+
+
+def balanced_pair(case: Case, geo: Geometry, te0: float) -> GearPair:
+    """Free gears (no shafts) at conjugate speeds, TE te0, under a constant drive torque on gear 1
+    and the load it balances on gear 2: what the start excites in the mesh mode stays there, with
+    nothing in the system to damp it but the integrator."""
+    w1 = case.speed_rpm * RPM
+    return GearPair(J1=case.J[0], J2=case.J[1], torque1=constant(case.load * geo.r_b1 / geo.r_b2),
+                    torque2=constant(geo.load_torque2(case.load)),
+                    x0=(0.0, w1, geo.phi2(te0, 0.0), geo.ratio * w1))
 
 
 def _shift_centre(m_n: float, z1: int, z2: int, x1: float, x2: float, alpha=math.radians(20),
@@ -255,6 +267,14 @@ def all_cases() -> list[Case]:
         Case("level_4", "stiffness level 4 (analytical + Hertz)", params=level(4), quick=True),
         Case("level_5", "stiffness level 5 (FE databases of a small 20/20 pair, m 2 mm, b 10 mm"
              ", coarse mesh), 20 N m", load=20.0, fe_scene=SMALL_FE_SCENE, J=(5e-4, 5e-4)),
+        Case("undamped_10rpm", "no mesh damping, free gears at 10 rpm under balanced 150 N m, "
+             "teeth just touching at the start, 2 s", params={"model.damping": 0.0}, load=150.0,
+             te0=0.0, t_end=2.0, te_check=False, pair=balanced_pair, modes=("large_step",),
+             undamped=True, quick=True),
+        Case("undamped_10rpm_level_4", "undamped_10rpm at stiffness level 4, 10 slices",
+             params={"model.damping": 0.0, "model.stiffness": 4, "model.slices": 10}, load=150.0,
+             te0=0.0, t_end=2.0, te_check=False, pair=balanced_pair, modes=("large_step",),
+             undamped=True),
         Case("random_steps", "nominal with communication steps drawn log-uniformly in "
              "[h/10, h]", random_steps=True),
         Case("rollback", "nominal; at mid-run the master saves the FMU state, runs on, restores "

@@ -74,6 +74,7 @@ class Run:
     internal_steps: int = 0           # large-step mode: the FMU's internal steps, summed
     rejected: int = 0
     rollback_gap: float = math.nan    # rollback case: largest difference of the continuations
+    largest_energy: float = math.nan  # large-step mode: the largest kinetic + elastic energy, J
     te_ref: np.ndarray | None = None  # the reference TE at the samples (te_check cases)
     te_cut: np.ndarray | None = None  # large_step_chain: the converged chain's TE (no cut)
 
@@ -155,6 +156,9 @@ def run(prep: Prepared, mode: str, h: float) -> Run:
     if mode not in MODES:
         raise ValueError(f"--modes: unknown mode {mode!r}; allowed: {', '.join(MODES)}")
     r = Run(prep.case.name, mode, h)
+    if prep.case.modes and mode not in prep.case.modes:
+        r.error = f"n/a: the case runs in {', '.join(prep.case.modes)} only"
+        return r
     start = time.perf_counter()
     try:
         if mode in ("explicit", "implicit"):
@@ -341,6 +345,7 @@ def _collect(r: Run, res, t, sign: int = 1) -> None:
     # at its internal steps (a quadrature of the sampled torques misses what varies within a
     # communication step: edge contact under a 20 mrad tilt, wedging)
     r.work_in = float(res["energy.initial"][-1]) + float(res["energy.work_in"][-1])
+    r.largest_energy = float(np.max(np.asarray(res["energy.kinetic"], float) + np.asarray(res["energy.elastic"], float)))
     r.nan_count = sum(int(np.count_nonzero(~np.isfinite(np.asarray(res[k], float)))) for k in OUT)
 
 
