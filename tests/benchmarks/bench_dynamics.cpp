@@ -1,6 +1,7 @@
 // Benchmark of the large-step mode (gm_dynamics_advance): the cost of one communication step
-// for set A at level 4 (10 slices), gear 1 on a shaft whose far end turns at the given speed,
-// gear 2 braked by 350 N m, started at the quasi-static equilibrium. Per case: median and
+// for set A at level 4 (and level 5 on synthetic databases), 10 slices, gear 1 on a shaft whose
+// far end turns at the given speed, gear 2 braked by 350 N m, started at the quasi-static
+// equilibrium. Per case: median and
 // interquartile range of the time per communication step over 5 rounds of 0.2 s of simulated
 // time each (after 0.1 s of settling), the internal steps and rejections per communication step,
 // and the ratio to one gm_evaluate of the same model measured in the same run. Prints; never
@@ -9,8 +10,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
+#include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
 
 namespace {
@@ -27,19 +30,33 @@ struct Setup {
   gm_dynamics_state s{};
 };
 
-gm_model_params params(double mu) {
+// Level 5's synthetic databases (tests/core/fe_synthetic.hpp), written once per process.
+std::string fe_path[2];
+
+// Set A at `level` (4, or 5 with the synthetic databases and 2 coupled teeth), 10 slices.
+gm_model_params params(double mu, int level = 4) {
   gm_model_params p;
   gm_default_params(&p);
-  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+  p.stiffness_level = static_cast<gm_stiffness_level>(level);
   p.slices = 10;
   p.friction_coefficient = mu;
   p.friction_velocity = 1e-5;
+  if (level == GM_STIFFNESS_FE) {
+    p.coupled_teeth = 2;
+    for (int g = 0; g < 2; ++g) {
+      std::string msg;
+      if (fe_path[g].empty())
+        fe_path[g] = gm_test::write_smooth_db(p, g, "bench_dynamics_gear" + std::to_string(g + 1) + ".gcdb", msg);
+      if (fe_path[g].empty()) std::printf("gear%d database: %s\n", g + 1, msg.c_str());
+      p.compliance[g] = fe_path[g].c_str();
+    }
+  }
   return p;
 }
 
-bool make(Setup& u, double mu, double rpm) {
+bool make(Setup& u, double mu, double rpm, int level) {
   char msg[512];
-  gm_model_params p = params(mu);
+  gm_model_params p = params(mu, level);
   if (gm_model_create(&p, &u.m, msg, sizeof msg) != GM_OK || gm_data_create(u.m, &u.d) != GM_OK) {
     std::printf("%s\n", msg);
     return false;
@@ -87,9 +104,9 @@ double evaluate_ns(Setup& u) {
   return std::chrono::duration<double, std::nano>(Clock::now() - t0).count() / n;
 }
 
-void run(double mu, double rpm, double H) {
+void run(double mu, double rpm, double H, int level = 4) {
   Setup u;
-  if (!make(u, mu, rpm)) return;
+  if (!make(u, mu, rpm, level)) return;
   gm_result res{};
   const auto advance = [&](double span, int* steps, int* rejected) {
     const int count = static_cast<int>(std::lround(span / H));
@@ -120,10 +137,10 @@ void run(double mu, double rpm, double H) {
   std::sort(us.begin(), us.end());
   const int teeth = gm_model_parameters(u.m)->gear[0].teeth;
   const double mesh_period = 2 * kPi / (rpm * 2 * kPi / 60 * teeth), internal = double(steps) / comm;
-  std::printf("mu %.1f  %5.0f rpm  H %-6g  %8.1f us per step (IQR %.1f-%.1f)  %7.2f internal steps, %6.2f rejected"
+  std::printf("level %d  mu %.1f  %5.0f rpm  H %-6g  %8.1f us per step (IQR %.1f-%.1f)  %7.2f internal steps, %6.2f rejected"
               "  = %6.0f x gm_evaluate (%.2f us); %5.1f x gm_evaluate per internal step, %6.1f internal steps per mesh"
               " period, %6.3f s wall per s\n",
-              mu, rpm, H, us[2], us[1], us[3], internal, double(rejected) / comm, us[2] * 1e3 / base, base * 1e-3,
+              level, mu, rpm, H, us[2], us[1], us[3], internal, double(rejected) / comm, us[2] * 1e3 / base, base * 1e-3,
               us[2] * 1e3 / base / internal, internal * mesh_period / H, us[2] * 1e-6 / H);
   gm_data_free(u.d);
   gm_model_free(u.m);
@@ -184,9 +201,11 @@ int main() {
   std::printf("undamped free gears, set A, 10 slices, +150 N m on each, teeth touching at the start, H 1 ms, 1 s\n");
   for (int level : {0, 4})
     for (double rpm : {10.0, 1000.0}) undamped(level, rpm);
-  std::printf("large-step mode, set A level 4, 10 slices, 350 N m: cost per communication step\n");
+  std::printf("large-step mode, set A at level 4 (and 5: synthetic databases, 2 coupled teeth), 10 slices, 350 N m: cost per communication step\n");
   for (double mu : {0.0, 0.4})
     for (double rpm : {10.0, 1000.0, 3000.0, 6000.0})
       for (double H : {1e-4, 1e-3, 1e-2}) run(mu, rpm, H);
+  for (double mu : {0.0, 0.4})
+    for (double rpm : {1000.0, 3000.0}) run(mu, rpm, 1e-3, GM_STIFFNESS_FE);
   return 0;
 }

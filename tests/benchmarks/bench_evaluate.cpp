@@ -14,12 +14,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <functional>
 #include <string>
 #include <vector>
 
-#include "gearmesh/internal/compliance_db.hpp"
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
 
@@ -105,15 +103,10 @@ void fe_level(gm_model_params& p) {
   for (int g = 0; g < 2; ++g) {
     std::string& path = fe_path[set][g];
     if (path.empty()) {
-      gm_model_params q = p;
-      q.compliance[0] = q.compliance[1] = nullptr;
       std::string msg;
-      const gm::ComplianceDb db = gm_test::smooth_db(q, g, gm_test::SmoothDbShape{}, msg);
-      path = (std::filesystem::temp_directory_path() /
-              ("bench_evaluate_" + std::to_string(set) + "_gear" + std::to_string(g + 1) + ".gcdb"))
-                 .string();
-      if (gm::write_compliance_db(path.c_str(), db, msg) != GM_OK)
-        std::printf("gear%d database: %s\n", g + 1, msg.c_str());
+      path = gm_test::write_smooth_db(
+          p, g, "bench_evaluate_" + std::to_string(set) + "_gear" + std::to_string(g + 1) + ".gcdb", msg);
+      if (path.empty()) std::printf("gear%d database: %s\n", g + 1, msg.c_str());
     }
     p.compliance[g] = path.c_str();
   }

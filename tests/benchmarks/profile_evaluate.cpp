@@ -12,12 +12,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
 #include <string>
 
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
-#include "gearmesh/internal/compliance_db.hpp"
 
 int main(int argc, char** argv) {
   const int coupled = argc > 1 ? std::atoi(argv[1]) : 2;
@@ -57,14 +55,10 @@ int main(int argc, char** argv) {
   }
   std::string path[2];
   for (int g = 0; g < 2 && fe; ++g) {
-    gm_model_params q = p;
-    q.compliance[0] = q.compliance[1] = nullptr;
     std::string err;
-    const gm::ComplianceDb db = gm_test::smooth_db(q, g, gm_test::SmoothDbShape{}, err);
-    path[g] = (std::filesystem::temp_directory_path() /
-               ("profile_evaluate_" + std::to_string(int(helical)) + "_gear" + std::to_string(g + 1) +
-                ".gcdb")).string();
-    if (gm::write_compliance_db(path[g].c_str(), db, err) != GM_OK) {
+    path[g] = gm_test::write_smooth_db(
+        p, g, "profile_evaluate_" + std::to_string(int(helical)) + "_gear" + std::to_string(g + 1) + ".gcdb", err);
+    if (path[g].empty()) {
       std::fprintf(stderr, "profile_evaluate: %s\n", err.c_str());
       return 1;
     }
