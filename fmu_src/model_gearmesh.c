@@ -447,25 +447,26 @@ int model_feedthrough(fmu_model* m, double time, char* msg, size_t n) {
   return 0;
 }
 
-/* The outputs' derivative along the input increments in seed, into out: the contact's from
- * gm_directional_derivative (solver.residual's is 0) on m->scratch, as model_feedthrough (level 5
- * keeps its coupled solve's tangent in the data), and the spin outputs, which are the spin inputs.
- * Refused with model.dynamics = 1. */
+/* The outputs' derivative along the input increments in seed, into out, at the communication
+ * point (docs/fmi.md, "Feedthrough"): the contact's from gm_directional_derivative (solver.residual's
+ * is 0) on m->scratch, as model_feedthrough (level 5 keeps its coupled solve's tangent in the
+ * data). Plain and quasi-static: the spin outputs are the spin inputs. With model.dynamics = 1 the
+ * contact is taken at the integrated spin state, which no input moves at the point (the spin
+ * inputs are the initial state only; torques and shaft ends act over the next step): only the
+ * pose inputs feed through, and the spin state, shaft torques and energy account do not respond. */
 static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_values* out, char* msg, size_t n) {
-  if (model_build(m, msg, n)) return 1;
-  if (m->v.dynamics) {
-    snprintf(msg, n,
-             "not available with model.dynamics = 1: the outputs are the end of the internal integration over "
-             "the step, whose sensitivities this version does not compute (docs/dynamics.md); with "
-             "model.dynamics = 0 the exact derivatives are available");
-    return 1;
+  if (model_build(m, msg, n) || load_scratch(m, msg, n)) return 1;
+  gm_kinematics at = m->v.k, along = seed->k;
+  for (int i = 0; m->v.dynamics && i < 2; i++) {
+    at.phi[i] = m->v.ds.phi[i];
+    at.omega[i] = m->v.ds.omega[i];
+    along.phi[i] = along.omega[i] = 0;
   }
-  if (load_scratch(m, msg, n)) return 1;
-  if (gm_directional_derivative(m->core, m->scratch, &m->v.k, &seed->k, &out->y) != GM_OK) {
+  if (gm_directional_derivative(m->core, m->scratch, &at, &along, &out->y) != GM_OK) {
     snprintf(msg, n, "%s", gm_data_message(m->scratch));
     return 1;
   }
-  for (int i = 0; i < 2; i++) {
+  for (int i = 0; !m->v.dynamics && i < 2; i++) {
     out->ds.phi[i] = seed->k.phi[i];
     out->ds.omega[i] = seed->k.omega[i];
   }
