@@ -32,3 +32,21 @@ def test_readme_quick_start_runs(fmu_path, tmp_path):
     te, force = map(float, re.match(r"TE (\S+) um, normal force (\S+) N", promised).groups())
     assert te == 5.0
     assert 0.5 * 15.6e9 * 0.023 * 5e-6 < force < 1.5 * 15.6e9 * 0.023 * 5e-6
+
+
+def test_readme_states_the_fmus_default_level_and_force(fmu_path):
+    """The level the quick start names is the generic FMU's default (modelDescription's start
+    value of model.stiffness), and at level 0 its force is the user constant x face width x TE
+    of the FMU's start values."""
+    from fmpy import read_model_description
+
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## Quick start"):]
+    level = int(re.search(r"the generic FMU's defaults: the paper's gear set A at\s+level (\d)", section).group(1))
+    start = {v.name: v.start for v in read_model_description(str(fmu_path)).modelVariables}
+    assert level == int(start["model.stiffness"])
+    _, promised = quick_start()
+    force = float(re.search(r"normal force (\S+) N", promised).group(1))
+    if level == 0:
+        expected = float(start["model.user_stiffness"]) * float(start["gear1.face_width"]) * 5e-6
+        assert force == round(expected)
