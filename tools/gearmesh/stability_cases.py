@@ -275,6 +275,10 @@ def all_cases() -> list[Case]:
              params={"model.damping": 0.0, "model.stiffness": 4, "model.slices": 10}, load=150.0,
              te0=0.0, t_end=2.0, te_check=False, pair=balanced_pair, modes=("large_step",),
              undamped=True),
+        Case("undamped_10rpm_level_5", "undamped_10rpm at stiffness level 5 (level_5's small 20/20 "
+             "pair and databases), 20 N m", params={"model.damping": 0.0}, load=20.0, te0=0.0, t_end=2.0,
+             te_check=False, pair=balanced_pair, modes=("large_step",), undamped=True,
+             fe_scene=SMALL_FE_SCENE, J=(5e-4, 5e-4)),
         Case("random_steps", "nominal with communication steps drawn log-uniformly in "
              "[h/10, h]", random_steps=True),
         Case("rollback", "nominal; at mid-run the master saves the FMU state, runs on, restores "
