@@ -68,6 +68,8 @@ def expected(case: Case, mode: str, step: float) -> bool | None:
     """
     if mode == "large_step" and (case.random_steps or case.rollback):
         return None
+    if case.modes and mode not in case.modes:
+        return None
     if mode.startswith("large_step") and step < 1e-3 and case.name in SMALL_STEP_OPEN:
         return None
     if mode.startswith("large_step"):
