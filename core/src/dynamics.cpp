@@ -29,7 +29,11 @@ constexpr int kMaxNewton = 10;
 // often at the predictor itself, made the undamped mesh gain energy until the teeth rattled
 // (Dynamics.UndampedMeshDoesNotGainEnergy). Below 1e-4 the answers no longer move.
 constexpr double kNewtonFraction = 1e-4;
-constexpr double kEventFraction = 0.25;   // error allowed over a step where the contact changed
+// Error allowed over a step where the contact changed. The estimate is unreliable across the
+// kink; at the full tolerance the undamped mesh gains energy at its contact losses again
+// (Dynamics.UndampedMeshDoesNotGainEnergy: level 0 peak force 7.2 -> 9.5 kN, gearmesh stability's
+// undamped_10rpm fails), while a loaded mesh's TE through tooth changes is as accurate.
+constexpr double kEventFraction = 0.25;
 constexpr double kStaleContraction = 0.05;  // a first Newton contraction above this: new Jacobian
 constexpr int kJacobianAge = 20;            // accepted steps on one Jacobian at most
 
