@@ -391,7 +391,7 @@ typedef enum {
     "element's non-conservative part: compliance varying along the path)")                                       \
   X("energy.residual", Real, output, continuous, calculated, "J", "", ds.residual, 0,                      \
     "large-step mode: integration error, work_in - work_out - (kinetic + elastic - initial) - friction - damping " \
-    "- parametric")                                                                                                \
+    "- parametric; positive: energy the integrator lost, negative: energy it made")                             \
   X("dynamics.step_size", Real, output, continuous, calculated, "s", "", ds.step, D_AT_INIT(D_SET | D_DYN),   \
     "large-step mode: the internal step the next fmi2DoStep tries first")                                         \
   X("dynamics.steps", Integer, output, discrete, calculated, "", "", ds.steps, 0,                          \
