@@ -25,9 +25,8 @@ constexpr double kE1 = (1.0 - 4.0 * kW) / 3.0, kE2 = 1.0 / 3.0, kE3 = -2.0 * kD 
 constexpr int kMaxNewton = 10;
 // Newton stops after at least one correction, once the stage residual (as rim motion) is within
 // this fraction of the tolerance. An unconverged stage keeps part of its explicit predictor, and
-// an explicit step puts energy into an undamped oscillation: stopping at 1e-2 of the tolerance,
-// often at the predictor itself, made the undamped mesh gain energy until the teeth rattled
-// (Dynamics.UndampedMeshDoesNotGainEnergy). Below 1e-4 the answers no longer move.
+// an explicit step puts energy into an undamped oscillation until the teeth rattle
+// (Dynamics.UndampedMeshDoesNotGainEnergy fails with 1e-2 and no forced correction).
 constexpr double kNewtonFraction = 1e-4;
 // Error allowed over a step where the contact changed. The estimate is unreliable across the
 // kink; at the full tolerance the undamped mesh gains energy at its contact losses again
@@ -45,7 +44,6 @@ struct Point {
   double power_in = 0, power_out = 0;  // put in / taken out at the torques and far ends, W
   double power_friction = 0;        // W
   double power_damping = 0;         // contact and shaft dampers, W
-  double power_mesh = 0;            // into the mesh from the spins, -sum M_i,z omega_i, W
   double elastic = 0;               // mesh + shafts, J
   gm_result res{};
 };
@@ -83,7 +81,6 @@ struct Stepper {
     }
     out.power_friction = out.res.friction_power;
     out.power_damping += out.res.damping_power;
-    out.power_mesh = -(out.res.moment[0][2] * omega[0] + out.res.moment[1][2] * omega[1]);
     out.elastic += out.res.elastic_energy;
     return GM_OK;
   }
@@ -202,7 +199,7 @@ struct Stepper {
     // events, came 0.06 um off the converged dynamics at tolerance 1e-9 m; docs/stability.md);
     // without contact, over the longest step. In the rest, the gears' common rotation, it
     // persists: the rim motion over the longest step. Counted over the longest step, the mesh
-    // mode's speed error would set the step at 17 times the TE error (set A, 1000 rpm).
+    // mode's speed error, not the TE error, would set the step.
     const MeshMode mode = mesh_mode();
     const double te_rate = mode.g[0] * r[0] + mode.g[1] * r[1];
     const double te_time = mode.omega_n > 0 ? std::min(p.max_step, std::max(h, 1.0 / mode.omega_n)) : p.max_step;
@@ -263,9 +260,9 @@ void account(double h, const Point& x1, const Point& x2, const Point& x3, gm_dyn
   // points (the trapezoidal rule in angle, x1 -> x2 -> x3), not with the time weights: for a
   // mesh whose moments are the gradient of its elastic energy and vary linearly over the step,
   // that is exactly the energy change, so a conservative mesh books no parametric work and the
-  // integrator's own error stays in the residual. With the time weights the two differed by the
-  // quadrature error of an oscillation, which split into a parametric gain and an equal and
-  // opposite residual (level 0, where the element is conservative: 0.015 J each in 1 s).
+  // integrator's own error stays in the residual. With the time weights the quadrature error of
+  // an oscillation would split into a parametric gain and an equal and opposite residual
+  // (Dynamics.UndampedMeshDoesNotGainEnergy fails on level 0's parametric work).
   const auto chord_work = [](const Point& a, const Point& b) {
     double w = 0;
     for (int i = 0; i < 2; ++i) w -= 0.5 * (a.res.moment[i][2] + b.res.moment[i][2]) * (b.phi[i] - a.phi[i]);
@@ -378,10 +375,8 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   // more than the stage's nonlinearity is left; a stale one, e.g. from before a tooth pair
   // entered, costs a Newton iteration per stage). Kept with none of these, a stale one let the
   // filtered error pass steps across the friction reversal at the pitch point (A_omega changes
-  // there by orders of magnitude), 0.14 um off the quasi-static p-p TE at mu 0.4. Measured
-  // through the reversal (set A level 4, mu 0.4, 10 rpm, 350 N m, 1 ms steps for 0.3 s, against
-  // tolerance 1e-11 m): TE within 0.030 / 0.0072 um at 1e-8 / 1e-9 m (a Jacobian at every step
-  // and the speed error over max_step: 0.031 / 0.0028 um in 1.9 / 4.9 times the steps).
+  // there by orders of magnitude), 0.14 um off the quasi-static p-p TE at mu 0.4
+  // (Dynamics.PitchPointReversalConvergesWithTheTolerance).
   bool jacobian_current = false;
   int jacobian_age = 0;  // accepted steps since it was taken
   while (t < duration) {
