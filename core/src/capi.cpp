@@ -297,8 +297,10 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
       d->fe_dual_c.resize(c, c);
       d->fe_saved_force.resize(c);
       d->fe_saved_key.resize(c);
-      if (m->params.stiffness_level == GM_STIFFNESS_FE)
+      if (m->params.stiffness_level == GM_STIFFNESS_FE) {
         d->fe_assembly.reserve(gm::fe_view(*m), c);  // gm_evaluate then allocates nothing
+        d->fe_dual_assembly.reserve(gm::fe_view(*m), c);
+      }
     }
     d->message.reserve(256);
     *out = d;

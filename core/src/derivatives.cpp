@@ -146,25 +146,26 @@ void fe_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
   const Dual uz[2] = {kin.u[0][2], kin.u[1][2]};
   auto H = d.fe_tangent.topLeftCorner(na, na);
   auto dC = d.fe_dual_c.topLeftCorner(na, na);
-  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
-  for (int p = 0; p < na; ++p) {
-    const ContactSliceT<Dual>& sp = S[d.fe_index[p]];
-    Dual hp[2];
-    if (!fe) for (int g = 0; g < 2; ++g) hp[g] = coupling_height(m.coupling.gear[g], sp.roll[g]);
-    for (int q = 0; q <= p; ++q) {
-      const ContactSliceT<Dual>& sq = S[d.fe_index[q]];
-      Dual c;
-      if (fe) {
-        c = fe_pair_compliance(fe_view(m), sp, sq, uz);
-      } else if (p == q) {  // level 4 coupled: the slice's own law, no self-coupling
-        c = d.dual_laws[d.fe_index[p]].compliance;
-      } else {
-        Dual hq[2];
-        for (int g = 0; g < 2; ++g) hq[g] = coupling_height(m.coupling.gear[g], sq.roll[g]);
-        c = coupling_compliance(m.coupling, sp, hp, sq, hq);
+  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
+    d.fe_dual_assembly.assemble(fe_view(m), S, d.fe_index.data(), na, uz, d.fe_tangent, d.fe_dual_c);
+  } else {
+    for (int p = 0; p < na; ++p) {
+      const ContactSliceT<Dual>& sp = S[d.fe_index[p]];
+      Dual hp[2];
+      for (int g = 0; g < 2; ++g) hp[g] = coupling_height(m.coupling.gear[g], sp.roll[g]);
+      for (int q = 0; q <= p; ++q) {
+        const ContactSliceT<Dual>& sq = S[d.fe_index[q]];
+        Dual c;
+        if (p == q) {  // level 4 coupled: the slice's own law, no self-coupling
+          c = d.dual_laws[d.fe_index[p]].compliance;
+        } else {
+          Dual hq[2];
+          for (int g = 0; g < 2; ++g) hq[g] = coupling_height(m.coupling.gear[g], sq.roll[g]);
+          c = coupling_compliance(m.coupling, sp, hp, sq, hq);
+        }
+        H(p, q) = H(q, p) = c.v;
+        dC(p, q) = dC(q, p) = c.d;
       }
-      H(p, q) = H(q, p) = c.v;
-      dC(p, q) = dC(q, p) = c.d;
     }
   }
   auto rhs = d.fe_delta.head(na);

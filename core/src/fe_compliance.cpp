@@ -249,6 +249,70 @@ void fe_assemble_reference(const FeView& m, const ContactSlice* slices, const in
       C(a, b) = C(b, a) = fe_pair_compliance(m, slices[index[a]], slices[index[b]], uz);
 }
 
+// ---- FeDualAssembly ----
+
+void FeDualAssembly::reserve(const FeView& m, int capacity) {
+  const std::size_t c = std::size_t(std::max(capacity, 0));
+  std::size_t per = 0;  // weights of one candidate over both gears: 2 roll nodes x face nodes
+  for (int g = 0; g < 2; ++g) per += 2 * std::max<std::size_t>(1, m.compliance[g].face.size());
+  weights_.reserve(c * per);
+  for (auto& s : spots_) s.reserve(c);
+}
+
+void FeDualAssembly::assemble(const FeView& m, const ContactSliceT<Dual>* slices, const int* index, int n,
+                              const Dual uz[2], Eigen::MatrixXd& C, Eigen::MatrixXd& dC) {
+  weights_.clear();
+  // each candidate's weights on each gear, in fe_entry's order (roll node, then face node),
+  // leaving out the zero ones as fe_entry skips them
+  for (int g = 0; g < 2; ++g) {
+    const ComplianceDb& db = m.compliance[g];
+    const std::size_t nf = db.face.size();
+    const int nr = int(db.roll.size());
+    spots_[g].resize(std::size_t(n));
+    for (int a = 0; a < n; ++a) {
+      const ContactSliceT<Dual>& s = slices[index[a]];
+      const FeSpot<Dual> p = fe_spot(db, s.roll[g], face_position(m, g, s, uz[g]), s.width);
+      Spot& spot = spots_[g][std::size_t(a)];
+      spot.first = int(weights_.size());
+      spot.flank = s.flank;
+      spot.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
+      for (int ai = 0; ai < std::min(2, nr); ++ai) {
+        const Dual ra = ai == 0 ? p.roll_weight : 1 - p.roll_weight;
+        if (ra == 0) continue;
+        for (int mi = p.face_lo; mi <= p.face_hi; ++mi) {
+          const Dual q = ra * face_share(db.face, p.lo, p.hi, mi);
+          if (q == 0) continue;
+          weights_.push_back(Weight{int(std::size_t(p.roll_node + ai) * nf + std::size_t(mi)), q});
+        }
+      }
+      spot.count = int(weights_.size()) - spot.first;
+    }
+  }
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b <= a; ++b) {
+      Dual c = 0;
+      for (int g = 0; g < 2; ++g) {
+        const Spot &pa = spots_[g][std::size_t(a)], &pb = spots_[g][std::size_t(b)];
+        const int k = block_of(m, g, pa.flank, pa.tooth, pb.flank, pb.tooth);
+        Dual sum = 0;
+        if (k >= 0) {
+          const std::vector<double>& block = m.compliance[g].blocks[std::size_t(k)];
+          const std::size_t ng = m.compliance[g].n_grid();
+          for (int i = pa.first; i < pa.first + pa.count; ++i) {
+            const Dual qa = weights_[std::size_t(i)].w;
+            const std::size_t row = std::size_t(weights_[std::size_t(i)].node) * ng;
+            for (int j = pb.first; j < pb.first + pb.count; ++j)
+              sum += qa * weights_[std::size_t(j)].w * block[row + std::size_t(weights_[std::size_t(j)].node)];
+          }
+        }
+        c += sum;
+      }
+      C(a, b) = C(b, a) = c.v;
+      dC(a, b) = dC(b, a) = c.d;
+    }
+  }
+}
+
 // ---- FeAssembly ----
 
 void FeAssembly::reserve(const FeView& m, int capacity) {

@@ -152,4 +152,30 @@ class FeAssembly {
   std::vector<int> span_at_;      // add_cached: chunk offsets over the node pairs two groups span
 };
 
+// The derivative's assembly: C and dC between candidates index[0..n) over dual numbers, each
+// entry bit for bit what fe_pair_compliance<Dual> gives (the same products summed in the same
+// order), but every candidate's interpolation weights found once per call instead of once per
+// entry (gm_directional_derivative at level 5 spent most of its time there).
+class FeDualAssembly {
+ public:
+  // Size the buffers for at most `capacity` candidates (gm_data_create): assemble then
+  // allocates nothing.
+  void reserve(const FeView& m, int capacity);
+  // C's and dC's top-left n x n (values and derivatives); both must be at least n x n.
+  void assemble(const FeView& m, const ContactSliceT<Dual>* slices, const int* index, int n,
+                const Dual uz[2], Eigen::MatrixXd& C, Eigen::MatrixXd& dC);
+
+ private:
+  struct Weight {
+    int node = 0;  // grid node of the database: roll node * n_face + face node
+    Dual w;        // its weight: roll weight times face share
+  };
+  struct Spot {
+    int first = 0, count = 0;  // its weights in weights_
+    int flank = 0, tooth = 0;  // the slice's flank and the database's tooth (modulo z)
+  };
+  std::vector<Weight> weights_;
+  std::vector<Spot> spots_[2];  // per gear, per candidate of the call
+};
+
 }  // namespace gm

@@ -69,6 +69,7 @@ struct gm_data {
   double fe_energy = std::numeric_limits<double>::quiet_NaN();
   gm::FeAssembly fe_assembly;            // cached face sums of the databases (derived data)
   Eigen::MatrixXd fe_dual_c;             // derivative: dC between the loaded slices, m/N
+  gm::FeDualAssembly fe_dual_assembly;   // derivative: level 5's C and dC (its scratch)
   Eigen::VectorXd fe_saved_force;        // derivative: the warm start, restored afterwards
   std::vector<long long> fe_saved_key;
   // gm_directional_derivative's scratch: the same per slice, over dual numbers

@@ -415,6 +415,61 @@ TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
   }
 }
 
+// The derivative's assembly (FeDualAssembly) against fe_pair_compliance<Dual> entry by entry
+// (lower triangle, mirrored), values and derivatives bit for bit, over a sweep of two and a half pitches with tooth changes,
+// flank B and axial motion, spur and helical, along the spin and along the axial displacement.
+TEST(FeLevel, DualAssemblyMatchesThePairwiseReferenceBitForBit) {
+  for (double beta : {0.0, 15.0}) {
+    gm_model_params base = fe_paper(6);
+    base.pair.helix_angle = beta * kPi / 180;
+    if (beta != 0) {
+      base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
+      base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
+    }
+    const SmoothFe fe(base, "dual_sweep" + std::to_string(int(beta)));
+    Instance I(fe.p);
+    const gm_model& m = *I.m;
+    const int cap = m.slice_capacity;
+    std::vector<gm::ContactSliceT<gm::Dual>> slices(static_cast<std::size_t>(cap));
+    std::vector<int> index(static_cast<std::size_t>(cap), 0);
+    Eigen::MatrixXd C(cap, cap), dC(cap, cap);
+    gm::FeDualAssembly assembly;
+    assembly.reserve(gm::fe_view(m), cap);
+    int checked = 0, moving = 0;
+    for (int s = 0; s < 60; ++s) {
+      gm::KinematicsT<gm::Dual> k{};
+      const double phi1 = 2.5 * 2 * kPi / 57 * s / 60;
+      k.phi[0] = gm::Dual(phi1, s % 2 == 0 ? 1.0 : 0.0);
+      k.phi[1] = gm::Dual((3e-6 - I.rb(0) * phi1) / I.rb(1));
+      k.u[1][2] = gm::Dual(s >= 30 && s < 35 ? 20e-6 * (s - 29) : 0.0, s % 2 == 0 ? 0.0 : 1.0);
+      std::string msg;
+      const int n = gm::detect_contacts(m.layout, k, slices.data(), cap, msg);
+      ASSERT_GE(n, 0) << msg;
+      int na = 0;
+      for (int i = 0; i < n; ++i)
+        if (slices[std::size_t(i)].approach > -100e-6) index[std::size_t(na++)] = i;
+      if (na == 0) continue;
+      const gm::Dual uz[2] = {k.u[0][2], k.u[1][2]};
+      assembly.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, C, dC);
+      // the lower triangle from the reference (receiver a, load b), mirrored, as the derivative
+      // assembled it before
+      for (int a = 0; a < na; ++a)
+        for (int b = 0; b <= a; ++b) {
+          const gm::Dual r = gm::fe_pair_compliance(gm::fe_view(m), slices[std::size_t(index[std::size_t(a)])],
+                                                    slices[std::size_t(index[std::size_t(b)])], uz);
+          ASSERT_EQ(C(a, b), r.v) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
+          ASSERT_EQ(dC(a, b), r.d) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
+          ASSERT_EQ(C(b, a), r.v);
+          ASSERT_EQ(dC(b, a), r.d);
+          moving += r.d != 0;
+        }
+      ++checked;
+    }
+    EXPECT_GE(checked, 50);
+    EXPECT_GT(moving, 0);  // the derivatives are not all zero
+  }
+}
+
 // Level 5 on p's own synthetic databases, gear `gear`'s replaced by db (written as `name`).
 gm_model_params with_database(const gm_model_params& p, const FeFiles& f, int gear, const gm::ComplianceDb& db,
                               const std::string& name, std::string& path) {
