@@ -39,6 +39,8 @@ struct Stats {
 Stats time_case(const Case& c) {
   gm_model_params p;
   gm_default_params(&p);
+  p.stiffness_level = GM_STIFFNESS_USER_CONSTANT;  // the cases edit the level-0, one-slice pair
+  p.slices = 1;
   c.edit(p);
   char msg[512];
   gm_model* m = nullptr;

@@ -188,7 +188,8 @@ typedef struct gm_model gm_model;
 typedef struct gm_data gm_data;
 
 /* Fill p with the defaults: the paper's gear set A (57/57, m 2.6 mm, 20 deg, b 23 mm, a 150 mm,
- * x 0.35 each), level 0 at 15 N/(mm um), one slice, no friction, no damping. */
+ * x 0.35 each), level 4 (analytical, +-2 coupled teeth) with 10 slices, no friction, no damping
+ * (user_stiffness 15 N/(mm um) for level 0). */
 void gm_default_params(gm_model_params* p);
 
 /* Compute the pair geometry without creating a model. Validates p like gm_model_create.
