@@ -12,11 +12,19 @@ DEFAULT_SCENES = [REPO / "scenarios" / "paper_setA_3U4U.toml",
                   REPO / "scenarios" / "paper_setB_P1P2.toml"]
 
 
-def main(argv: list[str] | None = None) -> int:
+# subcommands that parse their own options (the rest of the command line): name -> the module
+# whose main(argv) does; gearmesh.reference_docs documents their options from that parser
+DELEGATED = {"platforms": "gearmesh.platforms"}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The `gearmesh` parser with every subcommand (docs/reference/commands.md is generated
+    from it by gearmesh.reference_docs)."""
     parser = argparse.ArgumentParser(prog="gearmesh", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     p_main = sub.add_parser("main", help="run the main job on scenes (default: the paper's sets)")
-    p_main.add_argument("scenes", nargs="*", type=pathlib.Path, help="scene files (TOML)")
+    p_main.add_argument("scenes", nargs="*", type=pathlib.Path, default=DEFAULT_SCENES,
+                        help="scene files (TOML)")
     p_main.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
     p_main.add_argument("--out", type=pathlib.Path, default=REPO / "output")
     p_check = sub.add_parser("check", help="validate scene files (against the ranges the FMU "
@@ -25,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     p_check.add_argument("--fmu", type=pathlib.Path, help="default: $GEARMESH_FMU, else "
                          "build/GearMesh.fmu")
     p_batch = sub.add_parser("batch", help="scenes x torques x parameter variations in parallel")
-    p_batch.add_argument("scenes", nargs="*", type=pathlib.Path)
+    p_batch.add_argument("scenes", nargs="*", type=pathlib.Path, default=DEFAULT_SCENES)
     p_batch.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
     p_batch.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "batch")
     p_batch.add_argument("--torques", type=float, nargs="+", help="N m (default: each scene's)")
@@ -48,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     _cluster_options(p_study)
     p_ref = sub.add_parser("reference", help="compare the scenes' loaded TE with their reference "
                            "curves, or (--write) regenerate them on purpose")
-    p_ref.add_argument("scenes", nargs="*", type=pathlib.Path)
+    p_ref.add_argument("scenes", nargs="*", type=pathlib.Path, default=DEFAULT_SCENES)
     p_ref.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
     p_ref.add_argument("--write", action="store_true", help="overwrite the reference curves")
     p_comp = sub.add_parser("compliance", help="build the scenes' compliance databases (FE "
@@ -103,8 +111,21 @@ def main(argv: list[str] | None = None) -> int:
     p_acc.add_argument("--reference", type=pathlib.Path, help="folder of the "
                        "<scene>.reference_fe.summary.csv (2-D) and <scene>.reference_fe3d.summary.csv "
                        "(3-D) files (default: reference/ next to each scene)")
+    p_refdocs = sub.add_parser("reference-docs", help="regenerate docs/reference/ (scene keys, FMU "
+                               "variables, commands) from the code's tables, the FMU's "
+                               "modelDescription.xml and this parser")
+    p_refdocs.add_argument("--fmu", type=pathlib.Path, help="the generic FMU whose "
+                           "modelDescription.xml the pages document (default: $GEARMESH_FMU, "
+                           "else build/GearMesh.fmu)")
+    p_refdocs.add_argument("--check", action="store_true", help="write nothing; exit 1 naming "
+                           "the pages that differ from a fresh generation")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args, rest = parser.parse_known_args(argv)
-    if rest and args.command != "platforms":  # `platforms` parses its own options
+    if rest and args.command not in DELEGATED:  # those parse their own options
         parser.error(f"unrecognized arguments: {' '.join(rest)}")
 
     if args.command == "platforms":
@@ -115,6 +136,10 @@ def main(argv: list[str] | None = None) -> int:
         from gearmesh import fmu_docs
 
         return fmu_docs.main()
+    if args.command == "reference-docs":
+        from gearmesh import reference_docs
+
+        return reference_docs.main(args.fmu, args.check)
     if args.command == "stability":
         from gearmesh import stability
 
