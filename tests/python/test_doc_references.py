@@ -12,7 +12,7 @@ import subprocess
 REPO = pathlib.Path(__file__).resolve().parents[2]
 TEXT = (".c", ".h", ".cpp", ".hpp", ".py", ".md", ".txt", ".toml", ".html", ".sh", ".cmake")
 REFERENCE = re.compile(r'docs/([A-Za-z_]+\.md)(?:,?\s*(?:§(\d+)|"([^"\n]+)"))?')
-# a README and a quoted section: `README, "FMU interface"`, `reference_fe/README.md, "Outputs"`
+# a README and a quoted section: `README, "Choosing a level"`, `reference_fe/README.md, "Outputs"`
 README_REFERENCE = re.compile(r'\b((?:[a-z_]+/)?README)(?:\.md)?(?:,\s*|\s+\(?)"([^"\n]+)"')
 OUTSIDE = re.compile(r"\b(PHYSICS|DESIGN|FMI|STYLE)\.md\b")
 
@@ -67,6 +67,6 @@ def test_a_dangling_reference_is_found(tmp_path):
     bad.write_text('// see docs/physics.md §42, docs/design.md, "Nowhere", docs/none.md and '
                    "PHYSICS.md\n// fine: docs/physics.md §5, docs/design.md \"core\"\n"
                    '// README, "No such section"; nowhere/README.md, "Outputs"\n'
-                   '// fine: README, "FMU interface", reference_fe/README.md, "Outputs"\n')
+                   '// fine: README, "Choosing a level", reference_fe/README.md, "Outputs"\n')
     problems = dangling([bad])
     assert len(problems) == 6, problems

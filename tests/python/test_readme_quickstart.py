@@ -1,9 +1,10 @@
-"""The README's fmpy quick start runs as printed and prints what the README says it prints; the
-printed TE is the approach it sets (5 um along the line of action, gear 1 at rest) and the force
-lies in the range of the pair's mesh stiffness (ISO 6336-1's single-pair c' of set A, 15.6
-N/(mm um) over 23 mm, to 0.5x-1.5x: level 4 of this pair at the pitch point is about 0.8 c')."""
+"""The README's first TE curve runs as printed, prints what the README says it prints and draws
+its picture; the printed mean TE lies in the range the pair's ISO 6336-1 stiffness gives
+(F / (c' b) at 0.5x-1.5x: set A's c' is 15.8 N/(mm um), 23 mm of face); and the defaults the
+README states are the generic FMU's start values."""
 from __future__ import annotations
 
+import os
 import pathlib
 import re
 import subprocess
@@ -12,41 +13,46 @@ import sys
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
-def quick_start() -> tuple[str, str]:
+def first_curve() -> tuple[str, str, str]:
+    """The section's text, its Python block and the line it promises to print."""
     text = (REPO / "README.md").read_text(encoding="utf-8")
-    section = text[text.index("## Quick start"):]
+    section = text[text.index("## A first TE curve"):]
+    section = section[:section.index("\n## ", 3)]
     code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
     promised = re.search(r"prints `([^`]+)`", section).group(1)
-    return code, promised
+    return section, code, promised
 
 
-def test_readme_quick_start_runs(fmu_path, tmp_path):
-    code, promised = quick_start()
-    assert '"build/GearMesh.fmu"' in code
-    script = tmp_path / "quick_start.py"
-    script.write_text(code.replace('"build/GearMesh.fmu"', repr(str(fmu_path))))
-    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
-                         timeout=120, cwd=tmp_path)
+def test_readme_first_te_curve_runs_as_printed(fmu_path, tmp_path):
+    _, code, promised = first_curve()
+    assert len(code.strip().splitlines()) <= 20
+    (tmp_path / "build").mkdir()
+    os.symlink(fmu_path, tmp_path / "build" / "GearMesh.fmu")  # the repository's layout
+    (tmp_path / "first_curve.py").write_text(code)
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    out = subprocess.run([sys.executable, "first_curve.py"], capture_output=True, text=True,
+                         timeout=120, cwd=tmp_path, env=env)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == promised
-    te, force = map(float, re.match(r"TE (\S+) um, normal force (\S+) N", promised).groups())
-    assert te == 5.0
-    assert 0.5 * 15.6e9 * 0.023 * 5e-6 < force < 1.5 * 15.6e9 * 0.023 * 5e-6
+    assert (tmp_path / "te.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    mean, pp = map(float, re.match(r"mean TE (\S+) um, peak-to-peak (\S+) um", promised).groups())
+    rb2 = 0.5 * 2.6e-3 * 57 * 0.9396926  # m, base radius of set A's gear 2 (cos 20 deg)
+    iso = 350.0 / rb2 / (15.8e9 * 0.023) * 1e6  # um: the load over c' b
+    assert 0.5 * iso < mean < 1.5 * iso
+    assert 0 < pp < mean
 
 
-def test_readme_states_the_fmus_default_level_and_force(fmu_path):
-    """The level the quick start names is the generic FMU's default (modelDescription's start
-    value of model.stiffness), and at level 0 its force is the user constant x face width x TE
-    of the FMU's start values."""
-    from fmpy import read_model_description
-
-    text = (REPO / "README.md").read_text(encoding="utf-8")
-    section = text[text.index("## Quick start"):]
-    level = int(re.search(r"the generic FMU's defaults: the paper's gear set A at\s+level (\d)", section).group(1))
-    start = {v.name: v.start for v in read_model_description(str(fmu_path)).modelVariables}
-    assert level == int(start["model.stiffness"])
-    _, promised = quick_start()
-    force = float(re.search(r"normal force (\S+) N", promised).group(1))
-    if level == 0:
-        expected = float(start["model.user_stiffness"]) * float(start["gear1.face_width"]) * 5e-6
-        assert force == round(expected)
+def test_readme_states_the_fmus_defaults(md):
+    """The pair and the level the section names are the modelDescription's start values."""
+    section, _, _ = first_curve()
+    start = {v.name: v.start for v in md.modelVariables}
+    pair = re.search(r"the paper's gear set A \((\d+)/(\d+) teeth, module ([\d.]+) mm, (\d+) mm face\)\s+"
+                     r"at level (\d) with (\d+) slices", section)
+    assert pair, "README's first-curve section no longer states the defaults"
+    z1, z2, module, face, level, slices = pair.groups()
+    assert (int(z1), int(z2)) == (int(start["gear1.teeth"]), int(start["gear2.teeth"]))
+    assert abs(float(module) * 1e-3 - float(start["pair.normal_module"])) < 1e-12
+    for i in (1, 2):
+        assert abs(float(face) * 1e-3 - float(start[f"gear{i}.face_width"])) < 1e-12
+    assert int(level) == int(start["model.stiffness"])
+    assert int(slices) == int(start["model.slices"])
