@@ -280,9 +280,9 @@ typedef enum {
   GM_FMU_GEAR_PARAMETERS(X, 1, 0)                                                                                  \
   GM_FMU_GEAR_PARAMETERS(X, 2, 1)                                                                                  \
   X("model.stiffness", Integer, parameter, fixed, exact, "", "", p.stiffness_level, D_SET,                         \
-    "stiffness level: 0 user constant, 1 user tables, 2 ISO 6336, 3 time-varying, 4 analytical, 5 FE")             \
+    "stiffness level: 0 user constant, 1 user table, 2 ISO 6336-1, 3 contact-line length, 4 analytical, 5 FE")\
   X("model.user_stiffness", Real, parameter, fixed, exact, "N/m2", "N/(mm.um)", p.user_stiffness, D_SET,           \
-    "mesh stiffness per unit face width (level 0)")                                                                \
+    "level 0: stiffness of one tooth pair per unit face width on the transverse line of action (as ISO 6336-1's c')")\
   X("model.stiffness_table", String, parameter, fixed, exact, "", "", p.stiffness_table, D_SET,                    \
     "level 1 (required there, \"\" at other levels): file name of a stiffness table (pair stiffness per unit "     \
     "face width over gear 1's roll angle) inside the FMU's resources/ folder; relative, without \"..\" or "        \

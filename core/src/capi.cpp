@@ -198,7 +198,7 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     gm::ToothSection tooth[2];
     gm::ToothCoupling coupling;
     std::string coupling_warning;
-    if (p->stiffness_level == GM_STIFFNESS_ISO6336 || p->stiffness_level == GM_STIFFNESS_TIME_VARYING) {
+    if (p->stiffness_level == GM_STIFFNESS_ISO6336 || p->stiffness_level == GM_STIFFNESS_CONTACT_LINE) {
       st = gm::iso_stiffness(*p, g, gm::IsoGearBlank{}, iso, text);
     } else if (p->stiffness_level == GM_STIFFNESS_ANALYTICAL) {
       for (int i = 0; i < 2 && st == GM_OK; ++i)

@@ -50,7 +50,7 @@ T pair_stiffness(const gm_model& m, const ContactSliceT<T>& s) {
     case GM_STIFFNESS_USER_VARIABLE:
       // the user's table over gear 1's roll angle at the contact point (user_tables.hpp)
       return table_stiffness(m.stiffness_table, T(s.roll[0] / m.layout.base_radius[0]));
-    case GM_STIFFNESS_TIME_VARYING:
+    case GM_STIFFNESS_CONTACT_LINE:
       // contact-line-length model: constant per unit contact line, c_gamma_alpha / eps_alpha
       return T(m.iso_c_gamma / m.geometry.eps_alpha);
     default:

@@ -191,7 +191,7 @@ gm_model_params iso_pair(int level) {
 }
 
 TEST(Forces, IsoLevelsReproduceCPrimeAndCGammaAlpha) {
-  for (int level : {GM_STIFFNESS_ISO6336, GM_STIFFNESS_TIME_VARYING}) {
+  for (int level : {GM_STIFFNESS_ISO6336, GM_STIFFNESS_CONTACT_LINE}) {
     Instance in(iso_pair(level));
     const double b = 0.023, to_si = 1e9;  // N/(mm um) -> N/m^2
     const int n = 600;

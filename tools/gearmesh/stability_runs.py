@@ -111,7 +111,6 @@ def prepare(case: Case, generic_fmu: pathlib.Path, workdir: pathlib.Path) -> Pre
         scene_file.write_text(case.fe_scene, encoding="utf-8")
         scene = with_databases(load_scene(scene_file, fmu_path), progress=False)
         params = {**scene.parameters, **BASE, **case.params}
-        params.pop("model.stiffness_level", None)
         resources.update(scene.resources)
     if resources:
         from gearmesh.scene_fmu import build_scene_fmu
