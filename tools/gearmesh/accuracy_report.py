@@ -125,7 +125,7 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
              "the band [plane stress, plane strain] of whole gears, 0 inside the band, else the "
              "signed distance to the nearer edge relative to it. 3-D: sectors of both gears, the "
              "relative error; their mean TE is biased low by the sectors' held cut faces, so "
-             "they score the ripple only. Per quantity the worst over the torques. Score: the "
+             "they score the ripple only. Torque: on gear 1, as the references load it (gear 2 carries it times z2/z1). Per quantity the worst over the torques. Score: the "
              f"largest |error| over {', '.join(SCORED['2d'])} (2-D) or "
              f"{', '.join(SCORED['3d'])} (3-D). Cost: median time per fmi2DoStep "
              "through fmpy minus the bare fmpy round trip (raw: without the subtraction), plain "

@@ -172,7 +172,7 @@ def write_report(out: pathlib.Path, summary: list[dict]) -> pathlib.Path:
             label = ", ".join(f"{k} {v:g}" for k, v in var) or "base"
             curves[f"{label}: order 1"] = (torques, [r["order1_m"] * 1e6 for r in sel])
             curves[f"{label}: order 2"] = (torques, [r["order2_m"] * 1e6 for r in sel])
-        plot(out / f"{scene}_orders.png", None, curves, "torque (N m)",
+        plot(out / f"{scene}_orders.png", None, curves, "load on gear 2 (N m)",
              "mesh order amplitude (um)", f"{scene}: batch")
         lines += [f"![{scene}]({scene}_orders.png)", ""]
     report = out / "batch_report.md"

@@ -147,7 +147,7 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
         lines += [f"Loaded TE (quasi-static, mu = {mu:g}, {run['te_pitches']} pitches at "
                   f"{run['speed_rpm'] * 60 / (2 * math.pi):g} rpm) at stiffness level "
                   f"{' and '.join(map(str, levels))}:", "",
-                  f"| level | torque (N m) | mean TE (um) | peak-to-peak (um) | order {z1} (um) | "
+                  f"| level | load on gear 2 (N m) | mean TE (um) | peak-to-peak (um) | order {z1} (um) | "
                   f"order {2 * z1} (um) |", "|---|---|---|---|---|---|"]
         summaries = {level: main_levels.loaded_summary(sweep_l, run["torques_Nm"],
                                                        run["te_pitches"])
@@ -169,7 +169,7 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
             orders[f"order {n * z1}"] = [
                 mesh_order_amplitudes(loaded["mesh.te"][loaded["torque"] == t],
                                       run["te_pitches"])[n] * 1e6 for t in torques]
-        plot(folder / "mesh_orders.png", torques, orders, "torque (N m)", "amplitude (um)",
+        plot(folder / "mesh_orders.png", torques, orders, "load on gear 2 (N m)", "amplitude (um)",
              f"{scene.name}: mesh orders of the loaded TE")
         lines += ["", f"![loaded TE]({scene.name}/loaded_te.png)",
                   f"![mesh orders]({scene.name}/mesh_orders.png)", ""]
@@ -187,7 +187,7 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
             rows = [r for r in friction_rows if r["mu"] == mu]
             curves[f"mu {mu:g}, order {z1}"] = [r["order1_m"] * 1e6 for r in rows]
             curves[f"mu {mu:g}, order {2 * z1}"] = [r["order2_m"] * 1e6 for r in rows]
-        plot(folder / "friction_sweep.png", torques, curves, "torque (N m)", "amplitude (um)",
+        plot(folder / "friction_sweep.png", torques, curves, "load on gear 2 (N m)", "amplitude (um)",
              f"{scene.name}: friction effect on the mesh orders")
         lines += [f"Friction sweep (mu = {', '.join(f'{m:g}' for m in run['friction_sweep'])}): "
                   f"`{scene.name}/friction_sweep.csv`", "",

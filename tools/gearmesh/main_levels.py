@@ -117,7 +117,7 @@ def accuracy_lines(name: str, fmus: dict[int, pathlib.Path],
              f"frictionless, {ref.n_positions} positions per pitch; distance to the plane-stress / "
              "plane-strain band, 0 inside it; TE curve: the worst distance to the band position "
              "by position; docs/validation.md):", "",
-             "| level | torque (N m) | mean TE | p-p TE | order 1 | TE curve |",
+             "| level | torque on gear 1 (N m; the reference's) | mean TE | p-p TE | order 1 | TE curve |",
              "|---|---|---|---|---|---|"]
     for level in fmus:
         for torque in ref.torques:

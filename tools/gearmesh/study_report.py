@@ -23,7 +23,7 @@ def plot(path: pathlib.Path, summary: list[dict]) -> None:
                            (axes[1], "order1_m", "mesh order 1 amplitude")):
         for t in torques:
             x = [r[key] * 1e6 for r in summary if r["torque_Nm"] == t]
-            ax.hist(x, bins=max(5, min(50, len(x) // 5)), alpha=0.6, label=f"{t:g} N m")
+            ax.hist(x, bins=max(5, min(50, len(x) // 5)), alpha=0.6, label=f"{t:g} N m on gear 2")
         ax.set(xlabel=f"{title} (um)", ylabel="cases", title=title)
         ax.grid(True, alpha=0.3)
         ax.legend()
@@ -42,7 +42,7 @@ def write(plan: Plan, result: BatchResult, worst: int = 10) -> pathlib.Path:
               "(batch_errors.csv).", ""]
     if summary:
         plot(out / "study_distribution.png", summary)
-        lines += ["| torque (N m) | quantity | median (um) | 95 % (um) | max (um) |",
+        lines += ["| load on gear 2 (N m) | quantity | median (um) | 95 % (um) | max (um) |",
                   "|---|---|---|---|---|"]
         for t in sorted({r["torque_Nm"] for r in summary}):
             for key, name in (("ptp_te_m", "p-p TE"), ("order1_m", "order 1")):
@@ -53,7 +53,7 @@ def write(plan: Plan, result: BatchResult, worst: int = 10) -> pathlib.Path:
                   f"## The {min(worst, len(summary))} worst by peak-to-peak TE", ""]
         drawn = [s for s in plan.samples if s.name in summary[0]]
         pitches = [s for s in plan.samples if s.name not in summary[0]]
-        head = ["case", "torque (N m)", "p-p TE (um)", "order 1 (um)", "order 2 (um)",
+        head = ["case", "load on gear 2 (N m)", "p-p TE (um)", "order 1 (um)", "order 2 (um)",
                 *(f"{s.name} ({s.unit or 'SI'})" for s in drawn),
                 *(f"{s.name} max abs (um)" for s in pitches)]
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
