@@ -119,6 +119,18 @@ def build_parser() -> argparse.ArgumentParser:
                            "else build/GearMesh.fmu)")
     p_refdocs.add_argument("--check", action="store_true", help="write nothing; exit 1 naming "
                            "the pages that differ from a fresh generation")
+    p_fig = sub.add_parser("figures", help="the user docs' pictures (docs/img/), made from the "
+                           "project's own outputs (gearmesh.figures)")
+    p_fig.add_argument("--out", type=pathlib.Path, default=REPO / "docs" / "img")
+    p_fig.add_argument("--only", nargs="+", metavar="NAME", help="te_set_a, schematic, pareto, "
+                       "stability_map, study_histogram, compliance_mesh (default: all)")
+    p_fig.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
+    p_fig.add_argument("--work", type=pathlib.Path, default=REPO / "output" / "figures",
+                       help="intermediate files: scene FMUs, stability table, study cases, mesh")
+    p_fig.add_argument("--stability-table", type=pathlib.Path, help="draw this `gearmesh "
+                       "stability` table.csv instead of running the quick suite (about 1.5 min)")
+    p_fig.add_argument("--study-cases", type=int, default=100, help="tolerance study samples")
+    p_fig.add_argument("--jobs", type=int, default=1, help="the study's local workers (default 1)")
     return parser
 
 
@@ -140,6 +152,11 @@ def main(argv: list[str] | None = None) -> int:
         from gearmesh import reference_docs
 
         return reference_docs.main(args.fmu, args.check)
+    if args.command == "figures":
+        from gearmesh import figures
+
+        return figures.main(args.out, args.only, figures.Options(
+            args.fmu, args.work, args.stability_table, args.study_cases, args.jobs))
     if args.command == "stability":
         from gearmesh import stability
 

@@ -282,15 +282,17 @@ def plot_largest_stable(rows: list[Row], path: pathlib.Path) -> None:
     floor = steps[0] / 10  # "fails at every step" drawn below the smallest step
     fig, ax = plt.subplots(figsize=(max(7, 0.32 * len(cases) + 2), 4.5))
     x = np.arange(len(cases))
+    applicable = {(r.case, r.mode) for r in rows if r.stable is not None}  # n/a: not drawn
     for k, m in enumerate(modes):
-        y = [stable.get((c, m), math.nan) or floor for c in cases]
+        y = [(stable[(c, m)] or floor) if (c, m) in applicable else math.nan for c in cases]
         ax.scatter(x + (k - (len(modes) - 1) / 2) * 0.15, y, label=m, s=22)
     ax.set_yscale("log")
     ax.axhline(floor * 1.5, color="grey", lw=0.5, ls=":")
     ax.set_xticks(x, cases, rotation=70, ha="right", fontsize=7)
     ax.set_ylabel("largest stable step (s)")
-    ax.set_title(f"largest step passing every judgement (steps {', '.join(f'{h:g}' for h in steps)};"
-                 f" {floor:g} = none)", fontsize=9)
+    ax.set_title("largest step stable at it and every smaller step (finite, converged, energy "
+                 f"balance)\nsteps {', '.join(f'{h:g}' for h in steps)}; {floor:g} = none; n/a "
+                 "not drawn", fontsize=9)
     ax.grid(True, alpha=0.3, which="both")
     ax.legend(fontsize=7)
     fig.tight_layout()
