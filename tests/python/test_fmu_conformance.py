@@ -53,6 +53,10 @@ EXPORTED = {
     "fmi2GetBooleanStatus", "fmi2GetStringStatus"}
 H = 1e-5  # communication step, s
 W = 100.0  # spin rate of gear 1, rad/s
+# Level 0 (a constant stiffness per unit face width, model.user_stiffness) on one slice, set
+# explicitly where a test checks level 0's closed forms (force = k' b delta) or varies
+# model.user_stiffness (level 0's only): the defaults are level 4 with 10 slices.
+LEVEL0 = {"model.stiffness": 0, "model.slices": 1}
 
 
 # ---- logging: one native proxy (fmpy's, it formats the "%s" varargs), records routed by the
@@ -621,9 +625,11 @@ def test_debug_logging_categories(new):
 # ---- several instances, threads ----------------------------------------------------------------
 
 def _simulate(fmu_dir, md, stiffness: float, steps: int = 20) -> list:
+    """steps of drive() at level 0 with model.user_stiffness = stiffness (LEVEL0: the levels
+    above 0 ignore it)."""
     inst = Instance(fmu_dir, md, name=f"k{stiffness:g}")
     try:
-        inst.initialize({"model.user_stiffness": stiffness})
+        inst.initialize({**LEVEL0, "model.user_stiffness": stiffness})
         return run(inst, steps)
     finally:
         inst.free()
@@ -631,8 +637,8 @@ def _simulate(fmu_dir, md, stiffness: float, steps: int = 20) -> list:
 
 def test_two_instances_keep_their_own_parameters(new, fmu_dir, md):
     a, b = new(name="a"), new(name="b")
-    a.initialize({"model.user_stiffness": 10e9})
-    b.initialize({"model.user_stiffness": 20e9})
+    a.initialize({**LEVEL0, "model.user_stiffness": 10e9})  # as _simulate: level 0
+    b.initialize({**LEVEL0, "model.user_stiffness": 20e9})
     fa, fb = [], []
     for k in range(5):  # interleaved
         fa += run(a, 1, t0=k * H)

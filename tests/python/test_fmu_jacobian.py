@@ -177,7 +177,11 @@ def test_axial_derivative_at_equal_face_ends_is_the_one_along_the_seed(fmu_dir, 
     """At the default aligned pose (equal face widths, uz = 0) the axial overlap has a kink; the
     derivative along +-gear2.uz (and gear1.uz) is the one-sided difference of repeated steps along
     that direction, for every output (was 0 for gear1.mx, against 2356 N of every difference)."""
-    params = {"solver.tolerance": 1e-15, "model.slices": 3}
+    # level 0, as written (the defaults are level 4): its mesh.stiffness does not depend on the
+    # TE, so the quasi-static load balance's TE floor stays out of its differences, as the
+    # allowance below (1e-14 |y| / h) assumes; at level 4 mesh.stiffness follows the solved TE and
+    # its differences carry ~1e-9 relative noise (check_against_repeated_steps allows for that)
+    params = {"solver.tolerance": 1e-15, "model.stiffness": 0, "model.slices": 3}
     if quasi:
         params["model.quasi_static"] = 1
     f = Fmu(fmu_dir, md, params)

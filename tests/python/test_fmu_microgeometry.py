@@ -1,9 +1,10 @@
 """Micro-geometry through the FMU: the gear<i> modification parameters, String parameters and the
 deviation file in resources/, the FMU state with strings, and the scene FMU (gearmesh.scene_fmu).
 
-Forces are checked with prescribed spin angles at the default user-constant stiffness, where a
-slice of width b/n in contact carries k' (b/n) (approach - gap) (docs/physics.md §3), and the gaps follow
-the formulas of core/src/microgeometry.hpp, written again here from that comment.
+Forces are checked with prescribed spin angles at level 0, the user-constant stiffness (LEVEL0, set
+explicitly: the defaults are level 4 with 10 slices), where a slice of width b/n in contact carries
+k' (b/n) (approach - gap) (docs/physics.md §3), and the gaps follow the formulas of
+core/src/microgeometry.hpp, written again here from that comment.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from fmpy.validation import validate_fmu
 from gearmesh.scene_fmu import START_VALUES, build_scene_fmu
 
 import test_fmu_conformance as conformance
-from test_fmu_conformance import Instance, assert_error
+from test_fmu_conformance import LEVEL0, Instance, assert_error
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
@@ -214,7 +215,8 @@ def test_each_parameter_acts_as_its_formula(new, gear, mod):
     """Every parameter reaches its own field in SI units: forces against the gap formulas, on
     gear 1 (s from its start of active profile) or gear 2 (s2 = L - s on the same pair)."""
     slices = 8 if mod.keys() & {"lead_crowning", "helix_slope", "end_relief"} else 1
-    inst, step = initialized(new, {"model.slices": slices, **{f"gear{gear}.{k}": x for k, x in mod.items()}})
+    inst, step = initialized(new, {**LEVEL0, "model.slices": slices,
+                                   **{f"gear{gear}.{k}": x for k, x in mod.items()}})
     pair = Pair(inst)
     ys = [(k + 0.5) * FACE / slices - FACE / 2 for k in range(slices)]
     for frac in (0.01, 0.08, 0.3, 0.5, 0.7, 0.92, 0.99):
@@ -284,7 +286,8 @@ def test_pitch_deviation_from_resources(new, fmu_path, tmp_path, resources):
     tooth is in single contact, k b 2 um more force; no other tooth changes."""
     _, directory, md = scene(fmu_path, tmp_path, {}, resources)
     assert " " in str(directory) and "ü" in str(directory)
-    inst, step = initialized(new, {"gear1.deviations": "pitch ü.txt"}, directory=directory, model_description=md)
+    inst, step = initialized(new, {**LEVEL0, "gear1.deviations": "pitch ü.txt"}, directory=directory,
+                             model_description=md)
     pair = Pair(inst)
     mid = pair.length / 2  # single contact
     names = ("mesh.normal_force", "mesh.pairs_in_contact")
@@ -298,7 +301,7 @@ def test_example_deviation_file(new, fmu_path, tmp_path, resources):
     """scenarios/deviations_example.txt on gear 1: pitch +3/+2 um on teeth 5/6, and the measured
     grid of tooth 0 at mid-face (the single slice), interpolated along the roll distance."""
     _, directory, md = scene(fmu_path, tmp_path, {"gear1.deviations": "example.txt"}, resources)
-    inst, step = initialized(new, directory=directory, model_description=md)
+    inst, step = initialized(new, LEVEL0, directory=directory, model_description=md)
     pair = Pair(inst)
     s = pair.length / 2
     for tooth, extra in ((5, 3e-6), (6, 2e-6), (7, 0.0), (4, 0.0)):

@@ -1,7 +1,9 @@
 """First contact physics through the FMU, driven by fmpy with prescribed spin angles
 (issue 2): backlash, k b Delta on flank A, flank B at TE = -j_bt, force and moment balance.
 
-The backlash is recomputed here from the ISO 21771 formulas, independently of the core."""
+The backlash is recomputed here from the ISO 21771 formulas, independently of the core. The pairs
+are at level 0 on one slice (LEVEL0, set explicitly: the defaults are level 4 with 10 slices),
+whose forces have the closed form k' b Delta."""
 from __future__ import annotations
 
 import math
@@ -11,6 +13,8 @@ import pytest
 
 from gearmesh.fmu_driver import GearMeshFMU, FMUError
 from gearmesh.prescribed_motion import pair_kinematics
+
+from test_fmu_conformance import LEVEL0
 
 K_PRIME = 1.5e10  # N/m^2, the default user stiffness per unit face width
 FACE = 0.023
@@ -45,7 +49,7 @@ RING = {"pair.internal": True, "pair.normal_module": 0.002, "gear1.teeth": 21,
 
 @pytest.fixture(params=["external", "internal"])
 def pair(request, fmu_path):
-    params = {} if request.param == "external" else RING
+    params = {**LEVEL0, **({} if request.param == "external" else RING)}
     with GearMeshFMU(fmu_path, params, instance_name=request.param) as fmu:
         yield request.param, params, fmu
 
@@ -159,7 +163,7 @@ def test_centre_distance_input_opens_the_mesh(fmu_path):
     da = 5e-6
     with GearMeshFMU(fmu_path, {"pair.center_distance": 0.150 + da}) as wider:
         j_wide = wider.get(["geometry.backlash"])["geometry.backlash"]
-    with GearMeshFMU(fmu_path) as fmu:
+    with GearMeshFMU(fmu_path, LEVEL0) as fmu:
         j = fmu.get(["geometry.backlash"])["geometry.backlash"]
         te = 3e-6
         singles = _poses_by_pairs(fmu, te)[1]
@@ -180,12 +184,17 @@ def test_non_physical_penetration_is_a_clear_error(fmu_path):
 
 def test_design_warnings_reach_the_user(fmu_path):
     """An unshifted 12-tooth pinion is undercut (z < 17 for a 20 deg rack): initialization
-    returns fmi2Warning and the message names the gear; the default pair has no warning."""
+    returns fmi2Warning and the message names the gear; the default pair has no warning. At
+    level 0 (LEVEL0): the default level 4's analytical tooth compliance refuses an undercut tooth
+    (an Error naming gear1.profile_shift), so only level 0 shows the warning alone."""
     with GearMeshFMU(fmu_path) as fmu:
         assert fmu.warnings == []
     undercut = {"gear1.teeth": 12, "gear1.profile_shift": 0.0, "gear2.profile_shift": 0.0,
                 "pair.center_distance": 0.0026 * (12 + 57) / 2 + 40e-6}
-    with GearMeshFMU(fmu_path, undercut) as fmu:
+    with pytest.raises(FMUError, match="gear1.profile_shift: analytical tooth compliance needs a "
+                                       "tooth without undercut"):
+        GearMeshFMU(fmu_path, undercut)
+    with GearMeshFMU(fmu_path, {**LEVEL0, **undercut}) as fmu:
         assert any("gear1" in w and "undercut" in w for w in fmu.warnings), fmu.warnings
         fmu.step(pose(fmu, 5e-6))  # still usable
         assert fmu.get(["mesh.normal_force"])["mesh.normal_force"] > 0

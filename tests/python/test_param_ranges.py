@@ -12,6 +12,8 @@ from fmpy.fmi1 import FMICallException
 from gearmesh.param_ranges import Range, fmu_ranges
 from gearmesh.scene import SCHEMA, SceneError, parse_scene
 
+from test_fmu_conformance import LEVEL0
+
 NUMERIC = ("Real", "Integer")
 
 
@@ -53,11 +55,12 @@ def just_outside(v, bound: float, is_open: bool, direction: float) -> float:
     return bound + direction if v.type == "Integer" else math.nextafter(bound, direction * math.inf)
 
 
-def refusal(new, v, value) -> str | None:
-    """The FMU's log when initialization with v = value fails, else None."""
+def refusal(new, v, value, base: dict | None = None) -> str | None:
+    """The FMU's log when initialization with v = value (and the parameters base) fails, else
+    None."""
     inst = new()
     try:
-        inst.initialize({v.name: int(value) if v.type == "Integer" else value})
+        inst.initialize({**(base or {}), v.name: int(value) if v.type == "Integer" else value})
     except FMICallException:
         return inst.log.text()
     return None
@@ -104,13 +107,38 @@ def test_every_declared_bound_is_enforced_at_initialization(new, md, fmu_path):
 
 def test_parameters_accepted_at_their_closed_bounds(new, md, fmu_path):
     """Parameters that no other parameter or the geometry constrains initialize at each closed
-    bound."""
+    bound: at level 0 on one slice (LEVEL0), where none of them does. At the default level 4
+    model.coupled_teeth's maximum is 3 and one solver iteration does not converge the coupled
+    contact (test_coupled_teeth_bound_at_level_4, test_iteration_cap_at_level_4_names_its_parameter)."""
     free = ("model.slices", "model.friction_coefficient", "model.damping", "model.rated_line_load",
             "solver.max_iterations", "gear1.youngs_modulus", "gear2.profile_crowning",
             "gear1.inertia", "gear2.shaft_damping", "dynamics.tolerance", "model.coupled_teeth")
     for v, r, bound, is_open, _ in bounds(md, fmu_path):
         if v.name in free and not is_open:
-            assert refusal(new, v, bound) is None, f"{v.name} = {bound!r}"
+            assert refusal(new, v, bound, LEVEL0) is None, f"{v.name} = {bound!r}"
+
+
+def test_coupled_teeth_bound_at_level_4(new, md):
+    """model.coupled_teeth is declared [0, 10] (level 5's databases); level 4 (the default)
+    couples at most 3 neighbouring teeth (its fitted table): 3 is accepted, 4 refused with a
+    message naming the variable, the level and its range."""
+    v = next(v for v in md.modelVariables if v.name == "model.coupled_teeth")
+    level4 = {"model.stiffness": 4}
+    assert refusal(new, v, 3, level4) is None
+    log = refusal(new, v, 4, level4)
+    assert log is not None and "model.coupled_teeth = 4: level 4 (analytical) couples at most 3" in log, log
+    assert "allowed range [0, 3]" in log, log
+
+
+def test_iteration_cap_at_level_4_names_its_parameter(new, md):
+    """solver.max_iterations = 1, its declared minimum, at level 4 (the default): one iteration
+    does not converge the contact of the wound-up start pose, and the refusal must name
+    solver.max_iterations, as uncoupled level 4 (model.coupled_teeth = 0) does ("a slice's force
+    did not converge within solver.max_iterations"), with tooth coupling too (the default)."""
+    v = next(v for v in md.modelVariables if v.name == "solver.max_iterations")
+    for coupled in (0, 2):
+        log = refusal(new, v, 1, {"model.stiffness": 4, "model.coupled_teeth": coupled})
+        assert log is None or "solver.max_iterations" in log, f"model.coupled_teeth = {coupled}: {log}"
 
 
 def test_every_range_check_is_declared(new, md):
