@@ -25,7 +25,7 @@
 // solved once, with their count as weight in Phi^T. Every call starts from the uncoupled
 // answer (m = 0): results do not depend on the call history. The workspace is sized at
 // gm_data_create (no allocation); more tooth pairs than it holds, or no convergence within
-// model.solver_max_iterations, return converged = false with `fallback` set, and the caller
+// solver.max_iterations, return converged = false with `fallback` set, and the caller
 // solves with the dense coupled solver instead (fe_solve.cpp).
 #pragma once
 

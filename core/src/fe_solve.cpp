@@ -300,7 +300,7 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
     out.converged = false;
     out.message = res.message && *res.message ? res.message
                                                : "level 5 (FE): the coupled force solve did not "
-                                                 "converge; raise model.solver_max_iterations";
+                                                 "converge; raise solver.max_iterations";
     return out;
   }
   fe_store(d, na, !(quasi && std::fabs(out.lambda) > next_pass_above));

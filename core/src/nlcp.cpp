@@ -289,7 +289,7 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
       break;
     }
     if (res.iterations >= options_.max_iterations) {
-      res.message = "iteration cap reached";
+      res.message = "the coupled force solve did not converge within solver.max_iterations";
       break;
     }
     // eps-active set (Bertsekas 1982, eq. 31 with a diagonal scaling D = diag(1/H_ii)):
