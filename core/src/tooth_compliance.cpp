@@ -175,7 +175,8 @@ gm_status build_tooth_section(const gm_model_params& p, const gm_pair_geometry& 
   const gm_gear_geometry& gg = g.gear[gear];
   if (gg.undercut)
     return fail(name + ".profile_shift: analytical tooth compliance needs a tooth without "
-                       "undercut (the rack's trochoid cuts into the involute)");
+                       "undercut (the rack's trochoid cuts into the involute); allowed for an "
+                       "undercut tooth: levels 0-3, or a larger " + name + ".profile_shift");
 
   const double m_n = p.pair.normal_module, alpha_n = p.pair.pressure_angle;
   const double alpha_t = g.alpha_t;
