@@ -1,0 +1,100 @@
+// A gear train: rigid bodies turning about parallel axes (gears, carriers), torsional shafts
+// between them or to a far end, and meshes, each a full GearMesh element (its own gm_model:
+// level, slices, micro-geometry, friction, databases) between two of the bodies. The bodies'
+// spins are integrated over a step as the pair's large-step mode integrates its two gears
+// (TR-BDF2, the exact Jacobian assembled from the meshes' directional derivatives, error
+// control, the energy account; core/src/dynamics.hpp gives the method and its reasons).
+//
+//   J_b domega_b/dt = T_b + sum of shaft torques on b + sum of mesh moments on b
+//
+// A mesh sits on a carrier body c (a planetary stage's meshes) or on the housing (c = -1). Its
+// element sees the gears in the carrier's frame, turned by the mesh's orientation psi (the
+// direction from the element's gear 1 to its gear 2): phi_el,i = phi_{g_i} - phi_c - psi and
+// omega_el,i = omega_{g_i} - omega_c. The element's moments M_1, M_2 act on its gears, and
+// -(M_1 + M_2) on the carrier: that is the moment about the carrier's axis of the force the
+// carrier's bearings take from the gears it carries (the element's internal forces have no net
+// moment, M_1 + M_2 + sum r_i x f_i = 0). A torsional model: each gear's centre is fixed in its
+// carrier; the planets' orbital mass belongs in the carrier's inertia (m_p r_p^2). With the
+// planets' axes parallel to the carrier's there is no gyroscopic moment; the centrifugal force
+// loads the planet bearings only, radially, which a torsional model does not see.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "gearmesh/gearmesh.h"
+
+namespace gm {
+
+struct TrainBody {
+  double inertia = 0;  // kg m^2 about its axis; ignored when fixed
+  bool fixed = false;  // held at angle 0 (a ring in the housing); its reaction is reported
+};
+
+struct TrainMesh {
+  const gm_model* model = nullptr;
+  gm_data* data = nullptr;
+  int gear[2] = {-1, -1};  // bodies of the element's gear 1 and gear 2
+  int carrier = -1;        // body carrying the mesh, -1: the housing
+  double orientation = 0;  // psi, rad, in the carrier's frame
+};
+
+struct TrainShaft {
+  int body = -1;   // the body the shaft turns
+  int other = -1;  // the body at its other end, -1: a far end (a port: angle and speed in)
+  double stiffness = 0, damping = 0;  // N m/rad, N m s/rad
+};
+
+struct TrainParams {
+  double tolerance = 1e-8;  // local error of the rim motion per internal step, m
+  double max_step = 1e-3, min_step = 1e-9;  // s
+};
+
+struct TrainInputs {
+  std::vector<double> torque;               // per body, N m about +z, held over the step
+  std::vector<double> far_phi, far_omega;   // per shaft (used where other = -1), rad, rad/s
+};
+
+struct TrainState {
+  std::vector<double> phi, omega;           // per body, rad, rad/s (fixed bodies: 0)
+  std::vector<double> reaction;             // per body: the torque that holds a fixed body, N m
+  std::vector<double> shaft_torque;         // per shaft: its torque on `body`, N m
+  double kinetic = 0, elastic = 0, initial_energy = 0;
+  double work_in = 0, work_out = 0, friction = 0, damping = 0, parametric = 0, residual = 0;
+  double step = 0;                          // internal step to try first, s
+  int steps = 0, rejected = 0;              // of the last advance
+};
+
+class Train {
+ public:
+  Train(std::vector<TrainBody> bodies, std::vector<TrainMesh> meshes, std::vector<TrainShaft> shafts,
+        TrainParams params);
+  // "" or what is wrong with the train (an index out of range, a fixed body driven by a shaft to
+  // a port, a body without inertia, a mesh whose gears coincide, ...).
+  const std::string& problem() const { return problem_; }
+
+  // The state at phi, omega (per body; fixed bodies must be 0), energies zeroed; res per mesh.
+  gm_status start(const std::vector<double>& phi, const std::vector<double>& omega, const TrainInputs& in,
+                  TrainState& s, std::vector<gm_result>& res, std::string& msg);
+  // Advance s by duration with the inputs held; res: each mesh's evaluation at the end. On an
+  // error s and res are unchanged.
+  gm_status advance(const TrainInputs& in, double duration, TrainState& s, std::vector<gm_result>& res,
+                    std::string& msg);
+
+  int body_count() const { return int(bodies_.size()); }
+  int mesh_count() const { return int(meshes_.size()); }
+
+ private:
+  struct Point;
+  class Stepper;
+  std::vector<TrainBody> bodies_;
+  std::vector<TrainMesh> meshes_;
+  std::vector<TrainShaft> shafts_;
+  TrainParams params_;
+  std::vector<int> free_;     // free body -> body index
+  std::vector<int> slot_;     // body -> free index, -1 if fixed
+  std::vector<double> scale_; // per body: its rim radius for the error (largest base radius or orbit)
+  std::string problem_;
+};
+
+}  // namespace gm

@@ -1,0 +1,272 @@
+// Gear trains (core/src/train.hpp): checked against the pair's own large-step mode, the Willis
+// equation, the static torque balance of a planetary stage and the symmetry of its planets.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "test_support.hpp"
+#include "train.hpp"
+
+namespace {
+
+using gm_test::Instance;
+using gm_test::kPi;
+
+// Set A at level 4 with 10 slices (as test_dynamics.cpp's drive).
+gm_model_params set_a() {
+  gm_model_params p = gm_test::paper();
+  p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+  p.slices = 10;
+  return p;
+}
+
+// The pair's large-step mode and a train of its two gears on the same model: gear 1 on a shaft
+// whose far end turns at 1000 rpm, gear 2 braked by 350 N m, started at the quasi-static
+// equilibrium; 30 communication steps of 1 ms. Two integrations of the same equations with
+// different error norms (the pair's mesh-mode split, the train's modes): their TE agrees within
+// their own error at a tolerance of 1e-10 m, and the energy accounts agree.
+TEST(Train, TwoBodiesAreThePairsLargeStepMode) {
+  Instance pair(set_a());
+  gm_data* data2 = nullptr;
+  ASSERT_EQ(gm_data_create(pair.m, &data2), GM_OK);
+  std::unique_ptr<gm_data, void (*)(gm_data*)> guard(data2, gm_data_free);
+  const double w = 1000 * 2 * kPi / 60, k = 2e4, c = 100, load = 350;
+  gm_model_params q = set_a();
+  q.quasi_static = 1;
+  Instance qs(q);
+  const gm_result r0 = qs.loaded(0.0, load, w);
+  const double ratio = pair.rb(0) / pair.rb(1);
+
+  gm_dynamics_params dp;
+  gm_dynamics_default_params(&dp);
+  dp.shaft_stiffness[0] = k;
+  dp.shaft_damping[0] = c;
+  dp.tolerance = 1e-10;
+  gm_dynamics_inputs din{};
+  gm_kinematics pose{};
+  pose.phi[1] = r0.te / pair.rb(1);
+  pose.omega[0] = w;
+  pose.omega[1] = -w * ratio;
+  din.shaft_omega[0] = w;
+  din.shaft_phi[0] = -r0.moment[0][2] / k;
+  din.torque[1] = load;
+  gm_dynamics_state ds{};
+  gm_result res{};
+  ASSERT_EQ(gm_dynamics_start(pair.m, pair.d, &dp, &pose, &din, &ds, &res), GM_OK);
+
+  gm::TrainMesh mesh;
+  mesh.model = pair.m;
+  mesh.data = data2;
+  mesh.gear[0] = 0;
+  mesh.gear[1] = 1;
+  gm::TrainParams tp;
+  tp.tolerance = 1e-10;
+  tp.max_step = dp.max_step;
+  tp.min_step = dp.min_step;
+  gm::Train train({{dp.inertia[0], false}, {dp.inertia[1], false}}, {mesh}, {{0, -1, k, c}}, tp);
+  ASSERT_EQ(train.problem(), "");
+  gm::TrainInputs tin;
+  tin.torque = {0.0, load};
+  tin.far_phi = {din.shaft_phi[0]};
+  tin.far_omega = {w};
+  gm::TrainState ts;
+  std::vector<gm_result> tres;
+  std::string msg;
+  ASSERT_EQ(train.start({0.0, pose.phi[1]}, {w, pose.omega[1]}, tin, ts, tres, msg), GM_OK) << msg;
+  const double H = 1e-3;
+  double worst = 0;
+  for (int i = 0; i < 30; ++i) {
+    ASSERT_EQ(gm_dynamics_advance(pair.m, pair.d, &dp, &pose, &din, H, &ds, &res), GM_OK) << gm_data_message(pair.d);
+    ASSERT_EQ(train.advance(tin, H, ts, tres, msg), GM_OK) << msg;
+    din.shaft_phi[0] += w * H;
+    tin.far_phi[0] += w * H;
+    worst = std::max(worst, std::fabs(res.te - tres[0].te));
+  }
+  EXPECT_LT(worst, 5e-9);  // m: 50 tolerances
+  EXPECT_NEAR(ts.phi[0], ds.phi[0], 1e-9);
+  EXPECT_NEAR(ts.shaft_torque[0], ds.shaft_torque[0], 1e-3 * std::fabs(ds.shaft_torque[0]));
+  EXPECT_NEAR(ts.work_in, ds.work_in, 1e-4 * ds.work_in);
+  EXPECT_NEAR(ts.work_out, ds.work_out, 1e-4 * ds.work_out);
+  EXPECT_LT(std::fabs(ts.residual), 1e-4 * ts.work_in);
+}
+
+// A planetary stage: sun 21, three planets 21, ring 63 held in the housing, m 2 mm, level 0 on
+// one slice with contact damping; the sun on a shaft whose far end turns at 100 rad/s, the
+// carrier loaded by 100 N m against its turning. Checked in the steady state (after 0.15 s, means
+// over 0.1 s sampled every 0.1 ms) against closed forms: the Willis equation omega_c / omega_s = z_s / (z_s + z_r),
+// the torque balance (sun z_s / (z_s + z_r) of the load, ring z_r / (z_s + z_r)), the planets'
+// speed omega_p - omega_c = -(z_s / z_p)(omega_s - omega_c); and the symmetry: three planets
+// spaced by 120 degrees with z_s and z_r multiples of 3 see the same mesh state, so their mesh
+// forces are equal at every instant (load sharing exactly 1/3); with four planets (z_s = 21 not a
+// multiple of 4) the sun meshes are out of phase, equal only on average.
+struct Planetary {
+  std::unique_ptr<Instance> sun_planet, planet_ring;
+  std::vector<gm_data*> data;
+  std::unique_ptr<gm::Train> train;
+  gm::TrainInputs in;
+  static constexpr int zs = 21, zp = 21, zr = 63;
+  static constexpr int sun = 0;
+  const int planets, ring, carrier;
+
+  explicit Planetary(int n) : planets(n), ring(n + 1), carrier(n + 2) {
+    gm_model_params p = gm_test::paper();  // level 0, one slice
+    p.pair.normal_module = 0.002;
+    p.pair.center_distance = 0.042;
+    p.damping = 2e5;
+    for (auto& g : p.gear) {
+      g.teeth = 21;
+      g.profile_shift = 0;
+      g.face_width = 0.02;
+      g.thickness_allowance = -10e-6;
+    }
+    sun_planet = std::make_unique<Instance>(p);
+    gm_model_params r = p;
+    r.pair.internal = 1;
+    r.gear[1].teeth = zr;
+    planet_ring = std::make_unique<Instance>(r);
+    std::vector<gm::TrainMesh> meshes;
+    for (int k = 0; k < planets; ++k) {
+      const double psi = 2 * kPi * k / planets;
+      for (int which = 0; which < 2; ++which) {
+        gm::TrainMesh me;
+        me.model = which == 0 ? sun_planet->m : planet_ring->m;
+        gm_data* d = nullptr;
+        gm_data_create(me.model, &d);
+        data.push_back(d);
+        me.data = d;
+        me.carrier = carrier;
+        if (which == 0) {  // the sun (gear 1) at the carrier's axis, the planet (gear 2) at psi
+          me.gear[0] = sun;
+          me.gear[1] = 1 + k;
+          me.orientation = psi;
+        } else {  // the planet (gear 1), the ring (gear 2) centred on the axis: towards psi + pi
+          me.gear[0] = 1 + k;
+          me.gear[1] = ring;
+          me.orientation = psi + kPi;
+        }
+        meshes.push_back(me);
+      }
+    }
+    std::vector<gm::TrainBody> bodies(std::size_t(planets + 1), gm::TrainBody{2e-3, false});  // sun, planets
+    bodies.push_back({0.0, true});                                                          // ring
+    bodies.push_back({5e-2, false});                                                        // carrier
+    gm::TrainParams tp;
+    train = std::make_unique<gm::Train>(bodies, meshes, std::vector<gm::TrainShaft>{{sun, -1, 1e4, 10.0}}, tp);
+  }
+  ~Planetary() {
+    train.reset();
+    for (gm_data* d : data) gm_data_free(d);
+  }
+};
+
+// The steady-state figures of a run of the stage with n planets.
+struct SteadyState {
+  double speed_ratio, planet_speed, sun_torque, ring_torque, residual_share;
+  double instant_asymmetry;  // largest relative difference of the planets' sun-mesh forces
+  std::vector<double> share; // each planet's mean share of the sun meshes' force
+};
+
+SteadyState run(Planetary& s, double ws, double load) {
+  SteadyState out{};
+  EXPECT_EQ(s.train->problem(), "");
+  const double wc = ws * s.zs / (s.zs + s.zr), wp = wc - double(s.zs) / s.zp * (ws - wc);
+  const std::size_t nb = std::size_t(s.carrier + 1);
+  std::vector<double> phi(nb, 0.0), omega(nb, 0.0);
+  omega[std::size_t(s.sun)] = ws;
+  omega[std::size_t(s.carrier)] = wc;
+  for (int k = 0; k < s.planets; ++k) {
+    phi[std::size_t(1 + k)] = 2 * (2 * kPi * k / s.planets);  // sun-planet mesh at TE 0 (equal radii)
+    omega[std::size_t(1 + k)] = wp;
+  }
+  s.in.torque.assign(nb, 0.0);
+  s.in.torque[std::size_t(s.carrier)] = -load;
+  s.in.far_phi = {load * s.zs / (s.zs + s.zr) / 1e4};
+  s.in.far_omega = {ws};
+  gm::TrainState st;
+  std::vector<gm_result> res;
+  std::string msg;
+  EXPECT_EQ(s.train->start(phi, omega, s.in, st, res, msg), GM_OK) << msg;
+  double sum_ws = 0, sum_wc = 0, sum_wp = 0, sum_shaft = 0, sum_ring = 0, total = 0;
+  std::vector<double> force(std::size_t(s.planets), 0.0);
+  int n = 0;
+  // 150 steps of 1 ms to settle, then 1000 of 0.1 ms to average: the meshes' frequency is 251 Hz
+  // here, and 1 ms samples (3.99 per period) would average a few fixed phases of it
+  for (int i = 0; i < 1150; ++i) {
+    const double H = i < 150 ? 1e-3 : 1e-4;
+    if (s.train->advance(s.in, H, st, res, msg) != GM_OK) {
+      ADD_FAILURE() << "step " << i << ": " << msg;
+      return out;
+    }
+    s.in.far_phi[0] += ws * H;
+    if (i < 150) continue;
+    const double f0 = res[0].normal_force;
+    for (int k = 0; k < s.planets; ++k) {
+      const double f = res[std::size_t(2 * k)].normal_force;
+      out.instant_asymmetry = std::max(out.instant_asymmetry, std::fabs(f - f0) / std::max(f0, 1.0));
+      force[std::size_t(k)] += f;
+      total += f;
+    }
+    sum_ws += st.omega[std::size_t(s.sun)];
+    sum_wc += st.omega[std::size_t(s.carrier)];
+    sum_wp += st.omega[1];
+    sum_shaft += st.shaft_torque[0];
+    sum_ring += st.reaction[std::size_t(s.ring)];
+    ++n;
+  }
+  out.speed_ratio = sum_wc / sum_ws;
+  out.planet_speed = sum_wp / n;
+  out.sun_torque = sum_shaft / n;
+  out.ring_torque = sum_ring / n;
+  for (double f : force) out.share.push_back(f / total);
+  out.residual_share = std::fabs(st.residual) / st.work_in;
+  return out;
+}
+
+TEST(Train, PlanetaryStageKeepsWillisTorqueBalanceAndEqualPlanets) {
+  for (int planets : {3, 4}) {
+    SCOPED_TRACE(std::to_string(planets) + " planets");
+    Planetary s(planets);
+    const double ws = 100.0, load = 100.0;
+    const double wc = ws * s.zs / (s.zs + s.zr), wp = wc - double(s.zs) / s.zp * (ws - wc);
+    const SteadyState r = run(s, ws, load);
+    EXPECT_NEAR(r.speed_ratio, double(s.zs) / (s.zs + s.zr), 1e-4);
+    EXPECT_NEAR(r.planet_speed, wp, 1e-3 * std::fabs(wp));
+    EXPECT_NEAR(r.sun_torque, load * s.zs / (s.zs + s.zr), 1e-2 * load);
+    // the torque that holds the ring: the load's share z_r / (z_s + z_r)
+    EXPECT_NEAR(r.ring_torque, load * s.zr / (s.zs + s.zr), 1e-2 * load);
+    for (double share : r.share) EXPECT_NEAR(share, 1.0 / planets, 1e-2 / planets);
+    if (planets == 3) {
+      // z_s and z_r multiples of 3: every planet's meshes in the same state at every instant
+      EXPECT_LT(r.instant_asymmetry, 1e-6);
+    } else {
+      // z_s = 21 over 4 planets: the sun meshes a quarter of a tooth apart (sequential phasing),
+      // so the forces differ instant by instant while their means are equal
+      EXPECT_GT(r.instant_asymmetry, 1e-2);
+    }
+    EXPECT_LT(r.residual_share, 1e-3);
+  }
+}
+
+TEST(Train, BadTopologyIsNamed) {
+  Instance pair(set_a());
+  gm::TrainMesh me;
+  me.model = pair.m;
+  me.data = pair.d;
+  me.gear[0] = 0;
+  me.gear[1] = 0;
+  gm::Train same({{0.02, false}, {0.02, false}}, {me}, {}, {});
+  EXPECT_NE(same.problem().find("mesh 1"), std::string::npos) << same.problem();
+  me.gear[1] = 1;
+  gm::Train massless({{0.02, false}, {0.0, false}}, {me}, {}, {});
+  EXPECT_NE(massless.problem().find("body 2: inertia = 0"), std::string::npos) << massless.problem();
+  gm::Train idle({{0.02, false}, {0.02, false}, {0.02, false}}, {me}, {}, {});
+  EXPECT_NE(idle.problem().find("body 3 is in no mesh"), std::string::npos) << idle.problem();
+  gm::Train ok({{0.02, false}, {0.02, false}}, {me}, {}, {});
+  EXPECT_EQ(ok.problem(), "");
+}
+
+}  // namespace
