@@ -79,6 +79,8 @@ class Case:
     reference_step: float = 0.0                     # s, the TE reference's step (0: the default)
     modes: tuple = ()                               # the modes the case runs in (empty: all)
     undamped: bool = False                          # judged by the undamped rules (gearmesh.stability)
+    rattles: bool = False                           # undamped and rattling by its physics: the
+                                                    # oscillation may grow; energy judged only
 
 
 def driven_pair(case: Case, geo: Geometry, te0: float) -> GearPair:
@@ -279,6 +281,23 @@ def all_cases() -> list[Case]:
              "pair and databases), 20 N m", params={"model.damping": 0.0}, load=20.0, te0=0.0, t_end=2.0,
              te_check=False, pair=balanced_pair, modes=("large_step",), undamped=True,
              fe_scene=SMALL_FE_SCENE, J=(5e-4, 5e-4)),
+        Case("undamped_10rpm_mu0.4", "undamped_10rpm at level 4, 10 slices, with friction mu 0.4 "
+             "(v0 0.01 mm/s): friction is the only loss", params={"model.damping": 0.0,
+             "model.stiffness": 4, "model.slices": 10, "model.friction_coefficient": 0.4,
+             "model.friction_velocity": 1e-5}, load=150.0, te0=0.0, t_end=2.0, te_check=False,
+             pair=balanced_pair, modes=("large_step",), undamped=True),
+        # At speed the undamped mesh rattles through the backlash, excited parametrically by the
+        # changing number of tooth pairs; an independent explicit integration of the element
+        # rattles alike (docs/stability.md, "Undamped mesh"): judged by the energy made only.
+        Case("undamped_1000rpm_level_4", "undamped free gears at 1000 rpm, level 4, 10 slices, "
+             "balanced 150 N m, teeth just touching at the start, 2 s: rattles",
+             params={"model.damping": 0.0, "model.stiffness": 4, "model.slices": 10}, load=150.0,
+             speed_rpm=1000.0, te0=0.0, t_end=2.0, te_check=False, pair=balanced_pair,
+             modes=("large_step",), undamped=True, rattles=True),
+        Case("undamped_6000rpm_level_4", "undamped_1000rpm_level_4 at 6000 rpm",
+             params={"model.damping": 0.0, "model.stiffness": 4, "model.slices": 10}, load=150.0,
+             speed_rpm=6000.0, te0=0.0, t_end=2.0, te_check=False, pair=balanced_pair,
+             modes=("large_step",), undamped=True, rattles=True),
         Case("random_steps", "nominal with communication steps drawn log-uniformly in "
              "[h/10, h]", random_steps=True),
         Case("rollback", "nominal; at mid-run the master saves the FMU state, runs on, restores "
