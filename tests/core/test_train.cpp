@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "test_support.hpp"
+#include "gearmesh/train.h"
 #include "train.hpp"
 
 namespace {
@@ -249,6 +250,72 @@ TEST(Train, PlanetaryStageKeepsWillisTorqueBalanceAndEqualPlanets) {
     }
     EXPECT_LT(r.residual_share, 1e-3);
   }
+}
+
+// The C API (gearmesh/train.h) runs the C++ train: the same two-body drive through both gives
+// the same state bit for bit; bad input is refused and named, and the train stays usable.
+TEST(Train, CApiIsTheTrainAndNamesBadInput) {
+  Instance pair(set_a());
+  gm_data* data2 = nullptr;
+  ASSERT_EQ(gm_data_create(pair.m, &data2), GM_OK);
+  std::unique_ptr<gm_data, void (*)(gm_data*)> guard(data2, gm_data_free);
+  const double w = 300 * 2 * kPi / 60, k = 2e4, c = 100;
+  gm::TrainMesh mesh;
+  mesh.model = pair.m;
+  mesh.data = data2;
+  mesh.gear[0] = 0;
+  mesh.gear[1] = 1;
+  gm::Train train({{0.02, false}, {0.02, false}}, {mesh}, {{0, -1, k, c}}, {});
+  gm::TrainInputs tin;
+  tin.torque = {0.0, 200.0};
+  tin.far_phi = {0.0};
+  tin.far_omega = {w};
+  gm::TrainState ts;
+  std::vector<gm_result> tres;
+  std::string msg;
+  ASSERT_EQ(train.start({0.0, 0.0}, {w, -w}, tin, ts, tres, msg), GM_OK) << msg;
+
+  const gm_train_body bodies[2] = {{0.02, 0}, {0.02, 0}};
+  const gm_train_mesh meshes[1] = {{pair.m, {0, 1}, -1, 0.0}};
+  const gm_train_shaft shafts[1] = {{0, -1, k, c}};
+  gm_train* t = nullptr;
+  char text[256];
+  ASSERT_EQ(gm_train_create(bodies, 2, meshes, 1, shafts, 1, 1e-8, 1e-3, 1e-9, &t, text, sizeof text), GM_OK) << text;
+  std::unique_ptr<gm_train, void (*)(gm_train*)> tguard(t, gm_train_free);
+  const double phi[2] = {0.0, 0.0}, omega[2] = {w, -w}, torque[2] = {0.0, 200.0};
+  double far_phi = 0.0;
+  ASSERT_EQ(gm_train_start(t, phi, omega, torque, &far_phi, &w), GM_OK) << gm_train_message(t);
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_EQ(train.advance(tin, 1e-3, ts, tres, msg), GM_OK) << msg;
+    ASSERT_EQ(gm_train_advance(t, torque, &far_phi, &w, 1e-3), GM_OK) << gm_train_message(t);
+    tin.far_phi[0] += w * 1e-3;
+    far_phi += w * 1e-3;
+  }
+  for (int b = 0; b < 2; ++b) {
+    double p = 0, v = 0, hold = 0;
+    ASSERT_EQ(gm_train_body_state(t, b, &p, &v, &hold), GM_OK);
+    EXPECT_EQ(p, ts.phi[std::size_t(b)]);
+    EXPECT_EQ(v, ts.omega[std::size_t(b)]);
+  }
+  EXPECT_EQ(gm_train_mesh_result(t, 0)->te, tres[0].te);
+  EXPECT_EQ(gm_train_energy_account(t).residual, ts.residual);
+  double tau = 0;
+  ASSERT_EQ(gm_train_shaft_torque(t, 0, &tau), GM_OK);
+  EXPECT_EQ(tau, ts.shaft_torque[0]);
+
+  // bad input: named, the state unchanged, the train usable
+  const double nan_torque[2] = {0.0, NAN};
+  EXPECT_EQ(gm_train_advance(t, nan_torque, &far_phi, &w, 1e-3), GM_ERR_INPUT);
+  EXPECT_NE(std::string(gm_train_message(t)).find("finite"), std::string::npos);
+  EXPECT_EQ(gm_train_advance(t, torque, &far_phi, &w, -1.0), GM_ERR_ARGUMENT);
+  EXPECT_NE(std::string(gm_train_message(t)).find("allowed: finite and > 0"), std::string::npos);
+  EXPECT_EQ(gm_train_advance(t, torque, &far_phi, &w, 1e-3), GM_OK) << gm_train_message(t);
+  EXPECT_EQ(gm_train_mesh_result(t, 1), nullptr);
+  const gm_train_mesh loop[1] = {{pair.m, {0, 0}, -1, 0.0}};
+  gm_train* bad = nullptr;
+  EXPECT_EQ(gm_train_create(bodies, 2, loop, 1, nullptr, 0, 1e-8, 1e-3, 1e-9, &bad, text, sizeof text), GM_ERR_PARAMETER);
+  EXPECT_EQ(bad, nullptr);
+  EXPECT_NE(std::string(text).find("mesh 1"), std::string::npos) << text;
 }
 
 TEST(Train, BadTopologyIsNamed) {
