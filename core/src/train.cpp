@@ -77,6 +77,8 @@ class Train::Stepper {
     for (int i = 0; i < 2; ++i) {
       k.phi[i] = P[std::size_t(me.gear[i])] - pc - me.orientation;
       k.omega[i] = W[std::size_t(me.gear[i])] - wc;
+      k.u[i][0] = me.offset[i][0];
+      k.u[i][1] = me.offset[i][1];
     }
     return k;
   }
@@ -313,6 +315,12 @@ class Train::Stepper {
   }
 
   double contraction = 0;
+  // d(torque)/d(phi) of the free bodies at the last jacobian(): J A_phi
+  Mat torque_stiffness() const {
+    Mat K = a_phi_;
+    for (int f = 0; f < int(t_.free_.size()); ++f) K.row(f) *= t_.bodies_[std::size_t(t_.free_[std::size_t(f)])].inertia;
+    return K;
+  }
 
  private:
   Train& t_;
@@ -388,6 +396,79 @@ Train::Train(std::vector<TrainBody> bodies, std::vector<TrainMesh> meshes, std::
     }
   if (!(params_.tolerance > 0 && params_.max_step > 0 && params_.min_step > 0 && params_.min_step <= params_.max_step))
     problem_ = "tolerance, max_step and min_step must be > 0 with min_step <= max_step";
+}
+
+gm_status Train::static_state(int held, double held_angle, const TrainInputs& in, std::vector<double>& phi,
+                              std::vector<gm_result>& res, std::string& msg) {
+  if (!problem_.empty()) {
+    msg = problem_;
+    return GM_ERR_PARAMETER;
+  }
+  const int nb = int(bodies_.size());
+  if (held < 0 || held >= nb || slot_[std::size_t(held)] < 0 || int(phi.size()) != nb) {
+    msg = "static_state: the held body must be a free body, and one angle per body";
+    return GM_ERR_ARGUMENT;
+  }
+  // the free bodies but the held one are the unknowns; the held one is a free body whose
+  // acceleration is not asked to vanish (its torque is the input torque the load needs)
+  TrainInputs still = in;
+  still.far_omega.assign(in.far_phi.size(), 0.0);
+  Stepper st(*this, still);
+  const int n = int(free_.size());
+  std::vector<int> unknown;
+  for (int f = 0; f < n; ++f)
+    if (free_[std::size_t(f)] != held) unknown.push_back(f);
+  Vec p(n), w = Vec::Zero(n);
+  for (int f = 0; f < n; ++f) p[f] = free_[std::size_t(f)] == held ? held_angle : phi[std::size_t(free_[std::size_t(f)])];
+  Point x;
+  const auto residual = [&](const Vec& q, double* size) -> gm_status {
+    const gm_status s = st.evaluate_at(0.0, q, w, x, msg);
+    if (s != GM_OK) return s;
+    double worst = 0;
+    for (int f : unknown) worst = std::max(worst, std::fabs(x.accel[f] * bodies_[std::size_t(free_[std::size_t(f)])].inertia));
+    *size = worst;
+    return GM_OK;
+  };
+  double size = 0;
+  gm_status s = residual(p, &size);
+  if (s != GM_OK) return s;
+  // converged when every torque is below 1e-9 of the largest input torque (or 1e-9 N m)
+  double scale = 1.0;
+  for (double t : in.torque) scale = std::max(scale, std::fabs(t));
+  const double tol = 1e-9 * scale;
+  for (int it = 0; it < 100 && size > tol; ++it) {
+    if ((s = st.jacobian(x, msg)) != GM_OK) return s;
+    const Mat K = st.torque_stiffness();
+    const int m = int(unknown.size());
+    Mat A(m, m);
+    Vec r(m);
+    for (int i = 0; i < m; ++i) {
+      r[i] = x.accel[unknown[std::size_t(i)]] * bodies_[std::size_t(free_[std::size_t(unknown[std::size_t(i)])])].inertia;
+      for (int j = 0; j < m; ++j) A(i, j) = K(unknown[std::size_t(i)], unknown[std::size_t(j)]);
+    }
+    const Vec d = A.fullPivLu().solve(-r);
+    if (!d.allFinite()) break;
+    // halve the Newton step until the residual falls (contact is one-sided: a full step may open it)
+    double lambda = 1.0, trial_size = INFINITY;
+    Vec trial = p;
+    for (int half = 0; half < 30; ++half, lambda *= 0.5) {
+      trial = p;
+      for (int i = 0; i < m; ++i) trial[unknown[std::size_t(i)]] += lambda * d[i];
+      if (residual(trial, &trial_size) == GM_OK && trial_size < size) break;
+    }
+    if (!(trial_size < size)) break;
+    p = trial;
+    size = trial_size;
+  }
+  if ((s = residual(p, &size)) != GM_OK) return s;
+  if (!(size <= tol)) {
+    msg = "static_state: no equilibrium found (largest torque left " + number(size) +
+          " N m); start nearer contact";
+    return GM_ERR_SOLVER;
+  }
+  for (int f = 0; f < n; ++f) phi[std::size_t(free_[std::size_t(f)])] = p[f];
+  res = x.res;
+  return GM_OK;
 }
 
 gm_status Train::start(const std::vector<double>& phi, const std::vector<double>& omega, const TrainInputs& in,

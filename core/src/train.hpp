@@ -37,6 +37,8 @@ struct TrainMesh {
   int gear[2] = {-1, -1};  // bodies of the element's gear 1 and gear 2
   int carrier = -1;        // body carrying the mesh, -1: the housing
   double orientation = 0;  // psi, rad, in the carrier's frame
+  double offset[2][2] = {{0, 0}, {0, 0}};  // static centre displacement of each gear in the
+                                           // element's frame (x towards gear 2), m: a pin error
 };
 
 struct TrainShaft {
@@ -80,6 +82,15 @@ class Train {
   // error s and res are unchanged.
   gm_status advance(const TrainInputs& in, double duration, TrainState& s, std::vector<gm_result>& res,
                     std::string& msg);
+
+  // Static equilibrium (the quasi-static train): the angles of the free bodies where every
+  // body's torque balances, body `held` fixed at angle `held_angle` (the input), speeds zero,
+  // the torques of `in` applied (a load on the output); phi (per body) is the start of the
+  // search and the answer. Shafts to far ends hold their far ends at in.far_phi. res: each
+  // mesh's evaluation there. GM_ERR_SOLVER if Newton does not converge (a start in the backlash:
+  // start nearer contact).
+  gm_status static_state(int held, double held_angle, const TrainInputs& in, std::vector<double>& phi,
+                         std::vector<gm_result>& res, std::string& msg);
 
   int body_count() const { return int(bodies_.size()); }
   int mesh_count() const { return int(meshes_.size()); }

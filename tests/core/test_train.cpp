@@ -318,6 +318,94 @@ TEST(Train, CApiIsTheTrainAndNamesBadInput) {
   EXPECT_NE(std::string(text).find("mesh 1"), std::string::npos) << text;
 }
 
+// The quasi-static train (Train::static_state) on the planetary stage with the sun held, the
+// carrier loaded by 100 N m and the ring in the housing, 3 planets:
+// * without pin errors each planet carries a third of the sun's force, and the torques are the
+//   closed forms (the sun holds z_s / (z_s + z_r) of the load, the ring z_r / (z_s + z_r));
+// * with planet 1's pin 20 um off tangentially its share moves away from a third, the shares
+//   still add up to one;
+// * the Newton answer is where the damped dynamics settles with the sun held (on a stiff
+//   shaft) at the same angle: two independent ways to the same equilibrium.
+TEST(Train, PlanetaryStaticStateSharesTheLoad) {
+  for (double pin_error : {0.0, 20e-6}) {
+    SCOPED_TRACE("pin error " + std::to_string(pin_error));
+    Planetary s(3);
+    // the pin error: planet 1's centre moved along the carrier's tangent, in both of its meshes'
+    // element frames (sun-planet: x towards the planet, so the tangent is +y; planet-ring: x
+    // towards the ring's centre, the tangent is -y)
+    s.train.reset();
+    std::vector<gm::TrainMesh> meshes;
+    for (int k = 0; k < s.planets; ++k) {
+      const double psi = 2 * kPi * k / s.planets;
+      for (int which = 0; which < 2; ++which) {
+        gm::TrainMesh me;
+        me.model = which == 0 ? s.sun_planet->m : s.planet_ring->m;
+        me.data = s.data[std::size_t(2 * k + which)];
+        me.carrier = s.carrier;
+        me.gear[0] = which == 0 ? s.sun : 1 + k;
+        me.gear[1] = which == 0 ? 1 + k : s.ring;
+        me.orientation = which == 0 ? psi : psi + kPi;
+        if (k == 0) {
+          if (which == 0) me.offset[1][1] = pin_error;
+          else me.offset[0][1] = -pin_error;
+        }
+        meshes.push_back(me);
+      }
+    }
+    std::vector<gm::TrainBody> bodies(std::size_t(s.planets + 1), gm::TrainBody{2e-3, false});
+    bodies.push_back({0.0, true});
+    bodies.push_back({5e-2, false});
+    const double k_sun = 1e6, load = 100.0;
+    s.train = std::make_unique<gm::Train>(bodies, meshes, std::vector<gm::TrainShaft>{{s.sun, -1, k_sun, 50.0}},
+                                          gm::TrainParams{});
+    ASSERT_EQ(s.train->problem(), "");
+    const std::size_t nb = std::size_t(s.carrier + 1);
+    // a start in contact: every mesh 1 um into its loaded flank (sun-planet flank A, planet-ring
+    // flank B), so that Newton starts on the contact's stiffness
+    const gm_pair_geometry& gsp = s.sun_planet->geo();
+    const gm_pair_geometry& gpr = s.planet_ring->geo();
+    const double rs = 0.5 * gsp.gear[0].d_b, rp = 0.5 * gsp.gear[1].d_b, rr = 0.5 * gpr.gear[1].d_b;
+    const double closure = 1e-6;
+    const double delta = -(gpr.j_bt + 2 * closure) / (rs + rr), beta = delta + (rs * delta + closure) / rp;
+    std::vector<double> phi(nb, 0.0), omega(nb, 0.0);
+    phi[std::size_t(s.carrier)] = delta;
+    for (int k = 0; k < s.planets; ++k) phi[std::size_t(1 + k)] = 2 * (2 * kPi * k / s.planets) + beta;
+    // the dynamics, settled with the sun on a stiff shaft to a held far end
+    gm::TrainInputs in;
+    in.torque.assign(nb, 0.0);
+    in.torque[std::size_t(s.carrier)] = -load;
+    in.far_phi = {0.0};
+    in.far_omega = {0.0};
+    gm::TrainState st;
+    std::vector<gm_result> dyn;
+    std::string msg;
+    ASSERT_EQ(s.train->start(phi, omega, in, st, dyn, msg), GM_OK) << msg;
+    for (int i = 0; i < 400; ++i) ASSERT_EQ(s.train->advance(in, 1e-3, st, dyn, msg), GM_OK) << msg;
+    // the static state with the sun held where the dynamics left it
+    std::vector<double> phi_static = phi;
+    std::vector<gm_result> res;
+    ASSERT_EQ(s.train->static_state(s.sun, st.phi[std::size_t(s.sun)], in, phi_static, res, msg), GM_OK) << msg;
+    double total = 0;
+    for (int k = 0; k < s.planets; ++k) total += res[std::size_t(2 * k)].normal_force;
+    double sum = 0;
+    for (int k = 0; k < s.planets; ++k) {
+      const double share = res[std::size_t(2 * k)].normal_force / total;
+      sum += share;
+      if (pin_error == 0) EXPECT_NEAR(share, 1.0 / 3, 1e-9);
+      // the dynamics settled to the same equilibrium
+      EXPECT_NEAR(dyn[std::size_t(2 * k)].normal_force, res[std::size_t(2 * k)].normal_force,
+                  1e-4 * res[std::size_t(2 * k)].normal_force);
+      EXPECT_NEAR(st.phi[std::size_t(1 + k)], phi_static[std::size_t(1 + k)], 1e-7);
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+    if (pin_error != 0) EXPECT_GT(std::fabs(res[0].normal_force / total - 1.0 / 3), 0.01);
+    // the sun's torque: what its mesh moments sum to (the held body's balance), a closed form
+    double sun_torque = 0;
+    for (int k = 0; k < s.planets; ++k) sun_torque -= res[std::size_t(2 * k)].moment[0][2];
+    EXPECT_NEAR(sun_torque, load * s.zs / (s.zs + s.zr), 1e-6 * load);
+  }
+}
+
 TEST(Train, BadTopologyIsNamed) {
   Instance pair(set_a());
   gm::TrainMesh me;
