@@ -92,6 +92,8 @@ class Train {
   gm_status static_state(int held, double held_angle, const TrainInputs& in, std::vector<double>& phi,
                          std::vector<gm_result>& res, std::string& msg);
 
+  const gm_model* mesh_model(int m) const { return meshes_[std::size_t(m)].model; }
+
   int body_count() const { return int(bodies_.size()); }
   int mesh_count() const { return int(meshes_.size()); }
 

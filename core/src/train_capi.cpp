@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <memory>
 #include <new>
@@ -198,5 +199,104 @@ void gm_train_steps(const gm_train* t, int* accepted, int* rejected) {
 }
 
 const char* gm_train_message(const gm_train* t) { return t ? t->message.c_str() : ""; }
+
+namespace {
+
+// The doubles of a state: per body phi, omega, reaction; per shaft torque; the scalars.
+constexpr int kScalars = 10;  // kinetic, elastic, initial, work in/out, friction, damping, parametric, residual, step
+std::size_t doubles_of(const gm_train* t) {
+  return std::size_t(3 * t->train->body_count() + t->shafts + kScalars);
+}
+
+}  // namespace
+
+size_t gm_train_state_size(const gm_train* t) {
+  if (!t) return 0;
+  size_t size = sizeof(std::uint32_t) * 4 + doubles_of(t) * sizeof(double);
+  for (std::size_t m = 0; m < t->data.size(); ++m)
+    size += sizeof(gm_result) + sizeof(std::uint64_t) + gm_data_state_size(t->train->mesh_model(int(m)), t->data[m]);
+  return size;
+}
+
+gm_status gm_train_state_save(const gm_train* t, void* buf, size_t size) {
+  if (!t || !buf || size != gm_train_state_size(t)) return GM_ERR_ARGUMENT;
+  unsigned char* p = static_cast<unsigned char*>(buf);
+  const std::uint32_t head[4] = {std::uint32_t(t->train->body_count()), std::uint32_t(t->shafts),
+                                 std::uint32_t(t->data.size()), std::uint32_t(t->started)};
+  std::memcpy(p, head, sizeof head);
+  p += sizeof head;
+  std::vector<double> x;
+  const gm::TrainState& s = t->state;
+  const std::size_t nb = std::size_t(t->train->body_count());
+  for (std::size_t b = 0; b < nb; ++b) {
+    x.push_back(t->started ? s.phi[b] : 0.0);
+    x.push_back(t->started ? s.omega[b] : 0.0);
+    x.push_back(t->started ? s.reaction[b] : 0.0);
+  }
+  for (int i = 0; i < t->shafts; ++i) x.push_back(t->started ? s.shaft_torque[std::size_t(i)] : 0.0);
+  for (double v : {s.kinetic, s.elastic, s.initial_energy, s.work_in, s.work_out, s.friction, s.damping,
+                   s.parametric, s.residual, s.step})
+    x.push_back(v);
+  std::memcpy(p, x.data(), x.size() * sizeof(double));
+  p += x.size() * sizeof(double);
+  for (std::size_t m = 0; m < t->data.size(); ++m) {
+    const gm_result r = t->started ? t->res[m] : gm_result{};
+    std::memcpy(p, &r, sizeof r);
+    p += sizeof r;
+    const gm_model* model = t->train->mesh_model(int(m));
+    const std::uint64_t n = gm_data_state_size(model, t->data[m]);
+    std::memcpy(p, &n, sizeof n);
+    p += sizeof n;
+    if (gm_data_state_save(model, t->data[m], p, n) != GM_OK) return GM_ERR_ARGUMENT;
+    p += n;
+  }
+  return GM_OK;
+}
+
+gm_status gm_train_state_load(gm_train* t, const void* buf, size_t size) {
+  if (!t || !buf || size != gm_train_state_size(t)) return GM_ERR_ARGUMENT;
+  const unsigned char* p = static_cast<const unsigned char*>(buf);
+  std::uint32_t head[4];
+  std::memcpy(head, p, sizeof head);
+  p += sizeof head;
+  if (head[0] != std::uint32_t(t->train->body_count()) || head[1] != std::uint32_t(t->shafts) ||
+      head[2] != std::uint32_t(t->data.size()) || head[3] > 1)
+    return GM_ERR_ARGUMENT;
+  std::vector<double> x(doubles_of(t));
+  std::memcpy(x.data(), p, x.size() * sizeof(double));
+  p += x.size() * sizeof(double);
+  // the meshes' memories first, into copies: nothing changes unless all of them load
+  std::vector<std::vector<unsigned char>> blobs;
+  std::vector<gm_result> res(t->data.size());
+  for (std::size_t m = 0; m < t->data.size(); ++m) {
+    std::memcpy(&res[m], p, sizeof(gm_result));
+    p += sizeof(gm_result);
+    std::uint64_t n;
+    std::memcpy(&n, p, sizeof n);
+    p += sizeof n;
+    if (n != gm_data_state_size(t->train->mesh_model(int(m)), t->data[m])) return GM_ERR_ARGUMENT;
+    blobs.emplace_back(p, p + n);
+    p += n;
+  }
+  for (std::size_t m = 0; m < t->data.size(); ++m)
+    if (gm_data_state_load(t->train->mesh_model(int(m)), t->data[m], blobs[m].data(), blobs[m].size()) != GM_OK)
+      return GM_ERR_ARGUMENT;
+  gm::TrainState s;
+  const std::size_t nb = std::size_t(t->train->body_count());
+  std::size_t k = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    s.phi.push_back(x[k++]);
+    s.omega.push_back(x[k++]);
+    s.reaction.push_back(x[k++]);
+  }
+  for (int i = 0; i < t->shafts; ++i) s.shaft_torque.push_back(x[k++]);
+  for (double* v : {&s.kinetic, &s.elastic, &s.initial_energy, &s.work_in, &s.work_out, &s.friction, &s.damping,
+                    &s.parametric, &s.residual, &s.step})
+    *v = x[k++];
+  t->state = std::move(s);
+  t->started = head[3] != 0;
+  t->res = std::move(res);
+  return GM_OK;
+}
 
 }  // extern "C"

@@ -253,7 +253,8 @@ TEST(Train, PlanetaryStageKeepsWillisTorqueBalanceAndEqualPlanets) {
 }
 
 // The C API (gearmesh/train.h) runs the C++ train: the same two-body drive through both gives
-// the same state bit for bit; bad input is refused and named, and the train stays usable.
+// the same state bit for bit; bad input is refused and named, and the train stays usable; the
+// state saved and restored continues bit for bit.
 TEST(Train, CApiIsTheTrainAndNamesBadInput) {
   Instance pair(set_a());
   gm_data* data2 = nullptr;
@@ -311,6 +312,27 @@ TEST(Train, CApiIsTheTrainAndNamesBadInput) {
   EXPECT_NE(std::string(gm_train_message(t)).find("allowed: finite and > 0"), std::string::npos);
   EXPECT_EQ(gm_train_advance(t, torque, &far_phi, &w, 1e-3), GM_OK) << gm_train_message(t);
   EXPECT_EQ(gm_train_mesh_result(t, 1), nullptr);
+  // the state: saved, run on, restored, run again: the same bits; a blob of another size is
+  // refused and changes nothing
+  std::vector<unsigned char> blob(gm_train_state_size(t));
+  ASSERT_EQ(gm_train_state_save(t, blob.data(), blob.size()), GM_OK);
+  const auto run_on = [&]() {
+    double fp = far_phi;
+    for (int i = 0; i < 5; ++i, fp += w * 1e-3) EXPECT_EQ(gm_train_advance(t, torque, &fp, &w, 1e-3), GM_OK);
+    double p = 0, v = 0;
+    gm_train_body_state(t, 1, &p, &v, nullptr);
+    return std::vector<double>{p, v, gm_train_mesh_result(t, 0)->te, gm_train_energy_account(t).residual};
+  };
+  const std::vector<double> first = run_on();
+  ASSERT_EQ(gm_train_state_load(t, blob.data(), blob.size()), GM_OK);
+  EXPECT_EQ(run_on(), first);
+  std::vector<unsigned char> later(gm_train_state_size(t));
+  ASSERT_EQ(gm_train_state_save(t, later.data(), later.size()), GM_OK);
+  EXPECT_EQ(gm_train_state_load(t, blob.data(), blob.size() - 1), GM_ERR_ARGUMENT);
+  std::vector<unsigned char> now(gm_train_state_size(t));
+  ASSERT_EQ(gm_train_state_save(t, now.data(), now.size()), GM_OK);
+  EXPECT_EQ(now, later);
+
   const gm_train_mesh loop[1] = {{pair.m, {0, 0}, -1, 0.0}};
   gm_train* bad = nullptr;
   EXPECT_EQ(gm_train_create(bodies, 2, loop, 1, nullptr, 0, 1e-8, 1e-3, 1e-9, &bad, text, sizeof text), GM_ERR_PARAMETER);

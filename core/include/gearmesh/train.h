@@ -67,6 +67,13 @@ gm_train_energy gm_train_energy_account(const gm_train* t);
 void gm_train_steps(const gm_train* t, int* accepted, int* rejected);
 const char* gm_train_message(const gm_train* t);
 
+/* The train's state (spins, energies, the next internal step and each mesh's evaluation memory)
+ * as bytes, for FMU state: size, save (exactly size bytes), load (GM_ERR_ARGUMENT if the bytes
+ * are not a state of a train of this shape; the train is then unchanged). */
+size_t gm_train_state_size(const gm_train* t);
+gm_status gm_train_state_save(const gm_train* t, void* buf, size_t size);
+gm_status gm_train_state_load(gm_train* t, const void* buf, size_t size);
+
 #ifdef __cplusplus
 }
 #endif
