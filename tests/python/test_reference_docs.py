@@ -108,6 +108,9 @@ def scenario_keys() -> list[tuple[pathlib.Path, str, str]]:
         for key, value in body.items():
             if isinstance(value, dict):
                 walk(path, f"{table}.{key}" if table else key, value)
+            elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+                for entry in value:  # an array of tables ([[body]] of a train scene)
+                    walk(path, f"{table}.{key}" if table else key, entry)
             else:
                 found.append((path, table, key))
 

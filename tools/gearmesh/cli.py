@@ -91,6 +91,13 @@ def build_parser() -> argparse.ArgumentParser:
     p_fmu.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu",
                        help="the generic FMU (default build/GearMesh.fmu)")
     p_fmu.add_argument("--out", type=pathlib.Path, help="default: output/SCENE_NAME.fmu")
+    p_train = sub.add_parser("train-fmu", help="write a gear train's FMU (bodies, shafts, meshes; "
+                             "gearmesh.train_fmu) around the train binary")
+    p_train.add_argument("train", type=pathlib.Path, metavar="TRAIN", help="train scene file (TOML)")
+    p_train.add_argument("--out", type=pathlib.Path, help="default: output/TRAIN_NAME.fmu")
+    p_train.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu",
+                         help="the generic pair FMU, whose variables the meshes' parameters are "
+                         "checked against (default build/GearMesh.fmu)")
     sub.add_parser("fmu-docs", help="regenerate the FMU's documentation/index.html from README.md "
                    "and docs/fmi.md")
     p_acc = sub.add_parser("accuracy", help="error of every stiffness setting against the FE "
@@ -144,6 +151,17 @@ def main(argv: list[str] | None = None) -> int:
         from gearmesh import platforms
 
         return platforms.main(rest)
+    if args.command == "train-fmu":
+        from gearmesh import train_fmu
+
+        try:
+            train = train_fmu.load_train(args.train)
+            out = train_fmu.build_train_fmu(args.train, args.out or REPO / "output" / f"{train.name}.fmu", args.fmu)
+        except (SceneError, OSError, ValueError) as exc:
+            print(f"gearmesh: {exc}", file=sys.stderr)
+            return 2
+        print(f"gearmesh train-fmu: wrote {out}")
+        return 0
     if args.command == "fmu-docs":
         from gearmesh import fmu_docs
 

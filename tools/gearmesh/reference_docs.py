@@ -544,8 +544,23 @@ def _gear_tables(title: str, rows_of, intro) -> list[str]:
     return out
 
 
+def train_keys_part() -> str:
+    """The keys of a train scene (gearmesh.train_fmu.TRAIN_KEYS), one table per TOML table."""
+    from gearmesh.train_fmu import TRAIN_KEYS
+
+    out = ["# Train scenes\n",
+           "A train scene (`gearmesh train-fmu TRAIN.toml`) names bodies, shafts and meshes; each mesh's "
+           "element comes from a pair scene. Keys from `gearmesh.train_fmu.TRAIN_KEYS`.\n"]
+    for table, keys in TRAIN_KEYS.items():
+        heading = f"[{table}]" if table in ("train", "dynamics") else f"[[{table}]]"
+        out += [f"## Train scenes: `{heading}`\n",
+                _table(["key", "type", "unit", "meaning"],
+                       [[_code(k), t, u, m] for k, (t, u, m) in keys.items()])]
+    return "\n".join(out)
+
+
 def scene_keys_page(root: ET.Element, fmu: pathlib.Path, tool_help: str) -> str:
-    return _SceneKeys(root, fmu, tool_help).page()
+    return _SceneKeys(root, fmu, tool_help).page().rstrip("\n") + "\n\n" + train_keys_part()
 
 
 # --- the commands page ---------------------------------------------------------------------------

@@ -1,0 +1,405 @@
+/* A gear train behind model.h (GearTrain.so): the topology and each mesh's element parameters
+ * from the FMU's resources (train_variables.h), the bodies' spins integrated by the core's
+ * train (gearmesh/train.h) over each communication step. The generic FMI layer
+ * (fmi2_functions.c) is the pair FMU's. */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gearmesh/train.h"
+#include "model.h"
+#include "train_variables.h"
+#include "values.h"
+
+enum { NB = TRAIN_MAX_BODIES, NS = TRAIN_MAX_SHAFTS, NM = TRAIN_MAX_MESHES, NF = TRAIN_STRIDE, NSCALAR = 16 };
+enum { NAME_SIZE = 64 };
+
+typedef struct train_values {
+  double scalar[NSCALAR]; /* by the scalar fields' value reference */
+  double body[NB][NF];
+  double shaft[NS][NF];
+  double mesh[NM][NF];
+} train_values;
+
+struct fmu_model {
+  fmu_log_fn log;
+  void* log_context;
+  char* resources;
+  /* topology (resources/train.txt) */
+  int nb, ns, nm;
+  char body_name[NB][NAME_SIZE], shaft_name[NS][NAME_SIZE], mesh_name[NM][NAME_SIZE];
+  int fixed[NB];
+  gm_train_shaft shaft_def[NS];
+  gm_train_mesh mesh_def[NM];
+  gm_model_params mesh_params[NM];
+  gm_fmu_values mesh_values[NM]; /* owns mesh_params' strings */
+  /* values */
+  train_values v, start;
+  gm_model* model[NM];
+  gm_train* train;
+  int built;     /* train matches the parameters */
+  int evaluated; /* the outputs belong to the train's state */
+};
+
+const char model_identifier[] = "GearTrain";
+const char model_guid[] = TRAIN_GUID;
+_Static_assert(sizeof TRAIN_GUID <= MODEL_GUID_SIZE, "the GUID does not fit an FMU state's header");
+
+/* ---- variables: generic names for every member the capacities allow ---------------------- */
+
+enum { TABLE_SIZE = TRAIN_MESH_BASE + NM * NF };
+static model_variable_info table[TABLE_SIZE];
+static char names[TABLE_SIZE][40];
+static int table_ready;
+
+static void fill_table(void) {
+  if (table_ready) return;
+#define SCALAR(f, name, type, causality, variability, unit, description) \
+  table[f] = (model_variable_info){name, MODEL_##type, MODEL_##causality, MODEL_##variability};
+  TRAIN_SCALAR_FIELDS(SCALAR)
+#undef SCALAR
+#define MEMBER(count, fields)                                                                                     \
+  for (int i = 0; i < (count); ++i) {                                                                             \
+    fields(ENTRY)                                                                                                 \
+  }
+#define ENTRY(f, name, type, causality, variability, unit, description)                                          \
+  {                                                                                                               \
+    const unsigned vr = (unsigned)(base_ + i * NF + (f));                                                         \
+    snprintf(names[vr], sizeof names[vr], "%s%d.%s", prefix_, i + 1, name);                                       \
+    table[vr] = (model_variable_info){names[vr], MODEL_##type, MODEL_##causality, MODEL_##variability};         \
+  }
+  {
+    const int base_ = TRAIN_BODY_BASE;
+    const char* prefix_ = "body";
+    MEMBER(NB, TRAIN_BODY_FIELDS)
+  }
+  {
+    const int base_ = TRAIN_SHAFT_BASE;
+    const char* prefix_ = "shaft";
+    MEMBER(NS, TRAIN_SHAFT_FIELDS)
+  }
+  {
+    const int base_ = TRAIN_MESH_BASE;
+    const char* prefix_ = "mesh";
+    MEMBER(NM, TRAIN_MESH_FIELDS)
+  }
+#undef ENTRY
+#undef MEMBER
+  table_ready = 1;
+}
+
+const model_variable_info* model_variable(unsigned vr) {
+  fill_table();
+  return vr < TABLE_SIZE && table[vr].name ? &table[vr] : NULL;
+}
+
+static const char* const log_names[] = {"logEvents", "logStatusWarning", "logStatusError", "logStatusFatal", "logAll"};
+unsigned model_log_category_count(void) { return 5; }
+const char* model_log_category_name(unsigned category) { return log_names[category]; }
+
+/* The value slot of vr (model.h: vr was checked with model_variable). */
+static double* slot(train_values* v, unsigned vr) {
+  if (vr < TRAIN_BODY_BASE) return &v->scalar[vr];
+  if (vr < TRAIN_SHAFT_BASE) return &v->body[(vr - TRAIN_BODY_BASE) / NF][(vr - TRAIN_BODY_BASE) % NF];
+  if (vr < TRAIN_MESH_BASE) return &v->shaft[(vr - TRAIN_SHAFT_BASE) / NF][(vr - TRAIN_SHAFT_BASE) % NF];
+  return &v->mesh[(vr - TRAIN_MESH_BASE) / NF][(vr - TRAIN_MESH_BASE) % NF];
+}
+
+double model_get_real(const fmu_model* m, unsigned vr) { return *slot((train_values*)&m->v, vr); }
+int model_get_int(const fmu_model* m, unsigned vr) { return (int)*slot((train_values*)&m->v, vr); }
+const char* model_get_string(const fmu_model* m, unsigned vr) {
+  (void)m;
+  (void)vr;
+  return "";
+}
+
+static void changed(fmu_model* m, unsigned vr) {
+  if (table[vr].causality == MODEL_parameter) m->built = 0;
+}
+void model_set_real(fmu_model* m, unsigned vr, double x) {
+  double* p = slot(&m->v, vr);
+  if (*p != x) changed(m, vr);
+  *p = x;
+}
+void model_set_int(fmu_model* m, unsigned vr, int x) { model_set_real(m, vr, (double)x); }
+void model_set_string(fmu_model* m, unsigned vr, char* owned) {
+  (void)m;
+  (void)vr;
+  free(owned);
+}
+
+/* ---- lifetime ----------------------------------------------------------------------------- */
+
+static void drop_train(fmu_model* m) {
+  gm_train_free(m->train);
+  m->train = NULL;
+  for (int i = 0; i < NM; ++i) {
+    gm_model_free(m->model[i]);
+    m->model[i] = NULL;
+  }
+  m->built = 0;
+  m->evaluated = 0;
+}
+
+fmu_model* model_new(fmu_log_fn log, void* log_context) {
+  fill_table();
+  fmu_model* m = calloc(1, sizeof *m);
+  if (!m) return NULL;
+  m->log = log;
+  m->log_context = log_context;
+  m->start.scalar[1] = 1e-8;
+  m->start.scalar[2] = 1e-3;
+  m->start.scalar[3] = 1e-9;
+  m->v = m->start;
+  return m;
+}
+
+void model_free(fmu_model* m) {
+  if (!m) return;
+  drop_train(m);
+  for (int i = 0; i < m->nm; ++i) values_free_strings(&m->mesh_values[i]);
+  free(m->resources);
+  free(m);
+}
+
+/* resources/train.txt, and each mesh's element parameters. */
+static int read_train(fmu_model* m, char* msg, size_t n) {
+  if (!m->resources) return snprintf(msg, n, "a train FMU needs its resources (" TRAIN_FILE ")"), 1;
+  char path[4096];
+  snprintf(path, sizeof path, "%s%s", m->resources, TRAIN_FILE);
+  FILE* f = fopen(path, "r");
+  if (!f) return snprintf(msg, n, "resources/" TRAIN_FILE ": cannot open"), 1;
+  char line[512];
+  int number = 0, ok = 1;
+  while (ok && fgets(line, sizeof line, f)) {
+    ++number;
+    char kind[16], name[NAME_SIZE];
+    if (number == 1) {
+      ok = strncmp(line, "gearmesh-train 1", 16) == 0;
+      continue;
+    }
+    if (line[0] == '#' || line[0] == '\n') continue;
+    if (sscanf(line, "%15s %63s", kind, name) != 2) {
+      ok = 0;
+    } else if (!strcmp(kind, "body") && m->nb < NB) {
+      double inertia;
+      int fixed;
+      ok = sscanf(line, "%*s %*s %lf %d", &inertia, &fixed) == 2;
+      snprintf(m->body_name[m->nb], NAME_SIZE, "%s", name);
+      m->start.body[m->nb][0] = inertia;
+      m->fixed[m->nb++] = fixed != 0;
+    } else if (!strcmp(kind, "shaft") && m->ns < NS) {
+      gm_train_shaft* s = &m->shaft_def[m->ns];
+      ok = sscanf(line, "%*s %*s %d %d %lf %lf", &s->body, &s->other, &s->stiffness, &s->damping) == 4;
+      snprintf(m->shaft_name[m->ns], NAME_SIZE, "%s", name);
+      m->start.shaft[m->ns][0] = s->stiffness;
+      m->start.shaft[m->ns][1] = s->damping;
+      m->ns++;
+    } else if (!strcmp(kind, "mesh") && m->nm < NM) {
+      gm_train_mesh* me = &m->mesh_def[m->nm];
+      ok = sscanf(line, "%*s %*s %d %d %d %lf", &me->gear[0], &me->gear[1], &me->carrier, &me->orientation) == 4;
+      snprintf(m->mesh_name[m->nm++], NAME_SIZE, "%s", name);
+    } else {
+      ok = 0;
+    }
+  }
+  fclose(f);
+  if (!ok) return snprintf(msg, n, "resources/" TRAIN_FILE ", line %d: allowed: the header \"gearmesh-train 1\", "
+                           "then body, shaft and mesh lines (fmu_src/train_variables.h), at most %d of each",
+                           number, NB), 1;
+  for (int i = 0; i < m->nm; ++i) {
+    gm_fmu_values* v = &m->mesh_values[i];
+    memset(v, 0, sizeof *v);
+    gm_default_params(&v->p);
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%smesh%d/", m->resources, i + 1);
+    int count = 0;
+    char why[512];
+    if (values_read_start_file(v, dir, &count, why, sizeof why))
+      return snprintf(msg, n, "mesh %s: %s", m->mesh_name[i], why), 1;
+    m->mesh_params[i] = v->p;
+    const char* files[] = {v->p.stiffness_table, v->p.te_table, v->p.gear[0].deviations, v->p.gear[1].deviations,
+                           v->p.compliance[0], v->p.compliance[1]};
+    for (size_t k = 0; k < sizeof files / sizeof files[0]; ++k)
+      if (files[k] && files[k][0])
+        return snprintf(msg, n, "mesh %s: element parameters that name files (tables, deviations, compliance "
+                        "databases) are not supported in a train FMU yet; allowed: levels 0-4 without tables",
+                        m->mesh_name[i]), 1;
+  }
+  return 0;
+}
+
+int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t n) {
+  if (resources) {
+    size_t size = strlen(resources) + 1;
+    if (!(m->resources = malloc(size))) return snprintf(msg, n, "out of memory"), 1;
+    memcpy(m->resources, resources, size);
+  }
+  if (read_train(m, msg, n)) return 1;
+  m->v = m->start;
+  m->log(m->log_context, MODEL_LOG_EVENTS, "train: %d bodies, %d shafts, %d meshes from resources/" TRAIN_FILE,
+         m->nb, m->ns, m->nm);
+  return 0;
+}
+
+int model_reset(fmu_model* m) {
+  drop_train(m);
+  m->v = m->start;
+  return 0;
+}
+
+/* ---- evaluation --------------------------------------------------------------------------- */
+
+static int build(fmu_model* m, char* msg, size_t n) {
+  if (m->built) return 0;
+  drop_train(m);
+  for (int i = 0; i < m->nm; ++i) {
+    char why[512];
+    if (gm_model_create(&m->mesh_params[i], &m->model[i], why, sizeof why) != GM_OK)
+      return snprintf(msg, n, "mesh %s: %s", m->mesh_name[i], why), 1;
+    m->mesh_def[i].model = m->model[i];
+  }
+  gm_train_body bodies[NB];
+  for (int b = 0; b < m->nb; ++b) bodies[b] = (gm_train_body){m->v.body[b][0], m->fixed[b]};
+  for (int s = 0; s < m->ns; ++s) {
+    m->shaft_def[s].stiffness = m->v.shaft[s][0];
+    m->shaft_def[s].damping = m->v.shaft[s][1];
+  }
+  char why[512];
+  if (gm_train_create(bodies, m->nb, m->mesh_def, m->nm, m->shaft_def, m->ns, m->v.scalar[1], m->v.scalar[2],
+                      m->v.scalar[3], &m->train, why, sizeof why) != GM_OK)
+    return snprintf(msg, n, "train: %s", why), 1;
+  m->built = 1;
+  return 0;
+}
+
+int model_build(fmu_model* m, char* msg, size_t n) { return build(m, msg, n); }
+
+static void inputs(const fmu_model* m, double* phi, double* omega, double* torque, double* far_phi,
+                   double* far_omega) {
+  for (int b = 0; b < m->nb; ++b) {
+    phi[b] = m->v.body[b][1];
+    omega[b] = m->v.body[b][2];
+    torque[b] = m->v.body[b][3];
+  }
+  for (int s = 0; s < m->ns; ++s) {
+    far_phi[s] = m->v.shaft[s][2];
+    far_omega[s] = m->v.shaft[s][3];
+  }
+}
+
+static void publish(fmu_model* m) {
+  for (int b = 0; b < m->nb; ++b) gm_train_body_state(m->train, b, &m->v.body[b][4], &m->v.body[b][5], &m->v.body[b][6]);
+  for (int s = 0; s < m->ns; ++s) gm_train_shaft_torque(m->train, s, &m->v.shaft[s][4]);
+  for (int i = 0; i < m->nm; ++i) {
+    const gm_result* r = gm_train_mesh_result(m->train, i);
+    double* out = m->v.mesh[i];
+    out[0] = r->te;
+    out[1] = r->normal_force;
+    out[2] = r->max_load_share;
+    out[3] = r->friction_power;
+    out[4] = r->stiffness;
+    out[5] = r->elastic_energy;
+    out[6] = r->flank;
+    out[7] = r->pairs_in_contact;
+  }
+  const gm_train_energy e = gm_train_energy_account(m->train);
+  const double account[] = {e.kinetic, e.elastic, e.initial, e.work_in, e.work_out, e.friction, e.damping,
+                            e.parametric, e.residual};
+  for (int k = 0; k < 9; ++k) m->v.scalar[4 + k] = account[k];
+  int steps, rejected;
+  gm_train_steps(m->train, &steps, &rejected);
+  m->v.scalar[13] = steps;
+  m->v.scalar[14] = rejected;
+  m->evaluated = 1;
+}
+
+int model_evaluate(fmu_model* m, int restart, double time, double step, char* msg, size_t n) {
+  if (build(m, msg, n)) return 1;
+  double phi[NB], omega[NB], torque[NB], far_phi[NS], far_omega[NS];
+  inputs(m, phi, omega, torque, far_phi, far_omega);
+  gm_status st;
+  if (restart || !m->evaluated) {
+    for (int b = 0; b < m->nb; ++b)
+      if (m->fixed[b] && (phi[b] != 0 || omega[b] != 0))
+        return snprintf(msg, n, "%s.phi, .omega: a fixed body starts at 0; allowed: 0", m->body_name[b]), 1;
+    st = gm_train_start(m->train, phi, omega, torque, far_phi, far_omega);
+  } else {
+    st = gm_train_advance(m->train, torque, far_phi, far_omega, step);
+  }
+  if (st != GM_OK) {
+    snprintf(msg, n, "t = %g s: %s", time, gm_train_message(m->train));
+    return st == GM_ERR_SOLVER ? 2 : 1;
+  }
+  publish(m);
+  return 0;
+}
+
+/* The outputs are the train's state: inputs set at a communication point act over the next step. */
+int model_feedthrough(fmu_model* m, double time, char* msg, size_t n) {
+  (void)time;
+  return m->evaluated ? 0 : model_evaluate(m, 1, time, 0.0, msg, n);
+}
+int model_outputs_current(const fmu_model* m) { return m->built && m->evaluated; }
+
+int model_directional_derivative(fmu_model* m, const unsigned known[], const double dv_known[], size_t n_known,
+                                 const unsigned unknown[], double dv_unknown[], size_t n_unknown, char* msg,
+                                 size_t n) {
+  (void)m, (void)known, (void)dv_known, (void)n_known, (void)unknown, (void)dv_unknown, (void)n_unknown;
+  return snprintf(msg, n, "a train FMU provides no directional derivatives (providesDirectionalDerivative = "
+                  "false)"), 1;
+}
+
+const char* model_warnings(const fmu_model* m) {
+  (void)m;
+  return "";
+}
+
+/* ---- FMU state: the values, then the train's state ---------------------------------------- */
+
+size_t model_state_size(const fmu_model* m) {
+  return sizeof(train_values) + 2 * sizeof(uint8_t) + sizeof(uint64_t) +
+         (m->built && m->evaluated ? gm_train_state_size(m->train) : 0);
+}
+
+void model_state_save(const fmu_model* m, unsigned char* buf) {
+  memcpy(buf, &m->v, sizeof m->v);
+  buf += sizeof m->v;
+  *buf++ = (uint8_t)m->built;
+  *buf++ = (uint8_t)m->evaluated;
+  uint64_t blob = m->built && m->evaluated ? gm_train_state_size(m->train) : 0;
+  memcpy(buf, &blob, sizeof blob);
+  buf += sizeof blob;
+  if (blob) gm_train_state_save(m->train, buf, (size_t)blob);
+}
+
+int model_state_load(fmu_model* m, const unsigned char* buf, size_t size, char* msg, size_t n) {
+  msg[0] = '\0';
+  if (size < sizeof(train_values) + 2 + sizeof(uint64_t)) return snprintf(msg, n, "FMU state is truncated"), 1;
+  train_values v;
+  memcpy(&v, buf, sizeof v);
+  const unsigned char* p = buf + sizeof v;
+  const int built = p[0], evaluated = p[1];
+  uint64_t blob;
+  memcpy(&blob, p + 2, sizeof blob);
+  p += 2 + sizeof blob;
+  if (blob != (uint64_t)(buf + size - p)) return snprintf(msg, n, "FMU state: train state of %llu bytes, %zu present",
+                                                          (unsigned long long)blob, (size_t)(buf + size - p)), 1;
+  const train_values old = m->v;
+  m->v = v;
+  if (built && evaluated) {
+    m->built = 0;
+    if (build(m, msg, n) || gm_train_state_load(m->train, p, (size_t)blob) != GM_OK) {
+      m->v = old;
+      m->built = 0;
+      if (!msg[0]) snprintf(msg, n, "FMU state: not a state of this train");
+      return 1;
+    }
+    m->evaluated = 1;
+  } else {
+    drop_train(m);
+  }
+  return 0;
+}

@@ -1,0 +1,308 @@
+"""A gear train's FMU: a train scene (TOML: bodies, shafts, meshes, each mesh's element from a pair
+scene) written as an FMI 2.0 co-simulation FMU around the train binary (GearTrain.so,
+fmu_src/model_train.c). The variables, their value references and the resource files follow
+fmu_src/train_variables.h, which this module reads: one source for the binary and the
+modelDescription.xml written here.
+
+A train scene::
+
+    [train]
+    name = "two_stage"
+    [[body]]                      # gears and carriers, in order; "housing" is not a body
+    name = "input"
+    inertia_kgm2 = 0.02           # or fixed = true (a ring held in the housing)
+    [[shaft]]
+    name = "drive"
+    body = "input"
+    other = "port"                # a far end (angle and speed in), or a body's name
+    stiffness_Nm_per_rad = 2e4
+    damping_Nms_per_rad = 10.0
+    [[mesh]]
+    name = "stage1"
+    scene = "paper_setA_3U4U.toml"  # the element: a pair scene, relative to this file
+    gear1 = "input"
+    gear2 = "intermediate"
+    carrier = "housing"             # or a body carrying the mesh (planetary)
+    orientation_deg = 0.0           # from gear 1 to gear 2, in the carrier's frame
+    [dynamics]                      # optional: the integrator
+    tolerance_m = 1e-8
+"""
+from __future__ import annotations
+
+import math
+import os
+import pathlib
+import re
+import tomllib
+import zipfile
+from dataclasses import dataclass, field
+from xml.sax.saxutils import escape
+
+from gearmesh.scene import SceneError, load_scene
+from gearmesh.scene_fmu import START_VALUES, _start_text, model_variables
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+HEADER = REPO / "fmu_src" / "train_variables.h"
+TRAIN_FILE = "train.txt"
+_FIELD = re.compile(r'X\((\d+), "([\w.]+)", (\w+), (\w+), (\w+), "([^"]*)", "([^"]*)"\)')
+_DEFINE = re.compile(r"#define (TRAIN_\w+) (\S+)")
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+
+
+# The keys of a train scene: TOML table -> key -> (type, unit, meaning). load_train refuses others;
+# docs/reference/scene-keys.md lists these (gearmesh.reference_docs).
+TRAIN_KEYS: dict[str, dict[str, tuple[str, str, str]]] = {
+    "train": {"name": ("string", "", "the train's name: the FMU's modelName and default file name")},
+    "body": {
+        "name": ("string", "", "the body's name; its variables are NAME.inertia, .phi, .omega, .torque, "
+                 ".angle, .speed, .holding_torque"),
+        "inertia_kgm2": ("float", "kg m²", "inertia about the spin axis, > 0 (a carrier's includes its "
+                         "planets' orbital mass)"),
+        "fixed": ("bool", "", "held in the housing at angle 0 (a ring); default false"),
+    },
+    "shaft": {
+        "name": ("string", "", "the shaft's name; its variables are NAME.stiffness, .damping, .far_phi, "
+                 ".far_omega, .torque"),
+        "body": ("string", "", "the body it turns"),
+        "other": ("string", "", "the body at its other end, or \"port\": a far end whose angle and speed "
+                  "are inputs"),
+        "stiffness_Nm_per_rad": ("float", "N m/rad", "torsional stiffness, >= 0"),
+        "damping_Nms_per_rad": ("float", "N m s/rad", "torsional damping, >= 0"),
+    },
+    "mesh": {
+        "name": ("string", "", "the mesh's name; its outputs are NAME.te, .normal_force, ..."),
+        "scene": ("string", "", "a pair scene (relative to the train scene): the element's parameters; "
+                  "levels 0-4 without tables"),
+        "gear1": ("string", "", "the body of the element's gear 1"),
+        "gear2": ("string", "", "the body of the element's gear 2"),
+        "carrier": ("string", "", "the body carrying the mesh (a planetary stage), or \"housing\" (default)"),
+        "orientation_deg": ("float", "deg", "direction from gear 1 to gear 2 in the carrier's frame; default 0"),
+    },
+    "dynamics": {
+        "tolerance_m": ("float", "m", "local error of the rim motion per internal step; default 1e-8"),
+        "max_step_s": ("float", "s", "largest internal step; default 1e-3"),
+        "min_step_s": ("float", "s", "smallest internal step; default 1e-9"),
+    },
+}
+
+
+@dataclass(frozen=True)
+class Field:
+    index: int
+    name: str
+    type: str
+    causality: str
+    variability: str
+    unit: str
+    description: str
+
+
+@dataclass
+class Layout:
+    """What train_variables.h says: capacities, bases, stride, GUID and each block's fields."""
+    defines: dict[str, str]
+    blocks: dict[str, list[Field]]
+
+    def value(self, key: str) -> int:
+        return int(self.defines[key])
+
+
+def layout(header: pathlib.Path = HEADER) -> Layout:
+    text = header.read_text(encoding="utf-8")
+    defines = {m.group(1): m.group(2).strip('"') for m in _DEFINE.finditer(text)}
+    blocks = {}
+    for block in ("SCALAR", "BODY", "SHAFT", "MESH"):
+        start = text.index(f"#define TRAIN_{block}_FIELDS(X)")
+        end = text.index("\n\n", start)
+        blocks[block] = [Field(int(m.group(1)), *m.groups()[1:]) for m in _FIELD.finditer(text[start:end])]
+    return Layout(defines, blocks)
+
+
+@dataclass
+class Train:
+    name: str
+    bodies: list[dict]
+    shafts: list[dict]
+    meshes: list[dict]
+    dynamics: dict = field(default_factory=dict)
+    path: pathlib.Path | None = None
+
+
+def _fail(path: pathlib.Path, text: str) -> SceneError:
+    return SceneError(f"{path}: {text}")
+
+
+def load_train(path: pathlib.Path, lay: Layout | None = None) -> Train:
+    """Read and check a train scene; errors name the file, the member and what is allowed."""
+    lay = lay or layout()
+    path = pathlib.Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise _fail(path, f"not a TOML file: {exc}") from None
+    for table, body in data.items():
+        if table not in TRAIN_KEYS:
+            raise _fail(path, f"[{table}]: allowed tables: {', '.join(TRAIN_KEYS)}")
+        for entry in (body if isinstance(body, list) else [body]):
+            if not isinstance(entry, dict):
+                raise _fail(path, f"[{table}]: a table of keys")
+            for key in entry:
+                if key not in TRAIN_KEYS[table]:
+                    raise _fail(path, f"[{table}] {key}: allowed keys: {', '.join(TRAIN_KEYS[table])}")
+    name = data.get("train", {}).get("name")
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise _fail(path, "[train] name: a name of letters, digits and _ (starting with a letter)")
+    bodies, shafts, meshes = data.get("body", []), data.get("shaft", []), data.get("mesh", [])
+    caps = {"body": lay.value("TRAIN_MAX_BODIES"), "shaft": lay.value("TRAIN_MAX_SHAFTS"),
+            "mesh": lay.value("TRAIN_MAX_MESHES")}
+    names: set[str] = set()
+    for kind, members in (("body", bodies), ("shaft", shafts), ("mesh", meshes)):
+        if not isinstance(members, list) or len(members) > caps[kind]:
+            raise _fail(path, f"[[{kind}]]: at most {caps[kind]}")
+        for i, m in enumerate(members):
+            n = m.get("name") if isinstance(m, dict) else None
+            if not isinstance(n, str) or not _NAME.fullmatch(n) or n in names or n in ("housing", "port"):
+                raise _fail(path, f"[[{kind}]] {i + 1}: name {n!r}: allowed: a new name of letters, digits "
+                            "and _ (not housing or port)")
+            names.add(n)
+    if not bodies or not meshes:
+        raise _fail(path, "a train needs at least one [[body]] and one [[mesh]]")
+    index = {b["name"]: i for i, b in enumerate(bodies)}
+
+    def body_of(member: dict, key: str, allowed: tuple[str, ...] = ()) -> int:
+        value = member.get(key)
+        if value in allowed:
+            return -1
+        if value not in index:
+            raise _fail(path, f"{member['name']}.{key} = {value!r}: allowed: "
+                        f"{', '.join([*allowed, *index])}")
+        return index[value]
+
+    for b in bodies:
+        fixed = b.get("fixed", False)
+        inertia = b.get("inertia_kgm2", 0.0 if fixed else None)
+        if not isinstance(fixed, bool) or not isinstance(inertia, (int, float)) or \
+                not (fixed or (math.isfinite(inertia) and inertia > 0)):
+            raise _fail(path, f"{b['name']}: inertia_kgm2 > 0 (finite), or fixed = true")
+        b["_inertia"], b["_fixed"] = float(inertia), fixed
+    for s in shafts:
+        s["_body"] = body_of(s, "body")
+        s["_other"] = body_of(s, "other", ("port",))
+        for key in ("stiffness_Nm_per_rad", "damping_Nms_per_rad"):
+            v = s.get(key, 0.0)
+            if not isinstance(v, (int, float)) or not (math.isfinite(v) and v >= 0):
+                raise _fail(path, f"{s['name']}.{key} = {v!r}: allowed: finite and >= 0")
+    for m in meshes:
+        m["_gear"] = (body_of(m, "gear1"), body_of(m, "gear2"))
+        m["_carrier"] = body_of(m, "carrier", ("housing",)) if "carrier" in m else -1
+        scene = m.get("scene")
+        if not isinstance(scene, str):
+            raise _fail(path, f"{m['name']}.scene: a pair scene file (relative to the train scene)")
+        m["_scene"] = (path.parent / scene).resolve()
+        angle = m.get("orientation_deg", 0.0)
+        if not isinstance(angle, (int, float)) or not math.isfinite(angle):
+            raise _fail(path, f"{m['name']}.orientation_deg = {angle!r}: allowed: finite")
+        m["_orientation"] = math.radians(angle)
+    return Train(name, bodies, shafts, meshes, data.get("dynamics", {}), path)
+
+
+def _scalar_start(train: Train) -> dict[int, float]:
+    d = train.dynamics
+    return {1: float(d.get("tolerance_m", 1e-8)), 2: float(d.get("max_step_s", 1e-3)),
+            3: float(d.get("min_step_s", 1e-9))}
+
+
+def model_description(train: Train, lay: Layout) -> str:
+    """The train FMU's modelDescription.xml: the scalars, then each member's fields under its name."""
+    stride = lay.value("TRAIN_STRIDE")
+    rows: list[tuple[int, str, Field, float | None]] = []
+    starts = _scalar_start(train)
+    for f in lay.blocks["SCALAR"]:
+        rows.append((f.index, f.name, f, starts.get(f.index)))
+    for block, members, base in (("BODY", train.bodies, "TRAIN_BODY_BASE"),
+                                 ("SHAFT", train.shafts, "TRAIN_SHAFT_BASE"),
+                                 ("MESH", train.meshes, "TRAIN_MESH_BASE")):
+        for i, member in enumerate(members):
+            for f in lay.blocks[block]:
+                start = None
+                if f.causality in ("parameter", "input"):
+                    start = 0.0
+                    if block == "BODY" and f.name == "inertia":
+                        start = member["_inertia"]
+                    if block == "SHAFT" and f.name == "stiffness":
+                        start = float(member.get("stiffness_Nm_per_rad", 0.0))
+                    if block == "SHAFT" and f.name == "damping":
+                        start = float(member.get("damping_Nms_per_rad", 0.0))
+                rows.append((lay.value(base) + i * stride + f.index, f"{member['name']}.{f.name}", f, start))
+    units = sorted({f.unit for _, _, f, _ in rows if f.unit})
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             f'<fmiModelDescription fmiVersion="2.0" modelName="{escape(train.name)}" '
+             f'guid="{lay.defines["TRAIN_GUID"]}" generationTool="gearmesh train-fmu" '
+             'variableNamingConvention="structured" numberOfEventIndicators="0">',
+             '  <CoSimulation modelIdentifier="GearTrain" canHandleVariableCommunicationStepSize="true" '
+             'canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>',
+             "  <UnitDefinitions>", *[f'    <Unit name="{escape(u)}"/>' for u in units], "  </UnitDefinitions>",
+             "  <LogCategories>",
+             *[f'    <Category name="{c}"/>' for c in
+               ("logEvents", "logStatusWarning", "logStatusError", "logStatusFatal", "logAll")],
+             "  </LogCategories>", "  <ModelVariables>"]
+    outputs = []
+    for k, (vr, name, f, start) in enumerate(rows, start=1):
+        attrs = (f'name="{escape(name)}" valueReference="{vr}" causality="{f.causality}" '
+                 f'variability="{f.variability}" description="{escape(f.description)}"')
+        unit = f' unit="{escape(f.unit)}"' if f.unit and f.type == "Real" else ""
+        start_attr = f' start="{repr(float(start)) if f.type == "Real" else int(start)}"' if start is not None else ""
+        lines.append(f"    <ScalarVariable {attrs}><{f.type}{unit}{start_attr}/></ScalarVariable>")
+        if f.causality == "output":
+            outputs.append(k)
+    lines += ["  </ModelVariables>", "  <ModelStructure>", "    <Outputs>",
+              # the outputs are the train's state: no input acts on them at a communication point
+              *[f'      <Unknown index="{k}" dependencies=""/>' for k in outputs],
+              "    </Outputs>", "    <InitialUnknowns>",
+              # at initialization they follow from the initial inputs and the parameters
+              *[f'      <Unknown index="{k}"/>' for k in outputs],
+              "    </InitialUnknowns>", "  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(lines)
+
+
+def train_text(train: Train) -> str:
+    lines = ["gearmesh-train 1"]
+    for b in train.bodies:
+        lines.append(f"body {b['name']} {b['_inertia']!r} {int(b['_fixed'])}")
+    for s in train.shafts:
+        lines.append(f"shaft {s['name']} {s['_body']} {s['_other']} {float(s.get('stiffness_Nm_per_rad', 0.0))!r} "
+                     f"{float(s.get('damping_Nms_per_rad', 0.0))!r}")
+    for m in train.meshes:
+        lines.append(f"mesh {m['name']} {m['_gear'][0]} {m['_gear'][1]} {m['_carrier']} {m['_orientation']!r}")
+    return "\n".join(lines) + "\n"
+
+
+def binary(path: pathlib.Path | None = None) -> pathlib.Path:
+    p = pathlib.Path(path or os.environ.get("GEARMESH_TRAIN_BINARY", REPO / "build" / "fmu_src" / "GearTrain.so"))
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: the train binary; build it (cmake --build build --target GearTrain)")
+    return p
+
+
+def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: pathlib.Path,
+                    train_binary: pathlib.Path | None = None) -> pathlib.Path:
+    """Write the train scene's FMU to out; returns out."""
+    lay = layout()
+    train = load_train(train_scene, lay)
+    with zipfile.ZipFile(generic_fmu) as z:
+        variables = model_variables(z.read("modelDescription.xml").decode("utf-8"))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("modelDescription.xml", model_description(train, lay))
+        z.write(binary(train_binary), "binaries/linux64/GearTrain.so")
+        z.writestr(f"resources/{TRAIN_FILE}", train_text(train))
+        for k, m in enumerate(train.meshes, start=1):
+            scene = load_scene(m["_scene"], generic_fmu)
+            if scene.resources:
+                raise _fail(train.path, f"{m['name']}: its scene names files ({', '.join(scene.resources)}); "
+                            "allowed in a train FMU: levels 0-4 without tables")
+            text = ["gearmesh-start-values 1"]
+            for name, value in scene.parameters.items():
+                text.append(f"{name} {_start_text(name, value, variables, set())}")
+            z.writestr(f"resources/mesh{k}/{START_VALUES}", "\n".join(text) + "\n")
+    return out
