@@ -108,3 +108,57 @@ def test_layout_is_the_binarys_header():
     assert lay.value("TRAIN_BODY_BASE") + lay.value("TRAIN_MAX_BODIES") * stride <= lay.value("TRAIN_SHAFT_BASE")
     assert lay.value("TRAIN_SHAFT_BASE") + lay.value("TRAIN_MAX_SHAFTS") * stride <= lay.value("TRAIN_MESH_BASE")
     assert {f.name for f in lay.blocks["SCALAR"]} >= {"energy.residual", "dynamics.tolerance"}
+
+
+PLANETARY = REPO / "scenarios" / "trains" / "planetary_3_planets.toml"
+
+
+def test_planetary_stage_keeps_willis_balance_and_equal_planets(fmu_path, tmp_path):
+    """The planetary stage (sun 21 driven, 3 planets 21, ring 63 held, carrier loaded by 100 N m)
+    at 1e-2 s: the carrier turns at z_s / (z_s + z_r) of the sun's speed (Willis), the sun takes
+    z_s / (z_s + z_r) of the load and the ring's holding torque the rest, the three planets share
+    the sun's force in thirds, and no energy is made. The torques are means of 1e-2 s samples of
+    a 251 Hz mesh ripple: within 2 %."""
+    import math
+
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.validation import validate_fmu
+
+    fmu = train_fmu.build_train_fmu(PLANETARY, tmp_path / "planetary.fmu", fmu_path)
+    assert validate_fmu(str(fmu)) == []
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="GearTrain", instanceName="p")
+    f.instantiate()
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    zs, zr, ws, load, k = 21, 63, 100.0, 100.0, 1e4
+    wc = ws * zs / (zs + zr)
+    twist = load * zs / (zs + zr) / k
+    names = ["sun.omega", "carrier.omega", "motor.far_omega", "carrier.torque", "motor.far_phi"]
+    values = [ws, wc, ws, -load, twist]
+    for p in (1, 2, 3):  # each planet turned so that its sun mesh is at TE 0 (equal radii)
+        names += [f"planet{p}.omega", f"planet{p}.phi"]
+        values += [wc - (ws - wc), 2 * (2 * math.pi * (p - 1) / 3)]
+    f.setReal([vr[n] for n in names], values)
+    f.exitInitializationMode()
+    read = ["sun.speed", "carrier.speed", "motor.torque", "ring.holding_torque", "sun_planet1.normal_force",
+            "sun_planet2.normal_force", "sun_planet3.normal_force", "energy.residual", "energy.work_in"]
+    rows = []
+    for i in range(150):
+        t = i * 1e-2
+        f.setReal([vr["motor.far_phi"], vr["motor.far_omega"], vr["carrier.torque"]], [twist + ws * t, ws, -load])
+        f.doStep(t, 1e-2)
+        rows.append(f.getReal([vr[n] for n in read]))
+    f.terminate()
+    f.freeInstance()
+    x = np.array(rows)
+    assert np.all(np.isfinite(x))
+    last = x[100:]
+    assert abs(last[:, 1].mean() / last[:, 0].mean() - zs / (zs + zr)) < 1e-5
+    assert abs(last[:, 2].mean() - load * zs / (zs + zr)) < 0.02 * load
+    assert abs(last[:, 3].mean() - load * zr / (zs + zr)) < 0.02 * load
+    shares = last[:, 4:7].mean(axis=0) / last[:, 4:7].mean(axis=0).sum()
+    assert np.allclose(shares, 1 / 3, atol=1e-6)
+    assert abs(x[-1, 7]) <= 1e-3 * x[-1, 8] and x[-1, 7] >= -1e-5 * x[-1, 8]
