@@ -12,6 +12,7 @@
 
 #include "gearmesh/param_ranges.h"
 #include "model.h"
+#include "core_params.h"
 #include "values.h"
 
 struct fmu_model {
@@ -181,105 +182,13 @@ void model_set_string(fmu_model* m, unsigned vr, char* owned) {
 }
 
 /* What a file that is not a regular file is, for messages. */
-static const char* file_kind(mode_t mode) {
-  if (S_ISDIR(mode)) return "a directory";
-  if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
-#ifdef S_ISSOCK /* not on Windows */
-  if (S_ISSOCK(mode)) return "a socket";
-#endif
-  if (S_ISCHR(mode) || S_ISBLK(mode)) return "a device";
-  return "not a regular file";
-}
-
-/* 1 if a '/'-separated component of path is "..". */
-static int has_parent_component(const char* path) {
-  for (const char* s = path;; s++) {
-    if (s[0] == '.' && s[1] == '.' && (s[2] == '/' || s[2] == '\0')) return 1;
-    if (!(s = strchr(s, '/'))) return 0;
-  }
-}
-
-/* The absolute path of a String parameter that names a file inside resources/ (its value
- * `name`) in *path (NULL for ""), or nonzero with msg naming the parameter if the name would
- * leave resources/ or there is no resources directory. */
-static int resolve_resource(const fmu_model* m, const char* parameter, const char* name, char** path, char* msg,
-                            size_t n) {
-  *path = NULL;
-  if (!name || !name[0]) return 0;
-  const char* why = NULL;
-  if (name[0] == '/') why = "is an absolute path";
-  else if (strchr(name, '\\')) why = "contains a backslash";
-  else if (has_parent_component(name)) why = "has a \"..\" component";
-  if (why) {
-    snprintf(msg, n,
-             "%s = \"%s\" %s; allowed: the name of a file inside the FMU's resources/ folder "
-             "(relative, '/' separators, no \"..\")",
-             parameter, name, why);
-    return 1;
-  }
-  if (!m->resources) {
-    snprintf(msg, n,
-             "%s = \"%s\" names a file in resources/, but the FMU was instantiated without a local "
-             "resource location (fmuResourceLocation NULL or not a file URI); set it to \"\" or give the location",
-             parameter, name);
-    return 1;
-  }
-  size_t dir = strlen(m->resources), size = strlen(name) + 1;
-  if (!(*path = malloc(dir + size))) return snprintf(msg, n, "out of memory"), 1;
-  memcpy(*path, m->resources, dir);
-  memcpy(*path + dir, name, size);
-  /* Only regular files: opening a FIFO would block until a writer comes (forever), a device or
-   * a directory is no table. A name that does not exist is left to the core's message. */
-  struct stat st;
-  if (stat(*path, &st) == 0 && !S_ISREG(st.st_mode)) {
-    snprintf(msg, n,
-             "%s = \"%s\" is %s (%s); allowed: the name of a regular file inside the FMU's resources/ folder",
-             parameter, name, file_kind(st.st_mode), *path);
-    free(*path);
-    *path = NULL;
-    return 1;
-  }
-  return 0;
-}
-
-/* The String parameters that name a file inside resources/: FMU name and the field of the
- * core's parameters that gets the file's path. */
-static const struct {
-  const char* name;
-  size_t offset;
-} resource_parameters[] = {
-    {"gear1.deviations", offsetof(gm_model_params, gear[0].deviations)},
-    {"gear2.deviations", offsetof(gm_model_params, gear[1].deviations)},
-    {"model.stiffness_table", offsetof(gm_model_params, stiffness_table)},
-    {"model.te_table", offsetof(gm_model_params, te_table)},
-    {"gear1.compliance", offsetof(gm_model_params, compliance[0])},
-    {"gear2.compliance", offsetof(gm_model_params, compliance[1])},
-};
-enum { RESOURCE_FILES = sizeof resource_parameters / sizeof resource_parameters[0] };
-
-/* The core's parameters for the FMU's p: the FMU has one micro-geometry per gear (bound to
- * flank A), which flank B gets too; each String parameter naming a file inside resources/
- * becomes an absolute path in paths[k] (the caller frees them). */
-static int core_params(const fmu_model* m, const gm_model_params* p, gm_model_params* q,
-                       char* paths[RESOURCE_FILES], char* msg, size_t n) {
-  *q = *p;
-  for (int k = 0; k < RESOURCE_FILES; k++) paths[k] = NULL;
-  for (int i = 0; i < 2; i++) q->gear[i].flank[1] = q->gear[i].flank[0];
-  for (int k = 0; k < RESOURCE_FILES; k++) {
-    const char** field = (const char**)((char*)q + resource_parameters[k].offset);
-    if (resolve_resource(m, resource_parameters[k].name, *field, &paths[k], msg, n)) return 1;
-    *field = paths[k];
-  }
-  return 0;
-}
-
 /* A new core model and data for parameters p; nothing changes in m on failure. */
 static int create_core(const fmu_model* m, const gm_model_params* p, gm_model** core, gm_data** data, char* msg,
                        size_t n) {
   gm_model_params q;
-  char* paths[RESOURCE_FILES];
-  gm_status s = core_params(m, p, &q, paths, msg, n) ? GM_ERR_PARAMETER : gm_model_create(&q, core, msg, n);
-  for (int k = 0; k < RESOURCE_FILES; k++) free(paths[k]);
+  char* paths[CORE_PARAMS_FILES];
+  gm_status s = core_params(m->resources, p, &q, paths, msg, n) ? GM_ERR_PARAMETER : gm_model_create(&q, core, msg, n);
+  for (int k = 0; k < CORE_PARAMS_FILES; k++) free(paths[k]);
   if (s != GM_OK) return 1;
   if (gm_data_create(*core, data) != GM_OK) {
     snprintf(msg, n, "out of memory for the contact data");

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core_params.h"
 #include "gearmesh/train.h"
 #include "model.h"
 #include "train_variables.h"
@@ -220,13 +221,6 @@ static int read_train(fmu_model* m, char* msg, size_t n) {
     if (values_read_start_file(v, dir, &count, why, sizeof why))
       return snprintf(msg, n, "mesh %s: %s", m->mesh_name[i], why), 1;
     m->mesh_params[i] = v->p;
-    const char* files[] = {v->p.stiffness_table, v->p.te_table, v->p.gear[0].deviations, v->p.gear[1].deviations,
-                           v->p.compliance[0], v->p.compliance[1]};
-    for (size_t k = 0; k < sizeof files / sizeof files[0]; ++k)
-      if (files[k] && files[k][0])
-        return snprintf(msg, n, "mesh %s: element parameters that name files (tables, deviations, compliance "
-                        "databases) are not supported in a train FMU yet; allowed: levels 0-4 without tables",
-                        m->mesh_name[i]), 1;
   }
   return 0;
 }
@@ -256,9 +250,16 @@ static int build(fmu_model* m, char* msg, size_t n) {
   if (m->built) return 0;
   drop_train(m);
   for (int i = 0; i < m->nm; ++i) {
-    char why[512];
-    if (gm_model_create(&m->mesh_params[i], &m->model[i], why, sizeof why) != GM_OK)
-      return snprintf(msg, n, "mesh %s: %s", m->mesh_name[i], why), 1;
+    /* the mesh's files (tables, deviations, compliance databases) lie in resources/mesh<k>/ */
+    char dir[4096], why[512];
+    snprintf(dir, sizeof dir, "%smesh%d/", m->resources, i + 1);
+    gm_model_params q;
+    char* paths[CORE_PARAMS_FILES];
+    gm_status st = core_params(dir, &m->mesh_params[i], &q, paths, why, sizeof why)
+                       ? GM_ERR_PARAMETER
+                       : gm_model_create(&q, &m->model[i], why, sizeof why);
+    for (int k = 0; k < CORE_PARAMS_FILES; k++) free(paths[k]);
+    if (st != GM_OK) return snprintf(msg, n, "mesh %s: %s", m->mesh_name[i], why), 1;
     m->mesh_def[i].model = m->model[i];
   }
   gm_train_body bodies[NB];

@@ -162,3 +162,32 @@ def test_planetary_stage_keeps_willis_balance_and_equal_planets(fmu_path, tmp_pa
     shares = last[:, 4:7].mean(axis=0) / last[:, 4:7].mean(axis=0).sum()
     assert np.allclose(shares, 1 / 3, atol=1e-6)
     assert abs(x[-1, 7]) <= 1e-3 * x[-1, 8] and x[-1, 7] >= -1e-5 * x[-1, 8]
+
+
+def test_mesh_files_travel_in_their_mesh_folder(fmu_path, tmp_path):
+    """A mesh whose element reads a file (here level 1's stiffness table) gets it in
+    resources/mesh<k>/ beside its start values, and the binary reads it there: the train runs and
+    its first stage's stiffness is the table's, not level 4's."""
+    import shutil
+    import zipfile
+
+    for name in ("two_stage_reducer.toml", "stage2_23_61.toml"):
+        shutil.copy(SCENE.parent / name, tmp_path / name)
+    shutil.copy(REPO / "scenarios" / "user_stiffness_example.txt", tmp_path / "table.txt")
+    (tmp_path / "stage1_19_57.toml").write_text((SCENE.parent / "stage1_19_57.toml").read_text().replace(
+        "stiffness_level = 4", 'stiffness_level = 1\nstiffness_table_file = "table.txt"'))
+    fmu = train_fmu.build_train_fmu(tmp_path / "two_stage_reducer.toml", tmp_path / "tabled.fmu", fmu_path)
+    with zipfile.ZipFile(fmu) as z:
+        files = [n for n in z.namelist() if n.startswith("resources/mesh1/") and not n.endswith("start-values.txt")]
+        assert len(files) == 1, z.namelist()
+        name = files[0].rsplit("/", 1)[1]
+        assert f'model.stiffness_table "{name}"' in z.read("resources/mesh1/gearmesh-start-values.txt").decode()
+    stiffness = {}
+    for label, path in (("table", fmu), ("level 4", train_fmu.build_train_fmu(SCENE, tmp_path / "l4.fmu", fmu_path))):
+        f, vr = start(path)
+        x = run(f, vr, 0.0, 20, 1e-2, ["stage1.stiffness", "output.speed"])
+        f.terminate()
+        f.freeInstance()
+        assert np.all(np.isfinite(x))
+        stiffness[label] = x[-1, 0]
+    assert abs(stiffness["table"] / stiffness["level 4"] - 1) > 0.01

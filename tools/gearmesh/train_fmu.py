@@ -298,11 +298,14 @@ def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: p
         z.writestr(f"resources/{TRAIN_FILE}", train_text(train))
         for k, m in enumerate(train.meshes, start=1):
             scene = load_scene(m["_scene"], generic_fmu)
-            if scene.resources:
-                raise _fail(train.path, f"{m['name']}: its scene names files ({', '.join(scene.resources)}); "
-                            "allowed in a train FMU: levels 0-4 without tables")
+            if scene.parameters.get("model.stiffness") == 5:
+                from gearmesh.compliance import with_databases
+
+                scene = with_databases(scene, progress=False)  # built by compliance_tool once, cached
+            for name, source in scene.resources.items():  # the mesh's files, beside its start values
+                z.write(source, f"resources/mesh{k}/{name}")
             text = ["gearmesh-start-values 1"]
             for name, value in scene.parameters.items():
-                text.append(f"{name} {_start_text(name, value, variables, set())}")
+                text.append(f"{name} {_start_text(name, value, variables, set(scene.resources))}")
             z.writestr(f"resources/mesh{k}/{START_VALUES}", "\n".join(text) + "\n")
     return out

@@ -1,0 +1,20 @@
+/* The core's parameters for an FMU's gm_model_params (core_params.c): the FMU has one
+ * micro-geometry per gear (bound to flank A), which flank B gets too; each String parameter that
+ * names a file inside resources/ (deviations, tables, compliance databases) becomes an absolute
+ * path, checked to stay inside resources/ and to be a regular file. */
+#ifndef GEARMESH_FMU_CORE_PARAMS_H
+#define GEARMESH_FMU_CORE_PARAMS_H
+
+#include <stddef.h>
+
+#include "gearmesh/gearmesh.h"
+
+enum { CORE_PARAMS_FILES = 6 };
+
+/* q = p with flank B's micro-geometry from flank A and file names resolved against resources
+ * (ending in '/', or NULL: then any file name is an error); paths[k] hold the absolute paths (the
+ * caller frees them, also on error). Nonzero with msg naming the parameter on error. */
+int core_params(const char* resources, const gm_model_params* p, gm_model_params* q,
+                char* paths[CORE_PARAMS_FILES], char* msg, size_t n);
+
+#endif /* GEARMESH_FMU_CORE_PARAMS_H */
