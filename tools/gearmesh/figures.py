@@ -51,7 +51,8 @@ STUDY_SEED = 7
 # name -> file; the order is the order they are made in
 FILES = {"schematic": "schematic.png", "pareto": "pareto.png", "te_set_a": "te_set_a.png",
          "stability_map": "stability_map.png", "study_histogram": "study_histogram.png",
-         "compliance_mesh": "compliance_mesh.png"}
+         "compliance_mesh": "compliance_mesh.png", "planetary_sharing": "planetary_sharing.png"}
+PLANETARY = REPO / "scenarios" / "trains" / "planetary_4_planets.toml"
 
 
 @dataclass
@@ -588,9 +589,66 @@ def compliance_mesh(path: pathlib.Path, opt: Options) -> str:
             f"peak {summary.get('peak_rss_MiB')} MiB")
 
 
+def planetary_sharing(path: pathlib.Path, opt: Options) -> str:
+    """The four planets' share of the sun's force over the carrier's angle
+    (scenarios/trains/planetary_4_planets.toml through its train FMU): sun driven at 100 rad/s,
+    carrier loaded by 100 N m, 0.2 s to settle at 1e-2 s, then 0.02 s sampled every 2e-5 s."""
+    import math
+
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    from gearmesh import train_fmu
+
+    opt.work.mkdir(parents=True, exist_ok=True)
+    fmu = train_fmu.build_train_fmu(PLANETARY, opt.work / "planetary_4_planets.fmu", opt.fmu)
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="GearTrain",
+                  instanceName="figure")
+    f.instantiate()
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    zs, zr, ws, load, k, n = 21, 63, 100.0, 100.0, 1e4, 4
+    wc, twist = ws * zs / (zs + zr), load * zs / (zs + zr) / 1e4
+    names, values = ["sun.omega", "carrier.omega", "motor.far_omega", "carrier.torque", "motor.far_phi"], \
+        [ws, wc, ws, -load, twist]
+    for p in range(1, n + 1):
+        names += [f"planet{p}.omega", f"planet{p}.phi"]
+        values += [wc - (ws - wc), 2 * (2 * math.pi * (p - 1) / n)]
+    f.setReal([vr[x] for x in names], values)
+    f.exitInitializationMode()
+    t, angle, force = 0.0, [], []
+    for h, steps, keep in ((1e-2, 20, False), (2e-5, 1000, True)):
+        for _ in range(steps):
+            f.setReal([vr["motor.far_phi"], vr["motor.far_omega"], vr["carrier.torque"]], [twist + ws * t, ws, -load])
+            f.doStep(t, h)
+            t += h
+            if keep:
+                angle.append(f.getReal([vr["carrier.angle"]])[0])
+                force.append(f.getReal([vr[f"sun_planet{p}.normal_force"] for p in range(1, n + 1)]))
+    f.terminate()
+    f.freeInstance()
+    angle, force = np.degrees(np.array(angle)), np.array(force)
+    share = force / force.sum(axis=1, keepdims=True)
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for p in range(n):
+        ax.plot(angle, share[:, p], label=f"planet {p + 1}: mean {share[:, p].mean():.4f}")
+    ax.axhline(1 / n, color="k", lw=0.8, ls="--")
+    ax.set(xlabel="carrier angle (deg)", ylabel="share of the sun's force",
+           title="Planetary stage 21/21/63, four planets: sequential phasing, equal on average")
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return f"{len(angle)} samples over {angle[-1] - angle[0]:.1f} deg of the carrier"
+
+
 MAKERS = {"te_set_a": te_set_a, "schematic": schematic, "pareto": pareto,
           "stability_map": stability_map, "study_histogram": study_histogram,
-          "compliance_mesh": compliance_mesh}
+          "compliance_mesh": compliance_mesh, "planetary_sharing": planetary_sharing}
 
 
 def make(out: pathlib.Path = DEFAULT_OUT, only: list[str] | None = None,
