@@ -12,8 +12,9 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 # Modules that take seconds to minutes (CalculiX runs, the stability suite's subset, the main
 # job, FE databases, Dask clusters, the platform stage): marked `slow`, left out by
 # `tools/run-tests --quick` (pytest -m "not slow"). The rest runs in about half a minute.
-SLOW_MODULES = {"test_stability", "test_main_job", "test_reference_fe_smoke", "test_reference_fe3d_smoke",
-                "test_reference_fe3d_lineload_smoke", "test_fe_scenes", "test_batch_tasks", "test_platforms"}
+SLOW_MODULES = {"test_stability", "test_main_job", "test_train_fe", "test_reference_fe_smoke",
+                "test_reference_fe3d_smoke", "test_reference_fe3d_lineload_smoke", "test_fe_scenes",
+                "test_batch_tasks", "test_platforms"}
 
 
 def pytest_configure(config):
