@@ -191,3 +191,66 @@ def test_mesh_files_travel_in_their_mesh_folder(fmu_path, tmp_path):
         assert np.all(np.isfinite(x))
         stiffness[label] = x[-1, 0]
     assert abs(stiffness["table"] / stiffness["level 4"] - 1) > 0.01
+
+
+BACK_TO_BACK = REPO / "scenarios" / "trains" / "back_to_back_set_a.toml"
+
+
+def test_back_to_back_rig_locks_in_a_torque_and_each_pair_has_its_quasi_static_te(fmu_path, tmp_path):
+    """The paper's back-to-back rig (two set-A pairs closed by a pinion and a wheel shaft, the loop
+    closed a base pitch off) at 10 rpm, 1e-2 s steps: it locks in a torque (pair 1 on flank A, pair
+    2 on flank B, both shafts near 275 N m), the motor supplies only the losses, no energy is made
+    beyond 1e-3 of the loop's elastic energy, and each pair's TE is the single pair's quasi-static
+    TE at its wheel's torque and its pinion's angle (the generic FMU in quasi-static mode with the
+    same scene): within 0.1 um, the pairs being undamped (set A has no contact damping)."""
+    import math
+
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    from gearmesh.fmu_driver import GearMeshFMU
+    from gearmesh.scene import load_scene
+
+    fmu = train_fmu.build_train_fmu(BACK_TO_BACK, tmp_path / "b2b.fmu", fmu_path)
+    scene = load_scene(REPO / "scenarios" / "paper_setA_3U4U.toml", fmu_path)
+    with GearMeshFMU(fmu_path, scene.parameters) as pair:
+        geo = pair.get(["gear1.base_diameter", "geometry.backlash", "geometry.base_pitch"])
+    rb, j, pb = 0.5 * geo["gear1.base_diameter"], geo["geometry.backlash"], geo["geometry.base_pitch"]
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="GearTrain", instanceName="b")
+    f.instantiate()
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    w, delta = 10 * 2 * math.pi / 60, (pb - j) / (2 * rb)
+    f.setReal([vr[n] for n in ("a1.omega", "b1.omega", "a2.omega", "b2.omega", "motor.far_omega", "a2.phi", "b2.phi")],
+              [w, -w, w, -w, w, delta, delta])
+    f.exitInitializationMode()
+    read = ["pinion_shaft.torque", "wheel_shaft.torque", "motor.torque", "pair1.te", "pair2.te", "a1.angle",
+            "a2.angle", "a1.speed", "b1.speed", "energy.residual", "energy.elastic"]
+    rows, flanks = [], []
+    for i in range(200):
+        t = i * 1e-2
+        f.setReal([vr["motor.far_phi"], vr["motor.far_omega"]], [w * t, w])
+        f.doStep(t, 1e-2)
+        rows.append(f.getReal([vr[n] for n in read]))
+        flanks.append(f.getInteger([vr["pair1.flank"], vr["pair2.flank"]]))
+    f.terminate()
+    f.freeInstance()
+    x = np.array(rows)
+    assert np.all(np.isfinite(x))
+    assert all(fl == [1, 2] for fl in flanks[50:])
+    locked = x[50:, 1]
+    assert np.all((locked > 200) & (locked < 300))
+    assert abs(x[50:, 2]).mean() < 0.2 * locked.mean()          # the motor only makes up the losses
+    assert x[-1, 9] >= -1e-3 * x[50:, 10].max()                 # no energy made
+    # each pair against the single pair's quasi-static TE at its wheel's torque and pinion's angle
+    with GearMeshFMU(fmu_path, {**scene.parameters, "model.quasi_static": True}) as qs:
+        worst = 0.0
+        for row in x[50::10]:
+            shaft_t, te1, te2, a1, a2, w1, w2 = row[1], row[3], row[4], row[5], row[6], row[7], row[8]
+            for te, phi1, load in ((te1, a1, shaft_t), (te2, a2, -shaft_t)):
+                qs.step({"gear1.phi": phi1, "gear1.omega": w1, "gear2.omega": w2, "mesh.load_torque": load})
+                ref = qs.get(["mesh.te"])["mesh.te"]
+                worst = max(worst, abs(math.remainder(te - ref, pb)))
+    assert worst < 0.1e-6, worst
