@@ -254,3 +254,38 @@ def test_back_to_back_rig_locks_in_a_torque_and_each_pair_has_its_quasi_static_t
                 ref = qs.get(["mesh.te"])["mesh.te"]
                 worst = max(worst, abs(math.remainder(te - ref, pb)))
     assert worst < 0.1e-6, worst
+
+
+def test_idler_reverses_and_keeps_the_ratio(fmu_path, tmp_path):
+    """A pair with an idler (scenarios/trains/idler.toml, 19 -> 57 idler -> 57) at 1e-2 s: the
+    output turns the input's way at 19/57 of its speed, and takes 57/19 of the motor's torque;
+    the idler carries no net torque."""
+    fmu = train_fmu.build_train_fmu(REPO / "scenarios" / "trains" / "idler.toml", tmp_path / "idler.fmu", fmu_path)
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="GearTrain", instanceName="i")
+    f.instantiate()
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    w, load = 100.0, 150.0
+    f.setReal([vr[n] for n in ("input.omega", "idler.omega", "output.omega", "motor.far_omega", "output.torque")],
+              [w, -w * 19 / 57, w * 19 / 57, w, -load])
+    f.exitInitializationMode()
+    rows = []
+    for i in range(150):
+        t = i * 1e-2
+        f.setReal([vr["motor.far_phi"], vr["motor.far_omega"], vr["output.torque"]], [w * t, w, -load])
+        f.doStep(t, 1e-2)
+        rows.append(f.getReal([vr[n] for n in ("input.speed", "idler.speed", "output.speed", "motor.torque",
+                                                 "energy.residual", "energy.work_in")]))
+    f.terminate()
+    f.freeInstance()
+    x = np.array(rows)
+    last = x[100:]
+    assert abs(last[:, 2].mean() / last[:, 0].mean() - 19 / 57) < 1e-4
+    assert abs(last[:, 1].mean() / last[:, 0].mean() + 19 / 57) < 1e-4
+    assert abs(last[:, 3].mean() / (load * 19 / 57) - 1) < 2e-2
+    assert abs(x[-1, 4]) <= 1e-3 * x[-1, 5]
