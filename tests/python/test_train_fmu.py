@@ -93,6 +93,11 @@ def test_bad_train_scene_is_named(tmp_path):
     (tmp_path / "stage1_19_57.toml").write_text((SCENE.parent / "stage1_19_57.toml").read_text())
     with pytest.raises(SceneError, match=r"stage2\.gear2 = 'outptu': allowed: input, intermediate, output"):
         train_fmu.load_train(bad)
+    driven = tmp_path / "driven.toml"
+    driven.write_text(SCENE.read_text().replace('name = "input"\ninertia_kgm2 = 0.002',
+                                                'name = "input"\nfixed = true'))
+    with pytest.raises(SceneError, match=r"motor: drives input, which is fixed"):
+        train_fmu.load_train(driven)
     massless = tmp_path / "massless.toml"
     massless.write_text(SCENE.read_text().replace("inertia_kgm2 = 0.03", "inertia_kgm2 = 0.0"))
     with pytest.raises(SceneError, match=r"intermediate: inertia_kgm2 > 0"):

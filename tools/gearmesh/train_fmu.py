@@ -188,6 +188,9 @@ def load_train(path: pathlib.Path, lay: Layout | None = None) -> Train:
     for s in shafts:
         s["_body"] = body_of(s, "body")
         s["_other"] = body_of(s, "other", ("port",))
+        if s["_other"] == -1 and bodies[s["_body"]].get("fixed", False):
+            raise _fail(path, f"{s['name']}: drives {s['body']}, which is fixed; allowed: a port on a body "
+                        "that turns")
         for key in ("stiffness_Nm_per_rad", "damping_Nms_per_rad"):
             v = s.get(key, 0.0)
             if not isinstance(v, (int, float)) or not (math.isfinite(v) and v >= 0):
