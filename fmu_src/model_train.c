@@ -185,11 +185,12 @@ static int read_train(fmu_model* m, char* msg, size_t n) {
     if (sscanf(line, "%15s %63s", kind, name) != 2) {
       ok = 0;
     } else if (!strcmp(kind, "body") && m->nb < NB) {
-      double inertia;
+      double inertia, angle;
       int fixed;
-      ok = sscanf(line, "%*s %*s %lf %d", &inertia, &fixed) == 2;
+      ok = sscanf(line, "%*s %*s %lf %d %lf", &inertia, &fixed, &angle) == 3 && isfinite(angle);
       snprintf(m->body_name[m->nb], NAME_SIZE, "%s", name);
       m->start.body[m->nb][0] = inertia;
+      m->start.body[m->nb][1] = angle; /* the start of <body>.phi */
       m->fixed[m->nb++] = fixed != 0;
     } else if (!strcmp(kind, "shaft") && m->ns < NS) {
       gm_train_shaft* s = &m->shaft_def[m->ns];

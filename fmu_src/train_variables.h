@@ -62,7 +62,7 @@
 
 /* Resources of a train FMU (written by tools/gearmesh/train_fmu.py):
  *   resources/train.txt: "gearmesh-train 1", then one line per member, in index order:
- *     body <name> <inertia kg m^2> <fixed 0|1>
+ *     body <name> <inertia kg m^2> <fixed 0|1> <initial angle rad, the start of <body>.phi>
  *     shaft <name> <body> <other body or -1: far end> <stiffness> <damping>
  *     mesh <name> <gear1 body> <gear2 body> <carrier body or -1> <orientation rad>
  *   resources/mesh<k>/gearmesh-start-values.txt: the k-th mesh's element parameters (k from 1),

@@ -294,3 +294,17 @@ def test_idler_reverses_and_keeps_the_ratio(fmu_path, tmp_path):
     assert abs(last[:, 1].mean() / last[:, 0].mean() + 19 / 57) < 1e-4
     assert abs(last[:, 3].mean() / (load * 19 / 57) - 1) < 2e-2
     assert abs(x[-1, 4]) <= 1e-3 * x[-1, 5]
+
+
+def test_main_job_train_section(fmu_path, tmp_path):
+    """The main job's section of the planetary stage: its run reaches the Willis speeds (carrier
+    0.25 and planets -0.5 of the sun's), equal planet shares, and draws its picture."""
+    from gearmesh.train_report import section
+
+    text = section(PLANETARY, fmu_path, tmp_path)
+    rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+            for line in text.splitlines() if line.startswith("| ") and not line.startswith("| body")}
+    assert abs(float(rows["carrier"][1]) - 0.25) < 1e-3
+    assert abs(float(rows["planet2"][1]) + 0.5) < 1e-3
+    assert all(abs(float(rows[f"sun_planet{p}"][2]) - 1 / 3) < 1e-3 for p in (1, 2, 3))
+    assert (tmp_path / "planetary_3_planets" / "train_run.png").stat().st_size > 10_000

@@ -8,6 +8,8 @@ import sys
 from gearmesh.scene import SceneError, load_scene
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
+# the main job's default trains, beside DEFAULT_SCENES
+DEFAULT_TRAINS = [REPO / "scenarios" / "trains" / "planetary_3_planets.toml"]
 DEFAULT_SCENES = [REPO / "scenarios" / "paper_setA_3U4U.toml",
                   REPO / "scenarios" / "paper_setB_P1P2.toml"]
 
@@ -184,8 +186,16 @@ def main(argv: list[str] | None = None) -> int:
         except ValueError as exc:
             print(f"gearmesh: {exc}", file=sys.stderr)
             return 2
+    paths = list(args.scenes or DEFAULT_SCENES)
+    trains: list[pathlib.Path] = []
+    if args.command == "main":
+        # train scenes (a [train] table) get the main job's train section
+        from gearmesh.train_fmu import is_train_scene
+
+        trains = [p for p in paths if is_train_scene(p)] if args.scenes else list(DEFAULT_TRAINS)
+        paths = [p for p in paths if p not in trains]
     try:
-        scenes = [load_scene(p, getattr(args, "fmu", None)) for p in (args.scenes or DEFAULT_SCENES)]
+        scenes = [load_scene(p, getattr(args, "fmu", None)) for p in paths]
     except (SceneError, OSError) as exc:
         print(f"gearmesh: {exc}", file=sys.stderr)
         return 2
@@ -226,7 +236,11 @@ def main(argv: list[str] | None = None) -> int:
         return status
     from gearmesh.main_job import run_main
 
-    report = run_main(scenes, args.fmu, args.out)
+    try:
+        report = run_main(scenes, args.fmu, args.out, trains)
+    except (SceneError, FileNotFoundError) as exc:
+        print(f"gearmesh: {exc}", file=sys.stderr)
+        return 2
     print(f"gearmesh: report written to {report}")
     return 0
 

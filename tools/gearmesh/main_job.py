@@ -199,9 +199,14 @@ def run_scene(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path) -> str
     return "\n".join(lines)
 
 
-def run_main(scenes: list[Scene], fmu_path: pathlib.Path, out: pathlib.Path) -> pathlib.Path:
+def run_main(scenes: list[Scene], fmu_path: pathlib.Path, out: pathlib.Path,
+             trains: list[pathlib.Path] = ()) -> pathlib.Path:
     out.mkdir(parents=True, exist_ok=True)
     sections = [run_scene(s, fmu_path, out) for s in scenes]
+    if trains:
+        from gearmesh.train_report import section
+
+        sections += [section(t, fmu_path, out) for t in trains]
     from gearmesh.stability import main_job_section
 
     sections.append(main_job_section(fmu_path, out))

@@ -26,6 +26,10 @@ A train scene::
     orientation_deg = 0.0           # from gear 1 to gear 2, in the carrier's frame
     [dynamics]                      # optional: the integrator
     tolerance_m = 1e-8
+    [run]                           # optional: the main job's run (gearmesh.train_report)
+    port_speed_rpm = 1000.0
+    load_body = "output"
+    load_Nm = 200.0
 """
 from __future__ import annotations
 
@@ -59,6 +63,8 @@ TRAIN_KEYS: dict[str, dict[str, tuple[str, str, str]]] = {
         "inertia_kgm2": ("float", "kg m²", "inertia about the spin axis, > 0 (a carrier's includes its "
                          "planets' orbital mass)"),
         "fixed": ("bool", "", "held in the housing at angle 0 (a ring); default false"),
+        "angle_deg": ("float", "deg", "initial spin angle (the start of NAME.phi): puts the meshes in contact, "
+                      "e.g. a planet's teeth; default 0"),
     },
     "shaft": {
         "name": ("string", "", "the shaft's name; its variables are NAME.stiffness, .damping, .far_phi, "
@@ -77,6 +83,15 @@ TRAIN_KEYS: dict[str, dict[str, tuple[str, str, str]]] = {
         "gear2": ("string", "", "the body of the element's gear 2"),
         "carrier": ("string", "", "the body carrying the mesh (a planetary stage), or \"housing\" (default)"),
         "orientation_deg": ("float", "deg", "direction from gear 1 to gear 2 in the carrier's frame; default 0"),
+    },
+    "run": {
+        "port_speed_rpm": ("float", "rpm", "the main job's run: every port's far end turns at this speed "
+                           "(reached over ramp_s from rest)"),
+        "ramp_s": ("float", "s", "the run's ramp of the port speed from rest; default 0.2"),
+        "load_body": ("string", "", "the run's loaded body"),
+        "load_Nm": ("float", "N m", "the run's load on load_body, against its turning (reached over ramp_s)"),
+        "duration_s": ("float", "s", "the run's length; default 1"),
+        "step_s": ("float", "s", "the run's communication step; default 1e-2"),
     },
     "dynamics": {
         "tolerance_m": ("float", "m", "local error of the rim motion per internal step; default 1e-8"),
@@ -126,6 +141,15 @@ class Train:
     meshes: list[dict]
     dynamics: dict = field(default_factory=dict)
     path: pathlib.Path | None = None
+    run: dict = field(default_factory=dict)
+
+
+def is_train_scene(path: pathlib.Path) -> bool:
+    """Whether a scene file is a train scene (it has a [train] table)."""
+    try:
+        return "train" in tomllib.loads(pathlib.Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
 
 
 def _fail(path: pathlib.Path, text: str) -> SceneError:
@@ -206,7 +230,15 @@ def load_train(path: pathlib.Path, lay: Layout | None = None) -> Train:
         if not isinstance(angle, (int, float)) or not math.isfinite(angle):
             raise _fail(path, f"{m['name']}.orientation_deg = {angle!r}: allowed: finite")
         m["_orientation"] = math.radians(angle)
-    return Train(name, bodies, shafts, meshes, data.get("dynamics", {}), path)
+    for b in bodies:
+        angle = b.get("angle_deg", 0.0)
+        if not isinstance(angle, (int, float)) or not math.isfinite(angle) or (b["_fixed"] and angle != 0):
+            raise _fail(path, f"{b['name']}.angle_deg = {angle!r}: allowed: finite (0 for a fixed body)")
+        b["_angle"] = math.radians(angle)
+    run = data.get("run", {})
+    if run and run.get("load_body", bodies[0]["name"]) not in index:
+        raise _fail(path, f"[run] load_body = {run.get('load_body')!r}: allowed: {', '.join(index)}")
+    return Train(name, bodies, shafts, meshes, data.get("dynamics", {}), path, run)
 
 
 def _scalar_start(train: Train) -> dict[int, float]:
@@ -232,6 +264,8 @@ def model_description(train: Train, lay: Layout) -> str:
                     start = 0.0
                     if block == "BODY" and f.name == "inertia":
                         start = member["_inertia"]
+                    if block == "BODY" and f.name == "phi":
+                        start = member["_angle"]
                     if block == "SHAFT" and f.name == "stiffness":
                         start = float(member.get("stiffness_Nm_per_rad", 0.0))
                     if block == "SHAFT" and f.name == "damping":
@@ -271,7 +305,7 @@ def model_description(train: Train, lay: Layout) -> str:
 def train_text(train: Train) -> str:
     lines = ["gearmesh-train 1"]
     for b in train.bodies:
-        lines.append(f"body {b['name']} {b['_inertia']!r} {int(b['_fixed'])}")
+        lines.append(f"body {b['name']} {b['_inertia']!r} {int(b['_fixed'])} {b['_angle']!r}")
     for s in train.shafts:
         lines.append(f"shaft {s['name']} {s['_body']} {s['_other']} {float(s.get('stiffness_Nm_per_rad', 0.0))!r} "
                      f"{float(s.get('damping_Nms_per_rad', 0.0))!r}")
