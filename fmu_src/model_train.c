@@ -332,7 +332,13 @@ int model_evaluate(fmu_model* m, int restart, double time, double step, char* ms
     st = gm_train_advance(m->train, torque, far_phi, far_omega, step);
   }
   if (st != GM_OK) {
-    snprintf(msg, n, "t = %g s: %s", time, gm_train_message(m->train));
+    /* the core counts meshes ("mesh 3: ..."); the scene names them */
+    const char* text = gm_train_message(m->train);
+    int index = 0, used = 0;
+    if (sscanf(text, "mesh %d: %n", &index, &used) == 1 && used > 0 && index >= 1 && index <= m->nm)
+      snprintf(msg, n, "t = %g s: mesh %s: %s", time, m->mesh_name[index - 1], text + used);
+    else
+      snprintf(msg, n, "t = %g s: %s", time, text);
     return st == GM_ERR_SOLVER ? 2 : 1;
   }
   publish(m);

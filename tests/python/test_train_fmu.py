@@ -308,3 +308,15 @@ def test_main_job_train_section(fmu_path, tmp_path):
     assert abs(float(rows["planet2"][1]) + 0.5) < 1e-3
     assert all(abs(float(rows[f"sun_planet{p}"][2]) - 1 / 3) < 1e-3 for p in (1, 2, 3))
     assert (tmp_path / "planetary_3_planets" / "train_run.png").stat().st_size > 10_000
+
+
+def test_an_impossible_start_names_the_mesh(fmu_path, tmp_path):
+    """Planets started at the wrong angles drive a mesh into the teeth: initialization fails with a
+    message naming the mesh by its scene name."""
+    import math
+
+    from gearmesh.fmu_driver import FMUError, GearMeshFMU
+
+    fmu = train_fmu.build_train_fmu(PLANETARY, tmp_path / "p.fmu", fmu_path)
+    with pytest.raises(FMUError, match=r"mesh (sun_planet2|planet2_ring): "):
+        GearMeshFMU(fmu, {"planet2.phi": math.radians(240) + 0.1})  # a third of a tooth off: into the teeth
