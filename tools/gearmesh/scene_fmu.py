@@ -105,7 +105,7 @@ def model_variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
 
 
 def _check_resource_name(name: str, what: str) -> None:
-    """The rules of the binary (model_gearmesh.c, resolve_resource): inside resources/."""
+    """The rules of the binary (core_params.c, resolve_resource): inside resources/."""
     if not name or name.startswith("/") or "\\" in name or ".." in name.split("/") or name.endswith("/"):
         raise ValueError(f"{what}: must name a file inside resources/ (relative, '/' separators, no '..', "
                          "no backslashes)")
