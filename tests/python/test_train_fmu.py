@@ -320,3 +320,16 @@ def test_an_impossible_start_names_the_mesh(fmu_path, tmp_path):
     fmu = train_fmu.build_train_fmu(PLANETARY, tmp_path / "p.fmu", fmu_path)
     with pytest.raises(FMUError, match=r"mesh (sun_planet2|planet2_ring): "):
         GearMeshFMU(fmu, {"planet2.phi": math.radians(240) + 0.1})  # a third of a tooth off: into the teeth
+
+
+def test_planets_that_cannot_be_assembled_are_refused(fmu_path, tmp_path):
+    """A planet placed where the sun's and the ring's teeth do not both fit ((z_s + z_r) psi / 360
+    deg not whole: 84 teeth over 100 deg) is refused, naming the mesh and the allowed spacing."""
+    import shutil
+
+    for name in ("sun_planet_21_21.toml", "planet_ring_21_63.toml"):
+        shutil.copy(PLANETARY.parent / name, tmp_path / name)
+    (tmp_path / "bad.toml").write_text(PLANETARY.read_text().replace("orientation_deg = 120.0",
+                                                                     "orientation_deg = 100.0"))
+    with pytest.raises(SceneError, match=r"sun_planet2: a planet at 100 deg .* allowed: psi a multiple of 4.28571 deg"):
+        train_fmu.build_train_fmu(tmp_path / "bad.toml", tmp_path / "bad.fmu", fmu_path)

@@ -321,6 +321,29 @@ def binary(path: pathlib.Path | None = None) -> pathlib.Path:
     return p
 
 
+def check_assembly(train: Train, scenes: list) -> None:
+    """The assembly condition of a planetary stage: a planet whose sun mesh points at psi (in the
+    carrier's frame) fits both the sun and the ring only where (z_s + z_r) psi / 2 pi is a whole
+    number (the sun and the ring then present a tooth space at the same place); a stage that
+    breaks it cannot be assembled, and its meshes could not all start in contact."""
+    for carrier in {m["_carrier"] for m in train.meshes if m["_carrier"] >= 0}:
+        on = [(m, s) for m, s in zip(train.meshes, scenes) if m["_carrier"] == carrier]
+        for m, s in on:
+            if s.parameters.get("pair.internal"):
+                continue
+            sun, planet = m["_gear"]
+            z_s = s.parameters["gear1.teeth"]
+            ring_meshes = [(mr, sr) for mr, sr in on if sr.parameters.get("pair.internal") and mr["_gear"][0] == planet]
+            for mr, sr in ring_meshes:
+                z_r = sr.parameters["gear2.teeth"]
+                turns = (z_s + z_r) * m["_orientation"] / (2 * math.pi)
+                if abs(turns - round(turns)) > 1e-6:
+                    raise _fail(train.path, f"{m['name']}: a planet at {math.degrees(m['_orientation']):g} deg "
+                                f"between a {z_s}-tooth sun and a {z_r}-tooth ring: (z_s + z_r) psi / 360 deg = "
+                                f"{turns:.4g} is not a whole number; allowed: psi a multiple of "
+                                f"{360 / (z_s + z_r):.6g} deg (the planets cannot be assembled elsewhere)")
+
+
 def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: pathlib.Path,
                     train_binary: pathlib.Path | None = None) -> pathlib.Path:
     """Write the train scene's FMU to out; returns out."""
@@ -328,13 +351,14 @@ def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: p
     train = load_train(train_scene, lay)
     with zipfile.ZipFile(generic_fmu) as z:
         variables = model_variables(z.read("modelDescription.xml").decode("utf-8"))
+    scenes = [load_scene(m["_scene"], generic_fmu) for m in train.meshes]
+    check_assembly(train, scenes)
     out.parent.mkdir(parents=True, exist_ok=True)
     with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", model_description(train, lay))
         z.write(binary(train_binary), "binaries/linux64/GearTrain.so")
         z.writestr(f"resources/{TRAIN_FILE}", train_text(train))
-        for k, m in enumerate(train.meshes, start=1):
-            scene = load_scene(m["_scene"], generic_fmu)
+        for k, (m, scene) in enumerate(zip(train.meshes, scenes), start=1):
             if scene.parameters.get("model.stiffness") == 5:
                 from gearmesh.compliance import with_databases
 
