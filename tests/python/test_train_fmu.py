@@ -118,47 +118,23 @@ def test_layout_is_the_binarys_header():
 PLANETARY = REPO / "scenarios" / "trains" / "planetary_3_planets.toml"
 
 
-def test_planetary_stage_keeps_willis_balance_and_equal_planets(fmu_path, tmp_path):
-    """The planetary stage (sun 21 driven, 3 planets 21, ring 63 held, carrier loaded by 100 N m)
-    at 1e-2 s: the carrier turns at z_s / (z_s + z_r) of the sun's speed (Willis), the sun takes
-    z_s / (z_s + z_r) of the load and the ring's holding torque the rest, the three planets share
-    the sun's force in thirds, and no energy is made. The torques are means of 1e-2 s samples of
-    a 251 Hz mesh ripple: within 2 %."""
-    import math
-
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
+def check_planetary_stage(fmu) -> None:
+    """A 3-planet stage (sun 21 driven, planets 21, ring 63 held, carrier loaded by 100 N m; the
+    planets start where the scene puts them) at 1e-2 s for 1.5 s: the carrier turns at
+    z_s / (z_s + z_r) of the sun's speed (Willis), the sun takes z_s / (z_s + z_r) of the load and
+    the ring's holding torque the rest, the planets share the sun's force in thirds, and no energy
+    is made. The torques are means of 1e-2 s samples of a 251 Hz mesh ripple: within 2 %."""
     from fmpy.validation import validate_fmu
 
-    fmu = train_fmu.build_train_fmu(PLANETARY, tmp_path / "planetary.fmu", fmu_path)
     assert validate_fmu(str(fmu)) == []
-    md = read_model_description(str(fmu))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="GearTrain", instanceName="p")
-    f.instantiate()
-    f.setupExperiment(startTime=0.0)
-    f.enterInitializationMode()
-    zs, zr, ws, load, k = 21, 63, 100.0, 100.0, 1e4
-    wc = ws * zs / (zs + zr)
-    twist = load * zs / (zs + zr) / k
-    names = ["sun.omega", "carrier.omega", "motor.far_omega", "carrier.torque", "motor.far_phi"]
-    values = [ws, wc, ws, -load, twist]
-    for p in (1, 2, 3):  # each planet turned so that its sun mesh is at TE 0 (equal radii)
-        names += [f"planet{p}.omega", f"planet{p}.phi"]
-        values += [wc - (ws - wc), 2 * (2 * math.pi * (p - 1) / 3)]
-    f.setReal([vr[n] for n in names], values)
-    f.exitInitializationMode()
+    zs, zr, ws, load = 21, 63, 100.0, 100.0
+    wc, twist = ws * zs / (zs + zr), load * zs / (zs + zr) / 1e4
+    start_values = {"sun.omega": ws, "carrier.omega": wc, "motor.far_omega": ws, "carrier.torque": -load,
+                    "motor.far_phi": twist, **{f"planet{p}.omega": wc - (ws - wc) for p in (1, 2, 3)}}
     read = ["sun.speed", "carrier.speed", "motor.torque", "ring.holding_torque", "sun_planet1.normal_force",
             "sun_planet2.normal_force", "sun_planet3.normal_force", "energy.residual", "energy.work_in"]
-    rows = []
-    for i in range(150):
-        t = i * 1e-2
-        f.setReal([vr["motor.far_phi"], vr["motor.far_omega"], vr["carrier.torque"]], [twist + ws * t, ws, -load])
-        f.doStep(t, 1e-2)
-        rows.append(f.getReal([vr[n] for n in read]))
-    f.terminate()
-    f.freeInstance()
-    x = np.array(rows)
+    x = np.array(run_train(fmu, start_values, 150, 1e-2, read, lambda t: {
+        "motor.far_phi": twist + ws * t, "motor.far_omega": ws, "carrier.torque": -load}))
     assert np.all(np.isfinite(x))
     last = x[100:]
     assert abs(last[:, 1].mean() / last[:, 0].mean() - zs / (zs + zr)) < 1e-5
@@ -167,6 +143,35 @@ def test_planetary_stage_keeps_willis_balance_and_equal_planets(fmu_path, tmp_pa
     shares = last[:, 4:7].mean(axis=0) / last[:, 4:7].mean(axis=0).sum()
     assert np.allclose(shares, 1 / 3, atol=1e-6)
     assert abs(x[-1, 7]) <= 1e-3 * x[-1, 8] and x[-1, 7] >= -1e-5 * x[-1, 8]
+
+
+def run_train(fmu, start_values: dict, steps: int, h: float, read: list[str], inputs) -> list[list[float]]:
+    """A train FMU from start_values (set in Initialization Mode), `steps` steps of h with the
+    inputs(t) set before each; the `read` outputs after each."""
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="GearTrain", instanceName="t")
+    f.instantiate()
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    f.setReal([vr[n] for n in start_values], list(start_values.values()))
+    f.exitInitializationMode()
+    rows = []
+    for i in range(steps):
+        now = inputs(i * h)
+        f.setReal([vr[n] for n in now], list(now.values()))
+        f.doStep(i * h, h)
+        rows.append(f.getReal([vr[n] for n in read]))
+    f.terminate()
+    f.freeInstance()
+    return rows
+
+
+def test_planetary_stage_keeps_willis_balance_and_equal_planets(fmu_path, tmp_path):
+    check_planetary_stage(train_fmu.build_train_fmu(PLANETARY, tmp_path / "planetary.fmu", fmu_path))
 
 
 def test_mesh_files_travel_in_their_mesh_folder(fmu_path, tmp_path):
@@ -266,28 +271,11 @@ def test_idler_reverses_and_keeps_the_ratio(fmu_path, tmp_path):
     output turns the input's way at 19/57 of its speed, and takes 57/19 of the motor's torque;
     the idler carries no net torque."""
     fmu = train_fmu.build_train_fmu(REPO / "scenarios" / "trains" / "idler.toml", tmp_path / "idler.fmu", fmu_path)
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
-
-    md = read_model_description(str(fmu))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="GearTrain", instanceName="i")
-    f.instantiate()
-    f.setupExperiment(startTime=0.0)
-    f.enterInitializationMode()
     w, load = 100.0, 150.0
-    f.setReal([vr[n] for n in ("input.omega", "idler.omega", "output.omega", "motor.far_omega", "output.torque")],
-              [w, -w * 19 / 57, w * 19 / 57, w, -load])
-    f.exitInitializationMode()
-    rows = []
-    for i in range(150):
-        t = i * 1e-2
-        f.setReal([vr["motor.far_phi"], vr["motor.far_omega"], vr["output.torque"]], [w * t, w, -load])
-        f.doStep(t, 1e-2)
-        rows.append(f.getReal([vr[n] for n in ("input.speed", "idler.speed", "output.speed", "motor.torque",
-                                                 "energy.residual", "energy.work_in")]))
-    f.terminate()
-    f.freeInstance()
+    rows = run_train(fmu, {"input.omega": w, "idler.omega": -w * 19 / 57, "output.omega": w * 19 / 57,
+                           "motor.far_omega": w, "output.torque": -load}, 150, 1e-2,
+                     ["input.speed", "idler.speed", "output.speed", "motor.torque", "energy.residual", "energy.work_in"],
+                     lambda t: {"motor.far_phi": w * t, "motor.far_omega": w, "output.torque": -load})
     x = np.array(rows)
     last = x[100:]
     assert abs(last[:, 2].mean() / last[:, 0].mean() - 19 / 57) < 1e-4

@@ -593,8 +593,6 @@ def planetary_sharing(path: pathlib.Path, opt: Options) -> str:
     """The four planets' share of the sun's force over the carrier's angle
     (scenarios/trains/planetary_4_planets.toml through its train FMU): sun driven at 100 rad/s,
     carrier loaded by 100 N m, 0.2 s to settle at 1e-2 s, then 0.02 s sampled every 2e-5 s."""
-    import math
-
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
@@ -609,13 +607,13 @@ def planetary_sharing(path: pathlib.Path, opt: Options) -> str:
     f.instantiate()
     f.setupExperiment(startTime=0.0)
     f.enterInitializationMode()
-    zs, zr, ws, load, k, n = 21, 63, 100.0, 100.0, 1e4, 4
+    zs, zr, ws, load, n = 21, 63, 100.0, 100.0, 4
     wc, twist = ws * zs / (zs + zr), load * zs / (zs + zr) / 1e4
-    names, values = ["sun.omega", "carrier.omega", "motor.far_omega", "carrier.torque", "motor.far_phi"], \
-        [ws, wc, ws, -load, twist]
-    for p in range(1, n + 1):
-        names += [f"planet{p}.omega", f"planet{p}.phi"]
-        values += [wc - (ws - wc), 2 * (2 * math.pi * (p - 1) / n)]
+    names = ["sun.omega", "carrier.omega", "motor.far_omega", "carrier.torque", "motor.far_phi"]
+    values = [ws, wc, ws, -load, twist]
+    for p in range(1, n + 1):  # the planets start at the scene's angles
+        names.append(f"planet{p}.omega")
+        values.append(wc - (ws - wc))
     f.setReal([vr[x] for x in names], values)
     f.exitInitializationMode()
     t, angle, force = 0.0, [], []

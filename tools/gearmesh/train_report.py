@@ -39,6 +39,7 @@ def simulate(fmu: pathlib.Path, train, run: dict) -> dict[str, np.ndarray]:
             [f"{m['name']}.te" for m in train.meshes] + ["energy.residual", "energy.work_in", "energy.kinetic",
                                                           "energy.elastic"])
     rows, angle, sense = [], 0.0, 1.0
+    loaded = [b["name"] for b in train.bodies].index(load_body)  # its speed's column in read
     for k in range(int(round(duration / h))):
         t = k * h
         ramp_share = min(1.0, t / ramp) if ramp > 0 else 1.0
@@ -51,8 +52,8 @@ def simulate(fmu: pathlib.Path, train, run: dict) -> dict[str, np.ndarray]:
         f.doStep(t, h)
         angle += omega * h
         row = f.getReal([vr[n] for n in read])
-        if abs(row[[b["name"] for b in train.bodies].index(load_body)]) > 1e-6:
-            sense = math.copysign(1.0, row[[b["name"] for b in train.bodies].index(load_body)])
+        if abs(row[loaded]) > 1e-6:  # the load acts against the body's turning
+            sense = math.copysign(1.0, row[loaded])
         rows.append([t + h, *row])
     f.terminate()
     f.freeInstance()
