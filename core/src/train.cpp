@@ -85,9 +85,11 @@ class Train::Stepper {
 
   gm_status evaluate_at(double t, const Vec& phi, const Vec& omega, Point& out, std::string& msg) {
     const int nb = int(t_.bodies_.size());
-    std::vector<double> P, W;
+    std::vector<double>& P = angles_;  // scratch kept over the calls: no allocation once warm
+    std::vector<double>& W = speeds_;
+    std::vector<double>& torque = torques_;
     full(phi, omega, P, W);
-    std::vector<double> torque(in_.torque.begin(), in_.torque.end());
+    torque.assign(in_.torque.begin(), in_.torque.end());
     torque.resize(std::size_t(nb), 0.0);
     out.phi = phi;
     out.omega = omega;
@@ -209,6 +211,7 @@ class Train::Stepper {
       a_omega_.row(f) = dT_omega.row(f) / J;
     }
     modes();
+    lu_hd_ = NAN;  // the Newton matrix is refactored for the new Jacobian
     return GM_OK;
   }
 
@@ -243,14 +246,16 @@ class Train::Stepper {
     }
   }
 
+  // Solve (I - hd (hd A_phi + A_omega)) x = r in place; the factorization is kept while hd and
+  // the Jacobian stay (both stages and the error filter of a step share it).
   bool newton_solve(double hd, Vec& r) const {
-    const int n = int(r.size());
-    const Mat N = Mat::Identity(n, n) - hd * (hd * a_phi_ + a_omega_);
-    Eigen::PartialPivLU<Mat> lu(N);
-    const Vec x = lu.solve(r);
-    if (!x.allFinite()) return false;
-    r = x;
-    return true;
+    if (!(hd == lu_hd_)) {
+      const int n = int(r.size());
+      lu_.compute(Mat::Identity(n, n) - hd * (hd * a_phi_ + a_omega_));
+      lu_hd_ = hd;
+    }
+    r = lu_.solve(r);
+    return r.allFinite();
   }
 
   gm_status stage(double t, double hd, const Vec& r_phi, const Vec& r_omega, Vec& omega, Point& out, std::string& msg) {
@@ -327,6 +332,9 @@ class Train::Stepper {
   const TrainInputs& in_;
   Mat a_phi_, a_omega_, mode_vectors_;
   Vec mode_frequency_, mode_rim_, mass_;
+  mutable Eigen::PartialPivLU<Mat> lu_;
+  mutable double lu_hd_ = NAN;
+  std::vector<double> angles_, speeds_, torques_;
 };
 
 Train::Train(std::vector<TrainBody> bodies, std::vector<TrainMesh> meshes, std::vector<TrainShaft> shafts,
