@@ -42,84 +42,145 @@ double step_factor(double fraction) {
 
 }  // namespace
 
-// A state of the free bodies with what the equations give there.
+// A state of the unknowns (train.hpp: spins, then centres) with what the equations give there.
 struct Train::Point {
-  Vec phi, omega, accel;                 // free bodies
+  Vec phi, omega, accel;                 // unknowns: positions, rates, accelerations
   std::vector<gm_result> res;            // per mesh
   std::vector<double> reaction;          // per body (fixed ones), N m
   std::vector<double> shaft_torque;      // per shaft
   double power_in = 0, power_out = 0, power_friction = 0, power_damping = 0, elastic = 0;
 };
 
+namespace {
+
+// Rotations in the plane: R(-theta) a (housing to element frame) and z x a.
+inline void to_element(double c, double s, const double a[2], double out[2]) {
+  out[0] = c * a[0] + s * a[1];
+  out[1] = -s * a[0] + c * a[1];
+}
+inline void to_housing(double c, double s, const double a[2], double out[2]) {
+  out[0] = c * a[0] - s * a[1];
+  out[1] = s * a[0] + c * a[1];
+}
+inline double cross(const double a[2], const double b[2]) { return a[0] * b[1] - a[1] * b[0]; }
+
+}  // namespace
+
 class Train::Stepper {
  public:
   Stepper(Train& t, const TrainInputs& in) : t_(t), in_(in) {
-    const int n = int(t.free_.size());
+    const int n = int(t.dof_mass_.size());
     a_phi_ = Mat::Zero(n, n);
     a_omega_ = Mat::Zero(n, n);
   }
 
-  // Every body's angle and speed from the free ones.
-  void full(const Vec& phi, const Vec& omega, std::vector<double>& P, std::vector<double>& W) const {
-    const int nb = int(t_.bodies_.size());
-    P.assign(std::size_t(nb), 0.0);
-    W.assign(std::size_t(nb), 0.0);
-    for (int f = 0; f < int(t_.free_.size()); ++f) {
-      P[std::size_t(t_.free_[std::size_t(f)])] = phi[f];
-      W[std::size_t(t_.free_[std::size_t(f)])] = omega[f];
+  // Every body's angle, speed, centre and centre speed from the unknowns.
+  struct Full {
+    std::vector<double> P, W, X, V;  // per body; X, V two per body
+  };
+  void full(const Vec& q, const Vec& qd, Full& f) const {
+    const std::size_t nb = t_.bodies_.size();
+    f.P.assign(nb, 0.0);
+    f.W.assign(nb, 0.0);
+    f.X.assign(2 * nb, 0.0);
+    f.V.assign(2 * nb, 0.0);
+    for (std::size_t b = 0; b < nb; ++b) {
+      if (t_.slot_[b] >= 0) {
+        f.P[b] = q[t_.slot_[b]];
+        f.W[b] = qd[t_.slot_[b]];
+      }
+      if (t_.shift_[b] >= 0)
+        for (int a = 0; a < 2; ++a) {
+          f.X[2 * b + std::size_t(a)] = q[t_.shift_[b] + a];
+          f.V[2 * b + std::size_t(a)] = qd[t_.shift_[b] + a];
+        }
     }
   }
 
-  gm_kinematics element_pose(const TrainMesh& me, const std::vector<double>& P, const std::vector<double>& W) const {
+  // The element frame's angle in the housing: the carrier's angle and the mesh's orientation.
+  static double frame_angle(const TrainMesh& me, const Full& f) {
+    return (me.carrier >= 0 ? f.P[std::size_t(me.carrier)] : 0.0) + me.orientation;
+  }
+
+  gm_kinematics element_pose(const TrainMesh& me, const Full& f) const {
     gm_kinematics k{};
-    const double pc = me.carrier >= 0 ? P[std::size_t(me.carrier)] : 0.0;
-    const double wc = me.carrier >= 0 ? W[std::size_t(me.carrier)] : 0.0;
+    const double pc = me.carrier >= 0 ? f.P[std::size_t(me.carrier)] : 0.0;
+    const double wc = me.carrier >= 0 ? f.W[std::size_t(me.carrier)] : 0.0;
+    const double th = frame_angle(me, f), c = std::cos(th), s = std::sin(th);
     for (int i = 0; i < 2; ++i) {
-      k.phi[i] = P[std::size_t(me.gear[i])] - pc - me.orientation;
-      k.omega[i] = W[std::size_t(me.gear[i])] - wc;
+      const std::size_t b = std::size_t(me.gear[i]);
+      k.phi[i] = f.P[b] - pc - me.orientation;
+      k.omega[i] = f.W[b] - wc;
       k.u[i][0] = me.offset[i][0];
       k.u[i][1] = me.offset[i][1];
+      if (t_.shift_[b] < 0) continue;
+      // u = R(-theta) x, its rate in the turning element frame R(-theta) v - omega_c z x u
+      double u[2], v[2];
+      to_element(c, s, &f.X[2 * b], u);
+      to_element(c, s, &f.V[2 * b], v);
+      k.u[i][0] += u[0];
+      k.u[i][1] += u[1];
+      k.v[i][0] = v[0] + wc * u[1];
+      k.v[i][1] = v[1] - wc * u[0];
     }
     return k;
   }
 
-  gm_status evaluate_at(double t, const Vec& phi, const Vec& omega, Point& out, std::string& msg) {
-    const int nb = int(t_.bodies_.size());
-    std::vector<double>& P = angles_;  // scratch kept over the calls: no allocation once warm
-    std::vector<double>& W = speeds_;
-    std::vector<double>& torque = torques_;
-    full(phi, omega, P, W);
-    torque.assign(in_.torque.begin(), in_.torque.end());
-    torque.resize(std::size_t(nb), 0.0);
-    out.phi = phi;
-    out.omega = omega;
+  // The mesh's forces on the bodies: M_i on gear i, R(theta) f_i on a translating gear, and on the
+  // carrier -(M_1 + M_2) - u_i x f_i over its translating gears (train.hpp).
+  void apply(const TrainMesh& me, const gm_kinematics& k, const gm_result& r, double th, std::vector<double>& T,
+             std::vector<double>& F) const {
+    const double c = std::cos(th), s = std::sin(th);
+    double carrier = -(r.moment[0][2] + r.moment[1][2]);
+    for (int i = 0; i < 2; ++i) {
+      const std::size_t b = std::size_t(me.gear[i]);
+      T[b] += r.moment[i][2];
+      if (t_.shift_[b] < 0) continue;
+      const double f[2] = {r.force[i][0], r.force[i][1]}, u[2] = {k.u[i][0], k.u[i][1]};
+      double fh[2];
+      to_housing(c, s, f, fh);
+      F[2 * b] += fh[0];
+      F[2 * b + 1] += fh[1];
+      carrier -= cross(u, f);
+    }
+    if (me.carrier >= 0) T[std::size_t(me.carrier)] += carrier;
+  }
+
+  gm_status evaluate_at(double t, const Vec& q, const Vec& qd, Point& out, std::string& msg) {
+    const std::size_t nb = t_.bodies_.size();
+    Full& f = full_;  // scratch kept over the calls: no allocation once warm
+    full(q, qd, f);
+    std::vector<double>& T = torques_;
+    std::vector<double>& F = forces_;
+    T.assign(in_.torque.begin(), in_.torque.end());
+    T.resize(nb, 0.0);
+    F.assign(2 * nb, 0.0);
+    out.phi = q;
+    out.omega = qd;
     out.res.resize(t_.meshes_.size());
     out.shaft_torque.assign(t_.shafts_.size(), 0.0);
     out.power_in = out.power_out = out.power_friction = out.power_damping = out.elastic = 0;
     for (std::size_t m = 0; m < t_.meshes_.size(); ++m) {
       const TrainMesh& me = t_.meshes_[m];
-      const gm_kinematics k = element_pose(me, P, W);
+      const gm_kinematics k = element_pose(me, f);
       if (gm_evaluate(me.model, me.data, &k, &out.res[m]) != GM_OK) {
         msg = "mesh " + std::to_string(m + 1) + ": " + gm_data_message(me.data);
         return GM_ERR_SOLVER;
       }
-      const double M1 = out.res[m].moment[0][2], M2 = out.res[m].moment[1][2];
-      torque[std::size_t(me.gear[0])] += M1;
-      torque[std::size_t(me.gear[1])] += M2;
-      if (me.carrier >= 0) torque[std::size_t(me.carrier)] -= M1 + M2;
+      apply(me, k, out.res[m], frame_angle(me, f), T, F);
       out.power_friction += out.res[m].friction_power;
       out.power_damping += out.res[m].damping_power;
       out.elastic += out.res[m].elastic_energy;
     }
     for (std::size_t s = 0; s < t_.shafts_.size(); ++s) {
       const TrainShaft& sh = t_.shafts_[s];
-      const double far_phi = sh.other >= 0 ? P[std::size_t(sh.other)] : in_.far_phi[s] + in_.far_omega[s] * t;
-      const double far_omega = sh.other >= 0 ? W[std::size_t(sh.other)] : in_.far_omega[s];
-      const double twist = far_phi - P[std::size_t(sh.body)], slip = far_omega - W[std::size_t(sh.body)];
+      const double far_phi = sh.other >= 0 ? f.P[std::size_t(sh.other)] : in_.far_phi[s] + in_.far_omega[s] * t;
+      const double far_omega = sh.other >= 0 ? f.W[std::size_t(sh.other)] : in_.far_omega[s];
+      const double twist = far_phi - f.P[std::size_t(sh.body)], slip = far_omega - f.W[std::size_t(sh.body)];
       const double tau = sh.stiffness * twist + sh.damping * slip;
       out.shaft_torque[s] = tau;
-      torque[std::size_t(sh.body)] += tau;
-      if (sh.other >= 0) torque[std::size_t(sh.other)] -= tau;
+      T[std::size_t(sh.body)] += tau;
+      if (sh.other >= 0) T[std::size_t(sh.other)] -= tau;
       else {
         const double port = tau * far_omega;  // power into the train at the far end (dynamics.cpp)
         (port > 0 ? out.power_in : out.power_out) += std::fabs(port);
@@ -127,63 +188,134 @@ class Train::Stepper {
       out.power_damping += sh.damping * slip * slip;
       out.elastic += 0.5 * sh.stiffness * twist * twist;
     }
-    out.reaction.assign(std::size_t(nb), 0.0);
-    out.accel.resize(phi.size());
-    for (int b = 0; b < nb; ++b) {
-      const double port = (b < int(in_.torque.size()) ? in_.torque[std::size_t(b)] : 0.0) * W[std::size_t(b)];
+    out.reaction.assign(nb, 0.0);
+    out.accel.resize(q.size());
+    for (std::size_t b = 0; b < nb; ++b) {
+      const double port = (b < in_.torque.size() ? in_.torque[b] : 0.0) * f.W[b];
       (port > 0 ? out.power_in : out.power_out) += std::fabs(port);
-      const int f = t_.slot_[std::size_t(b)];
-      if (f < 0) out.reaction[std::size_t(b)] = -torque[std::size_t(b)];
-      else out.accel[f] = torque[std::size_t(b)] / t_.bodies_[std::size_t(b)].inertia;
+      const int i = t_.slot_[b];
+      if (i < 0) out.reaction[b] = -T[b];
+      else out.accel[i] = T[b] / t_.dof_mass_[std::size_t(i)];
+      const int j = t_.shift_[b];
+      if (j < 0) continue;
+      const TrainBody& body = t_.bodies_[b];
+      for (int a = 0; a < 2; ++a) {
+        const double x = f.X[2 * b + std::size_t(a)], v = f.V[2 * b + std::size_t(a)];
+        out.accel[j + a] = (F[2 * b + std::size_t(a)] - body.bearing_stiffness * x - body.bearing_damping * v) / body.mass;
+        out.elastic += 0.5 * body.bearing_stiffness * x * x;
+        out.power_damping += body.bearing_damping * v * v;
+      }
     }
     return GM_OK;
   }
 
+  // The element inputs' rates along unknown j (a position when velocity is false, else a rate):
+  // the seed of the mesh's directional derivative; dtheta: the element frame's turn along it.
+  // False if the mesh does not depend on unknown j.
+  bool seed_along(const TrainMesh& me, const Full& f, int j, bool velocity, gm_kinematics& seed, double& dtheta) const {
+    seed = gm_kinematics{};
+    dtheta = 0;
+    bool touches = false;
+    const double wc = me.carrier >= 0 ? f.W[std::size_t(me.carrier)] : 0.0;
+    const double th = frame_angle(me, f), c = std::cos(th), s = std::sin(th);
+    const bool carrier_spin = me.carrier >= 0 && t_.slot_[std::size_t(me.carrier)] == j;
+    for (int i = 0; i < 2; ++i) {
+      const std::size_t b = std::size_t(me.gear[i]);
+      if (t_.slot_[b] == j) {
+        (velocity ? seed.omega : seed.phi)[i] += 1.0;
+        touches = true;
+      }
+      if (carrier_spin) {
+        (velocity ? seed.omega : seed.phi)[i] -= 1.0;
+        touches = true;
+      }
+      if (t_.shift_[b] < 0) continue;
+      double u[2], v[2];
+      to_element(c, s, &f.X[2 * b], u);
+      to_element(c, s, &f.V[2 * b], v);
+      if (carrier_spin) {
+        if (!velocity) {
+          // d/dtheta of u = R(-theta) x: -z x u; of the rate R(-theta) v - w z x u: -z x (R v) - w u
+          seed.u[i][0] += u[1];
+          seed.u[i][1] += -u[0];
+          seed.v[i][0] += v[1] - wc * u[0];
+          seed.v[i][1] += -v[0] - wc * u[1];
+        } else {
+          seed.v[i][0] += u[1];
+          seed.v[i][1] += -u[0];
+        }
+      }
+      for (int a = 0; a < 2; ++a) {
+        if (t_.shift_[b] + a != j) continue;
+        touches = true;
+        const double e[2] = {a == 0 ? 1.0 : 0.0, a == 1 ? 1.0 : 0.0};
+        double de[2];
+        to_element(c, s, e, de);
+        if (!velocity) {
+          seed.u[i][0] += de[0];
+          seed.u[i][1] += de[1];
+          seed.v[i][0] += wc * de[1];
+          seed.v[i][1] += -wc * de[0];
+        } else {
+          seed.v[i][0] += de[0];
+          seed.v[i][1] += de[1];
+        }
+      }
+    }
+    if (carrier_spin && !velocity) dtheta = 1.0;
+    return touches;
+  }
+
   // The exact Jacobian of the accelerations: each mesh through gm_directional_derivative along
-  // its element's inputs, mapped to the bodies (Q D Q^T, Q the bodies' share of the element's
-  // angles), the shafts' springs and dampers.
+  // the element inputs' rates per unknown, the forces' product rule (apply), the shafts' springs
+  // and dampers, the bearings.
   gm_status jacobian(const Point& x, std::string& msg) {
-    const int n = int(t_.free_.size());
-    Mat dT_phi = Mat::Zero(n, n), dT_omega = Mat::Zero(n, n);
-    std::vector<double> P, W;
-    full(x.phi, x.omega, P, W);
+    const int n = int(t_.dof_mass_.size());
+    const std::size_t nb = t_.bodies_.size();
+    Mat dQ_q = Mat::Zero(n, n), dQ_qd = Mat::Zero(n, n);
+    Full f;
+    full(x.phi, x.omega, f);
+    std::vector<double> dT(nb), dF(2 * nb);
     for (std::size_t m = 0; m < t_.meshes_.size(); ++m) {
       const TrainMesh& me = t_.meshes_[m];
-      const gm_kinematics at = element_pose(me, P, W);
+      const gm_kinematics at = element_pose(me, f);
       const gm_model_params* mp = gm_model_parameters(me.model);
       const bool speed_dependent = mp->friction_coefficient != 0 || mp->damping != 0;
-      // the bodies' shares of element input i: +1 on gear i, -1 on the carrier
-      int body[2][2];
-      double share[2][2];
-      for (int i = 0; i < 2; ++i) {
-        body[i][0] = t_.slot_[std::size_t(me.gear[i])];
-        share[i][0] = 1.0;
-        body[i][1] = me.carrier >= 0 ? t_.slot_[std::size_t(me.carrier)] : -1;
-        share[i][1] = -1.0;
-      }
+      const double th = frame_angle(me, f), c = std::cos(th), s = std::sin(th);
+      const gm_result& r = x.res[m];
       for (int which = 0; which < 2; ++which) {
         if (which == 1 && !speed_dependent) continue;
-        for (int j = 0; j < 2; ++j) {
-          gm_kinematics seed{};
-          (which == 0 ? seed.phi : seed.omega)[j] = 1.0;
+        for (int j = 0; j < n; ++j) {
+          gm_kinematics seed;
+          double dtheta;
+          if (!seed_along(me, f, j, which == 1, seed, dtheta)) continue;
           gm_result dr{};
           if (gm_directional_derivative(me.model, me.data, &at, &seed, &dr) != GM_OK) {
             msg = "mesh " + std::to_string(m + 1) + ": " + gm_data_message(me.data);
             return GM_ERR_SOLVER;
           }
-          // d(torque on each body) along element input j: M1 on gear 1, M2 on gear 2, -(M1+M2) on the carrier
-          const double dM[2] = {dr.moment[0][2], dr.moment[1][2]};
-          double dT_body[3];
-          int to[3] = {t_.slot_[std::size_t(me.gear[0])], t_.slot_[std::size_t(me.gear[1])],
-                       me.carrier >= 0 ? t_.slot_[std::size_t(me.carrier)] : -1};
-          dT_body[0] = dM[0];
-          dT_body[1] = dM[1];
-          dT_body[2] = -(dM[0] + dM[1]);
-          Mat& target = which == 0 ? dT_phi : dT_omega;
-          for (int r = 0; r < 3; ++r) {
-            if (to[r] < 0) continue;
-            for (int c = 0; c < 2; ++c)
-              if (body[j][c] >= 0) target(to[r], body[j][c]) += dT_body[r] * share[j][c];
+          std::fill(dT.begin(), dT.end(), 0.0);
+          std::fill(dF.begin(), dF.end(), 0.0);
+          double carrier = -(dr.moment[0][2] + dr.moment[1][2]);
+          for (int i = 0; i < 2; ++i) {
+            const std::size_t b = std::size_t(me.gear[i]);
+            dT[b] += dr.moment[i][2];
+            if (t_.shift_[b] < 0) continue;
+            const double fv[2] = {r.force[i][0], r.force[i][1]}, df[2] = {dr.force[i][0], dr.force[i][1]};
+            const double u[2] = {at.u[i][0], at.u[i][1]}, du[2] = {seed.u[i][0], seed.u[i][1]};
+            double a1[2], a2[2];
+            to_housing(c, s, df, a1);
+            to_housing(c, s, fv, a2);  // d R(theta) f / dtheta = z x R(theta) f
+            dF[2 * b] += a1[0] - dtheta * a2[1];
+            dF[2 * b + 1] += a1[1] + dtheta * a2[0];
+            carrier -= cross(du, fv) + cross(u, df);
+          }
+          if (me.carrier >= 0) dT[std::size_t(me.carrier)] += carrier;
+          Mat& target = which == 0 ? dQ_q : dQ_qd;
+          for (std::size_t b = 0; b < nb; ++b) {
+            if (t_.slot_[b] >= 0) target(t_.slot_[b], j) += dT[b];
+            if (t_.shift_[b] >= 0)
+              for (int a = 0; a < 2; ++a) target(t_.shift_[b] + a, j) += dF[2 * b + std::size_t(a)];
           }
         }
       }
@@ -191,24 +323,28 @@ class Train::Stepper {
     for (const TrainShaft& sh : t_.shafts_) {
       const int a = t_.slot_[std::size_t(sh.body)], b = sh.other >= 0 ? t_.slot_[std::size_t(sh.other)] : -1;
       if (a >= 0) {
-        dT_phi(a, a) -= sh.stiffness;
-        dT_omega(a, a) -= sh.damping;
+        dQ_q(a, a) -= sh.stiffness;
+        dQ_qd(a, a) -= sh.damping;
       }
       if (sh.other >= 0 && b >= 0) {
-        dT_phi(b, b) -= sh.stiffness;
-        dT_omega(b, b) -= sh.damping;
+        dQ_q(b, b) -= sh.stiffness;
+        dQ_qd(b, b) -= sh.damping;
         if (a >= 0) {
-          dT_phi(a, b) += sh.stiffness;
-          dT_phi(b, a) += sh.stiffness;
-          dT_omega(a, b) += sh.damping;
-          dT_omega(b, a) += sh.damping;
+          dQ_q(a, b) += sh.stiffness;
+          dQ_q(b, a) += sh.stiffness;
+          dQ_qd(a, b) += sh.damping;
+          dQ_qd(b, a) += sh.damping;
         }
       }
     }
-    for (int f = 0; f < n; ++f) {
-      const double J = t_.bodies_[std::size_t(t_.free_[std::size_t(f)])].inertia;
-      a_phi_.row(f) = dT_phi.row(f) / J;
-      a_omega_.row(f) = dT_omega.row(f) / J;
+    for (std::size_t b = 0; b < nb; ++b)
+      for (int a = 0; a < 2 && t_.shift_[b] >= 0; ++a) {
+        dQ_q(t_.shift_[b] + a, t_.shift_[b] + a) -= t_.bodies_[b].bearing_stiffness;
+        dQ_qd(t_.shift_[b] + a, t_.shift_[b] + a) -= t_.bodies_[b].bearing_damping;
+      }
+    for (int i = 0; i < n; ++i) {
+      a_phi_.row(i) = dQ_q.row(i) / t_.dof_mass_[std::size_t(i)];
+      a_omega_.row(i) = dQ_qd.row(i) / t_.dof_mass_[std::size_t(i)];
     }
     modes();
     lu_hd_ = NAN;  // the Newton matrix is refactored for the new Jacobian
@@ -217,11 +353,10 @@ class Train::Stepper {
 
   // The modes of the linearized train at the Jacobian: K v = lambda M v with K = -M A_phi
   // (symmetrized), mass-normalized; each mode's rim rate per unit modal speed (the largest TE
-  // rate of a mesh and rim speed of a body it makes).
+  // rate of a mesh's spins and rim or centre speed of a body it makes).
   void modes() {
-    const int n = int(t_.free_.size());
-    Vec mass(n);
-    for (int f = 0; f < n; ++f) mass[f] = t_.bodies_[std::size_t(t_.free_[std::size_t(f)])].inertia;
+    const int n = int(t_.dof_mass_.size());
+    const Vec mass = Eigen::Map<const Vec>(t_.dof_mass_.data(), n);
     Mat K = -(mass.asDiagonal() * a_phi_);
     K = 0.5 * (K + K.transpose());
     Eigen::GeneralizedSelfAdjointEigenSolver<Mat> es(K, Mat(mass.asDiagonal()));
@@ -232,12 +367,12 @@ class Train::Stepper {
     for (int k = 0; k < n; ++k) {
       const Vec v = mode_vectors_.col(k);
       double rim = 0;
-      for (int f = 0; f < n; ++f) rim = std::max(rim, t_.scale_[std::size_t(t_.free_[std::size_t(f)])] * std::fabs(v[f]));
+      for (int i = 0; i < n; ++i) rim = std::max(rim, t_.dof_scale_[std::size_t(i)] * std::fabs(v[i]));
       for (const TrainMesh& me : t_.meshes_) {
         const double rb1 = 0.5 * gm_model_geometry(me.model)->gear[0].d_b;
         const double rb2 = 0.5 * gm_model_geometry(me.model)->gear[1].d_b;
         const double s = gm_model_parameters(me.model)->pair.internal ? -1.0 : 1.0;
-        auto speed = [&](int body) { const int f = body >= 0 ? t_.slot_[std::size_t(body)] : -1; return f >= 0 ? v[f] : 0.0; };
+        auto speed = [&](int body) { const int i = body >= 0 ? t_.slot_[std::size_t(body)] : -1; return i >= 0 ? v[i] : 0.0; };
         const double wc = speed(me.carrier);
         const double te_rate = rb1 * (speed(me.gear[0]) - wc) + s * rb2 * (speed(me.gear[1]) - wc);
         rim = std::max(rim, std::fabs(te_rate));
@@ -266,7 +401,7 @@ class Train::Stepper {
       Vec g = omega - hd * out.accel - r_omega;
       double size = 0;
       for (int f = 0; f < int(g.size()); ++f)
-        size = std::max(size, t_.scale_[std::size_t(t_.free_[std::size_t(f)])] * hd * std::fabs(g[f]));
+        size = std::max(size, t_.dof_scale_[std::size_t(f)] * hd * std::fabs(g[f]));
       if (!std::isfinite(size)) break;
       if (it == 1) contraction = std::max(contraction, size / previous);
       if (it > 0 && size <= kNewtonFraction * t_.params_.tolerance) {
@@ -290,7 +425,7 @@ class Train::Stepper {
     const double tol = t_.params_.tolerance;
     double fraction = 0;
     for (int f = 0; f < int(r.size()); ++f)
-      fraction = std::max(fraction, t_.scale_[std::size_t(t_.free_[std::size_t(f)])] * std::fabs(e_phi[f] + hd * r[f]) / tol);
+      fraction = std::max(fraction, t_.dof_scale_[std::size_t(f)] * std::fabs(e_phi[f] + hd * r[f]) / tol);
     // the speed error by mode (dynamics.cpp, error_fraction): a mode resolved by the step counts
     // over 1 / omega_k (its energy norm), one it does not over the step, a rigid one over the
     // longest step; each as the largest rim motion or TE it makes
@@ -320,12 +455,13 @@ class Train::Stepper {
   }
 
   double contraction = 0;
-  // d(torque)/d(phi) of the free bodies at the last jacobian(): J A_phi
-  Mat torque_stiffness() const {
+  // d(generalized force)/d(unknowns) at the last jacobian(): M A_phi
+  Mat force_stiffness() const {
     Mat K = a_phi_;
-    for (int f = 0; f < int(t_.free_.size()); ++f) K.row(f) *= t_.bodies_[std::size_t(t_.free_[std::size_t(f)])].inertia;
+    for (int i = 0; i < int(K.rows()); ++i) K.row(i) *= t_.dof_mass_[std::size_t(i)];
     return K;
   }
+  Full full_;
 
  private:
   Train& t_;
@@ -334,7 +470,7 @@ class Train::Stepper {
   Vec mode_frequency_, mode_rim_, mass_;
   mutable Eigen::PartialPivLU<Mat> lu_;
   mutable double lu_hd_ = NAN;
-  std::vector<double> angles_, speeds_, torques_;
+  std::vector<double> torques_, forces_;
 };
 
 Train::Train(std::vector<TrainBody> bodies, std::vector<TrainMesh> meshes, std::vector<TrainShaft> shafts,
@@ -402,38 +538,109 @@ Train::Train(std::vector<TrainBody> bodies, std::vector<TrainMesh> meshes, std::
       problem_ = "body " + std::to_string(b + 1) + " is in no mesh and on no shaft";
       return;
     }
-  if (!(params_.tolerance > 0 && params_.max_step > 0 && params_.min_step > 0 && params_.min_step <= params_.max_step))
+  if (!(params_.tolerance > 0 && params_.max_step > 0 && params_.min_step > 0 && params_.min_step <= params_.max_step)) {
     problem_ = "tolerance, max_step and min_step must be > 0 with min_step <= max_step";
+    return;
+  }
+  // bearing translations and pin errors (train.hpp)
+  std::vector<bool> carrier(std::size_t(nb), false), carried(std::size_t(nb), false);
+  for (const TrainMesh& me : meshes_)
+    if (me.carrier >= 0) carrier[std::size_t(me.carrier)] = true;
+  shift_.assign(std::size_t(nb), -1);
+  for (int b = 0; b < nb; ++b) {
+    const TrainBody& body = bodies_[std::size_t(b)];
+    const std::string name = "body " + std::to_string(b + 1);
+    const bool pinned = body.pin_error[0] != 0 || body.pin_error[1] != 0;
+    if (!(std::isfinite(body.mass) && body.mass >= 0 && std::isfinite(body.bearing_stiffness) &&
+          body.bearing_stiffness >= 0 && std::isfinite(body.bearing_damping) && body.bearing_damping >= 0 &&
+          std::isfinite(body.pin_error[0]) && std::isfinite(body.pin_error[1]))) {
+      problem_ = name + ": mass, bearing stiffness and bearing damping must be finite and >= 0, pin errors finite";
+      return;
+    }
+    if (body.mass == 0 && (body.bearing_stiffness != 0 || body.bearing_damping != 0)) {
+      problem_ = name + ": a bearing stiffness or damping without a mass; allowed: mass > 0 (the centre translates) "
+                        "or all three 0";
+      return;
+    }
+    if (body.mass > 0 && (carrier[std::size_t(b)] || pinned)) {
+      problem_ = name + (pinned ? ": a pin error on a translating body" : ": a carrier that translates") +
+                 "; allowed: translations for bodies on the housing's axis that carry no mesh (a sun, a ring)";
+      return;
+    }
+    if (pinned && carrier[std::size_t(b)]) {
+      problem_ = name + ": a pin error on a carrier; allowed: on the planets it carries";
+      return;
+    }
+  }
+  // a pin error moves a planet's centre in each of its meshes on a carrier: radially away from the
+  // mesh's other gear (on the carrier's axis), tangentially z x radial
+  for (std::size_t m = 0; m < meshes_.size(); ++m) {
+    TrainMesh& me = meshes_[m];
+    for (int i = 0; i < 2; ++i) {
+      const TrainBody& body = bodies_[std::size_t(me.gear[i])];
+      if (body.pin_error[0] == 0 && body.pin_error[1] == 0) continue;
+      if (me.carrier < 0) {
+        problem_ = "body " + std::to_string(me.gear[i] + 1) + ": a pin error, but its mesh " + std::to_string(m + 1) +
+                   " is on the housing; allowed: planets (meshes on a carrier)";
+        return;
+      }
+      const double radial = i == 1 ? 1.0 : -1.0;  // gear 2 lies at +x from gear 1
+      me.offset[i][0] += radial * body.pin_error[1];
+      me.offset[i][1] += radial * body.pin_error[0];
+    }
+  }
+  for (int f : free_) {
+    dof_mass_.push_back(bodies_[std::size_t(f)].inertia);
+    dof_scale_.push_back(scale_[std::size_t(f)]);
+    dof_lever_.push_back(1.0);
+  }
+  for (int b = 0; b < nb; ++b) {
+    if (!(bodies_[std::size_t(b)].mass > 0)) continue;
+    shift_[std::size_t(b)] = int(dof_mass_.size());
+    for (int a = 0; a < 2; ++a) {
+      dof_mass_.push_back(bodies_[std::size_t(b)].mass);
+      dof_scale_.push_back(1.0);
+      dof_lever_.push_back(std::max(scale_[std::size_t(b)], 1e-3));
+    }
+  }
 }
 
 gm_status Train::static_state(int held, double held_angle, const TrainInputs& in, std::vector<double>& phi,
-                              std::vector<gm_result>& res, std::string& msg) {
+                              std::vector<gm_result>& res, std::string& msg, std::vector<double>* centre) {
   if (!problem_.empty()) {
     msg = problem_;
     return GM_ERR_PARAMETER;
   }
   const int nb = int(bodies_.size());
-  if (held < 0 || held >= nb || slot_[std::size_t(held)] < 0 || int(phi.size()) != nb) {
-    msg = "static_state: the held body must be a free body, and one angle per body";
+  if (held < 0 || held >= nb || slot_[std::size_t(held)] < 0 || int(phi.size()) != nb ||
+      (centre && int(centre->size()) != 2 * nb)) {
+    msg = "static_state: the held body must be a free body, one angle per body (and two centre coordinates)";
     return GM_ERR_ARGUMENT;
   }
-  // the free bodies but the held one are the unknowns; the held one is a free body whose
-  // acceleration is not asked to vanish (its torque is the input torque the load needs)
+  // every unknown but the held body's spin; the held one is a free body whose acceleration is
+  // not asked to vanish (its torque is the input torque the load needs)
   TrainInputs still = in;
   still.far_omega.assign(in.far_phi.size(), 0.0);
   Stepper st(*this, still);
-  const int n = int(free_.size());
+  const int n = int(dof_mass_.size());
+  const int held_dof = slot_[std::size_t(held)];
   std::vector<int> unknown;
-  for (int f = 0; f < n; ++f)
-    if (free_[std::size_t(f)] != held) unknown.push_back(f);
-  Vec p(n), w = Vec::Zero(n);
-  for (int f = 0; f < n; ++f) p[f] = free_[std::size_t(f)] == held ? held_angle : phi[std::size_t(free_[std::size_t(f)])];
+  for (int i = 0; i < n; ++i)
+    if (i != held_dof) unknown.push_back(i);
+  Vec p = Vec::Zero(n), w = Vec::Zero(n);
+  for (int b = 0; b < nb; ++b) {
+    if (slot_[std::size_t(b)] >= 0) p[slot_[std::size_t(b)]] = b == held ? held_angle : phi[std::size_t(b)];
+    if (shift_[std::size_t(b)] >= 0 && centre)
+      for (int a = 0; a < 2; ++a) p[shift_[std::size_t(b)] + a] = (*centre)[2 * std::size_t(b) + std::size_t(a)];
+  }
   Point x;
+  // the generalized force on unknown i, a force times the body's rim radius (N m either way)
+  const auto load = [&](int i) { return x.accel[i] * dof_mass_[std::size_t(i)] * dof_lever_[std::size_t(i)]; };
   const auto residual = [&](const Vec& q, double* size) -> gm_status {
     const gm_status s = st.evaluate_at(0.0, q, w, x, msg);
     if (s != GM_OK) return s;
     double worst = 0;
-    for (int f : unknown) worst = std::max(worst, std::fabs(x.accel[f] * bodies_[std::size_t(free_[std::size_t(f)])].inertia));
+    for (int i : unknown) worst = std::max(worst, std::fabs(load(i)));
     *size = worst;
     return GM_OK;
   };
@@ -446,12 +653,12 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
   const double tol = 1e-9 * scale;
   for (int it = 0; it < 100 && size > tol; ++it) {
     if ((s = st.jacobian(x, msg)) != GM_OK) return s;
-    const Mat K = st.torque_stiffness();
+    const Mat K = st.force_stiffness();
     const int m = int(unknown.size());
     Mat A(m, m);
     Vec r(m);
     for (int i = 0; i < m; ++i) {
-      r[i] = x.accel[unknown[std::size_t(i)]] * bodies_[std::size_t(free_[std::size_t(unknown[std::size_t(i)])])].inertia;
+      r[i] = x.accel[unknown[std::size_t(i)]] * dof_mass_[std::size_t(unknown[std::size_t(i)])];
       for (int j = 0; j < m; ++j) A(i, j) = K(unknown[std::size_t(i)], unknown[std::size_t(j)]);
     }
     const Vec d = A.fullPivLu().solve(-r);
@@ -474,39 +681,78 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
           " N m); start nearer contact";
     return GM_ERR_SOLVER;
   }
-  for (int f = 0; f < n; ++f) phi[std::size_t(free_[std::size_t(f)])] = p[f];
+  for (int b = 0; b < nb; ++b) {
+    if (slot_[std::size_t(b)] >= 0) phi[std::size_t(b)] = p[slot_[std::size_t(b)]];
+    if (shift_[std::size_t(b)] >= 0 && centre)
+      for (int a = 0; a < 2; ++a) (*centre)[2 * std::size_t(b) + std::size_t(a)] = p[shift_[std::size_t(b)] + a];
+  }
   res = x.res;
   return GM_OK;
 }
 
+// The state's per-body vectors from the unknowns, with its kinetic energy.
+void Train::unpack(const Vec& q, const Vec& qd, TrainState& s) const {
+  const std::size_t nb = bodies_.size();
+  s.phi.assign(nb, 0.0);
+  s.omega.assign(nb, 0.0);
+  s.centre.assign(2 * nb, 0.0);
+  s.centre_speed.assign(2 * nb, 0.0);
+  s.kinetic = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (slot_[b] >= 0) {
+      s.phi[b] = q[slot_[b]];
+      s.omega[b] = qd[slot_[b]];
+    }
+    if (shift_[b] >= 0)
+      for (int a = 0; a < 2; ++a) {
+        s.centre[2 * b + std::size_t(a)] = q[shift_[b] + a];
+        s.centre_speed[2 * b + std::size_t(a)] = qd[shift_[b] + a];
+      }
+  }
+  for (int i = 0; i < int(q.size()); ++i) s.kinetic += 0.5 * dof_mass_[std::size_t(i)] * qd[i] * qd[i];
+}
+
+// The unknowns of a state (per-body vectors; centres absent: nominal, at rest).
+void Train::pack(const std::vector<double>& phi, const std::vector<double>& omega, const std::vector<double>* centre,
+                 const std::vector<double>* centre_speed, Vec& q, Vec& qd) const {
+  const int n = int(dof_mass_.size());
+  q = Vec::Zero(n);
+  qd = Vec::Zero(n);
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    if (slot_[b] >= 0) {
+      q[slot_[b]] = phi[b];
+      qd[slot_[b]] = omega[b];
+    }
+    if (shift_[b] >= 0)
+      for (int a = 0; a < 2; ++a) {
+        if (centre && centre->size() == 2 * bodies_.size()) q[shift_[b] + a] = (*centre)[2 * b + std::size_t(a)];
+        if (centre_speed && centre_speed->size() == 2 * bodies_.size())
+          qd[shift_[b] + a] = (*centre_speed)[2 * b + std::size_t(a)];
+      }
+  }
+}
+
 gm_status Train::start(const std::vector<double>& phi, const std::vector<double>& omega, const TrainInputs& in,
-                       TrainState& s, std::vector<gm_result>& res, std::string& msg) {
+                       TrainState& s, std::vector<gm_result>& res, std::string& msg, const std::vector<double>* centre,
+                       const std::vector<double>* centre_speed) {
   if (!problem_.empty()) {
     msg = problem_;
     return GM_ERR_PARAMETER;
   }
   const int nb = int(bodies_.size());
-  if (int(phi.size()) != nb || int(omega.size()) != nb) {
-    msg = "start: one angle and one speed per body";
+  if (int(phi.size()) != nb || int(omega.size()) != nb || (centre && int(centre->size()) != 2 * nb) ||
+      (centre_speed && int(centre_speed->size()) != 2 * nb)) {
+    msg = "start: one angle and one speed per body (and two centre coordinates and speeds)";
     return GM_ERR_ARGUMENT;
   }
-  Vec p(free_.size()), w(free_.size());
-  for (std::size_t f = 0; f < free_.size(); ++f) {
-    p[Eigen::Index(f)] = phi[std::size_t(free_[f])];
-    w[Eigen::Index(f)] = omega[std::size_t(free_[f])];
-  }
+  Vec p, w;
+  pack(phi, omega, centre, centre_speed, p, w);
   Stepper st(*this, in);
   Point x;
   const gm_status status = st.evaluate_at(0.0, p, w, x, msg);
   if (status != GM_OK) return status;
   TrainState out;
-  out.phi.assign(std::size_t(nb), 0.0);
-  out.omega.assign(std::size_t(nb), 0.0);
-  for (std::size_t f = 0; f < free_.size(); ++f) {
-    out.phi[std::size_t(free_[f])] = p[Eigen::Index(f)];
-    out.omega[std::size_t(free_[f])] = w[Eigen::Index(f)];
-    out.kinetic += 0.5 * bodies_[std::size_t(free_[f])].inertia * w[Eigen::Index(f)] * w[Eigen::Index(f)];
-  }
+  unpack(p, w, out);
   out.reaction = x.reaction;
   out.shaft_torque = x.shaft_torque;
   out.elastic = x.elastic;
@@ -516,7 +762,6 @@ gm_status Train::start(const std::vector<double>& phi, const std::vector<double>
   res = x.res;
   return GM_OK;
 }
-
 gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_io, std::vector<gm_result>& res,
                          std::string& msg) {
   if (!problem_.empty()) {
@@ -535,12 +780,8 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
   }
   TrainState s = s_io;
   Stepper st(*this, in);
-  const int n = int(free_.size());
-  Vec p(n), w(n);
-  for (int f = 0; f < n; ++f) {
-    p[f] = s.phi[std::size_t(free_[std::size_t(f)])];
-    w[f] = s.omega[std::size_t(free_[std::size_t(f)])];
-  }
+  Vec p, w;
+  pack(s.phi, s.omega, &s.centre, &s.centre_speed, p, w);
   Point x1, x2, x3;
   gm_status status = st.evaluate_at(0.0, p, w, x1, msg);
   if (status != GM_OK) return status;
@@ -580,18 +821,22 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
       s.work_out += integral(&Point::power_out);
       s.friction += integral(&Point::power_friction);
       s.damping += integral(&Point::power_damping);
-      std::vector<double> P1, W1, P2, W2, P3, W3;
-      st.full(x1.phi, x1.omega, P1, W1);
-      st.full(x2.phi, x2.omega, P2, W2);
-      st.full(x3.phi, x3.omega, P3, W3);
+      Stepper::Full f1, f2, f3;
+      st.full(x1.phi, x1.omega, f1);
+      st.full(x2.phi, x2.omega, f2);
+      st.full(x3.phi, x3.omega, f3);
       for (std::size_t m = 0; m < meshes_.size(); ++m) {
         const TrainMesh& me = meshes_[m];
-        const gm_kinematics k1 = st.element_pose(me, P1, W1), k2 = st.element_pose(me, P2, W2),
-                            k3 = st.element_pose(me, P3, W3);
+        const gm_kinematics k1 = st.element_pose(me, f1), k2 = st.element_pose(me, f2), k3 = st.element_pose(me, f3);
+        // the element's work in its own frame: moments along its spins, forces along its centres
         double work = 0;
         for (int i = 0; i < 2; ++i) {
           work -= 0.5 * (x1.res[m].moment[i][2] + x2.res[m].moment[i][2]) * (k2.phi[i] - k1.phi[i]);
           work -= 0.5 * (x2.res[m].moment[i][2] + x3.res[m].moment[i][2]) * (k3.phi[i] - k2.phi[i]);
+          for (int a = 0; a < 2; ++a) {
+            work -= 0.5 * (x1.res[m].force[i][a] + x2.res[m].force[i][a]) * (k2.u[i][a] - k1.u[i][a]);
+            work -= 0.5 * (x2.res[m].force[i][a] + x3.res[m].force[i][a]) * (k3.u[i][a] - k2.u[i][a]);
+          }
         }
         const double fr = h_try * (kW * (x1.res[m].friction_power + x2.res[m].friction_power) + kD * x3.res[m].friction_power);
         const double da = h_try * (kW * (x1.res[m].damping_power + x2.res[m].damping_power) + kD * x3.res[m].damping_power);
@@ -621,12 +866,7 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
     }
   }
   s.step = h;
-  s.kinetic = 0;
-  for (int f = 0; f < n; ++f) {
-    s.phi[std::size_t(free_[std::size_t(f)])] = x1.phi[f];
-    s.omega[std::size_t(free_[std::size_t(f)])] = x1.omega[f];
-    s.kinetic += 0.5 * bodies_[std::size_t(free_[std::size_t(f)])].inertia * x1.omega[f] * x1.omega[f];
-  }
+  unpack(x1.phi, x1.omega, s);
   s.reaction = x1.reaction;
   s.shaft_torque = x1.shaft_torque;
   s.elastic = x1.elastic;

@@ -13,14 +13,28 @@
 // omega_el,i = omega_{g_i} - omega_c. The element's moments M_1, M_2 act on its gears, and
 // -(M_1 + M_2) on the carrier: that is the moment about the carrier's axis of the force the
 // carrier's bearings take from the gears it carries (the element's internal forces have no net
-// moment, M_1 + M_2 + sum r_i x f_i = 0). A torsional model: each gear's centre is fixed in its
-// carrier; the planets' orbital mass belongs in the carrier's inertia (m_p r_p^2). With the
-// planets' axes parallel to the carrier's there is no gyroscopic moment; the centrifugal force
-// loads the planet bearings only, radially, which a torsional model does not see.
+// moment, M_1 + M_2 + sum r_i x f_i = 0). The planets' centres are fixed in the carrier (their
+// orbital mass belongs in the carrier's inertia, m_p r_p^2), each off by its pin error; with their
+// axes parallel to the carrier's there is no gyroscopic moment, and the centrifugal force loads
+// the planet bearings only, radially, which the planets' rigid pins do not pass on.
+//
+// Bearing translations: a body on the housing's axis (a sun, a ring, a gear of a parallel stage)
+// with a mass may move in the housing's plane on its bearing (stiffness and damping per axis; 0:
+// a floating sun, held only by its meshes):
+//
+//   m_b d^2x_b/dt^2 = -k_b x_b - c_b dx_b/dt + sum over its meshes of R(theta) f_i
+//
+// with theta = phi_c + psi the element frame's angle in the housing (phi_c = 0 on the housing)
+// and f_i the element's force on the body's gear; the element sees the centre's displacement
+// u_i = R(-theta) x_b and its rate in the element's frame. The carrier then takes
+// -(M_1 + M_2) - u_i x f_i: the moment of the forces on the gears it carries, the on-axis gear's
+// force going to its own bearing. Carriers and planets do not translate.
 #pragma once
 
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "gearmesh/gearmesh.h"
 
@@ -29,6 +43,10 @@ namespace gm {
 struct TrainBody {
   double inertia = 0;  // kg m^2 about its axis; ignored when fixed
   bool fixed = false;  // held at angle 0 (a ring in the housing); its reaction is reported
+  double mass = 0;     // kg: > 0 lets the centre translate on its bearing (on the housing's axis)
+  double bearing_stiffness = 0, bearing_damping = 0;  // N/m, N s/m per axis of the housing's plane
+  double pin_error[2] = {0, 0};  // a planet's centre off its nominal place in the carrier: tangential
+                                 // (along the carrier's turning), radial (outwards), m
 };
 
 struct TrainMesh {
@@ -38,7 +56,9 @@ struct TrainMesh {
   int carrier = -1;        // body carrying the mesh, -1: the housing
   double orientation = 0;  // psi, rad, in the carrier's frame
   double offset[2][2] = {{0, 0}, {0, 0}};  // static centre displacement of each gear in the
-                                           // element's frame (x towards gear 2), m: a pin error
+                                           // element's frame (x towards gear 2), m; the bodies'
+                                           // pin errors are added to it (the other gear of a
+                                           // planet's mesh on the carrier's axis)
 };
 
 struct TrainShaft {
@@ -59,6 +79,7 @@ struct TrainInputs {
 
 struct TrainState {
   std::vector<double> phi, omega;           // per body, rad, rad/s (fixed bodies: 0)
+  std::vector<double> centre, centre_speed; // per body x, y in the housing, m, m/s (0 unless it translates)
   std::vector<double> reaction;             // per body: the torque that holds a fixed body, N m
   std::vector<double> shaft_torque;         // per shaft: its torque on `body`, N m
   double kinetic = 0, elastic = 0, initial_energy = 0;
@@ -75,9 +96,11 @@ class Train {
   // a port, a body without inertia, a mesh whose gears coincide, ...).
   const std::string& problem() const { return problem_; }
 
-  // The state at phi, omega (per body; fixed bodies must be 0), energies zeroed; res per mesh.
+  // The state at phi, omega (per body; fixed bodies must be 0) and the centres (x, y per body; NULL:
+  // all at their nominal places, at rest), energies zeroed; res per mesh.
   gm_status start(const std::vector<double>& phi, const std::vector<double>& omega, const TrainInputs& in,
-                  TrainState& s, std::vector<gm_result>& res, std::string& msg);
+                  TrainState& s, std::vector<gm_result>& res, std::string& msg,
+                  const std::vector<double>* centre = nullptr, const std::vector<double>* centre_speed = nullptr);
   // Advance s by duration with the inputs held; res: each mesh's evaluation at the end. On an
   // error s and res are unchanged.
   gm_status advance(const TrainInputs& in, double duration, TrainState& s, std::vector<gm_result>& res,
@@ -87,26 +110,35 @@ class Train {
   // body's torque balances, body `held` fixed at angle `held_angle` (the input), speeds zero,
   // the torques of `in` applied (a load on the output); phi (per body) is the start of the
   // search and the answer. Shafts to far ends hold their far ends at in.far_phi. res: each
-  // mesh's evaluation there. GM_ERR_SOLVER if Newton does not converge (a start in the backlash:
-  // start nearer contact).
+  // mesh's evaluation there. centre (x, y per body; NULL: from the nominal places): the
+  // start of the translating bodies' centres and their answer. GM_ERR_SOLVER if Newton does not
+  // converge (a start in the backlash: start nearer contact).
   gm_status static_state(int held, double held_angle, const TrainInputs& in, std::vector<double>& phi,
-                         std::vector<gm_result>& res, std::string& msg);
+                         std::vector<gm_result>& res, std::string& msg, std::vector<double>* centre = nullptr);
 
   const gm_model* mesh_model(int m) const { return meshes_[std::size_t(m)].model; }
 
   int body_count() const { return int(bodies_.size()); }
+  bool translates(int b) const { return shift_[std::size_t(b)] >= 0; }
   int mesh_count() const { return int(meshes_.size()); }
 
  private:
   struct Point;
   class Stepper;
+  void unpack(const Eigen::VectorXd& q, const Eigen::VectorXd& qd, TrainState& s) const;
+  void pack(const std::vector<double>& phi, const std::vector<double>& omega, const std::vector<double>* centre,
+            const std::vector<double>* centre_speed, Eigen::VectorXd& q, Eigen::VectorXd& qd) const;
   std::vector<TrainBody> bodies_;
   std::vector<TrainMesh> meshes_;
   std::vector<TrainShaft> shafts_;
   TrainParams params_;
-  std::vector<int> free_;     // free body -> body index
-  std::vector<int> slot_;     // body -> free index, -1 if fixed
+  // The unknowns: the free bodies' spins, then x and y of each translating body.
+  std::vector<int> free_;     // free body -> body index (the first unknowns)
+  std::vector<int> slot_;     // body -> its spin's unknown, -1 if fixed
+  std::vector<int> shift_;    // body -> the unknown of its x (y the next), -1 if it does not translate
   std::vector<double> scale_; // per body: its rim radius for the error (largest base radius or orbit)
+  std::vector<double> dof_mass_, dof_scale_;  // per unknown: inertia or mass; rim radius or 1
+  std::vector<double> dof_lever_;             // per unknown: 1 (torque) or the rim radius (force)
   std::string problem_;
 };
 

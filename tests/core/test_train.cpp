@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
+
 #include "test_support.hpp"
 #include "gearmesh/train.h"
 #include "train.hpp"
@@ -426,6 +428,257 @@ TEST(Train, PlanetaryStaticStateSharesTheLoad) {
     for (int k = 0; k < s.planets; ++k) sun_torque -= res[std::size_t(2 * k)].moment[0][2];
     EXPECT_NEAR(sun_torque, load * s.zs / (s.zs + s.zr), 1e-6 * load);
   }
+}
+
+// The planetary stage of Planetary (the sun held, 500 N m on the carrier, the ring in the
+// housing) with planet 1's pin `pin_error` off tangentially and the sun floating (mass 1 kg on no
+// bearing: held only by its meshes) or fixed: the static state (Train::static_state) and, for
+// the comparison below, each mesh's evaluation there and the state's unknowns.
+struct StageStatics {
+  std::vector<gm_result> res;
+  std::vector<double> phi, centre;
+};
+
+std::unique_ptr<gm::Train> make_stage(Planetary& s, const gm::TrainBody& sun, double pin_error, double shaft_damping) {
+  std::vector<gm::TrainMesh> meshes;
+  for (int k = 0; k < s.planets; ++k) {
+    const double psi = 2 * kPi * k / s.planets;
+    for (int which = 0; which < 2; ++which) {
+      gm::TrainMesh me;
+      me.model = which == 0 ? s.sun_planet->m : s.planet_ring->m;
+      me.data = s.data[std::size_t(2 * k + which)];
+      me.carrier = s.carrier;
+      me.gear[0] = which == 0 ? s.sun : 1 + k;
+      me.gear[1] = which == 0 ? 1 + k : s.ring;
+      me.orientation = which == 0 ? psi : psi + kPi;
+      meshes.push_back(me);
+    }
+  }
+  std::vector<gm::TrainBody> bodies(std::size_t(s.planets + 1), gm::TrainBody{2e-3, false});
+  bodies[std::size_t(s.sun)] = sun;
+  bodies[1].pin_error[0] = pin_error;
+  bodies.push_back({0.0, true});
+  bodies.push_back({5e-2, false});
+  auto train = std::make_unique<gm::Train>(bodies, meshes, std::vector<gm::TrainShaft>{{s.sun, -1, 1e6, shaft_damping}},
+                                           gm::TrainParams{});
+  return train;
+}
+
+StageStatics stage_statics(Planetary& s, bool floating, double pin_error, const std::vector<double>* start = nullptr) {
+  gm::TrainBody sun{2e-3, false};
+  if (floating) sun.mass = 1.0;
+  const std::unique_ptr<gm::Train> train = make_stage(s, sun, pin_error, 50.0);
+  EXPECT_EQ(train->problem(), "");
+  const std::size_t nb = std::size_t(s.carrier + 1);
+  StageStatics out;
+  if (start) out.phi = *start;
+  else {  // every mesh 1 um into its loaded flank (PlanetaryStaticStateSharesTheLoad)
+    const gm_pair_geometry& gsp = s.sun_planet->geo();
+    const gm_pair_geometry& gpr = s.planet_ring->geo();
+    const double rs = 0.5 * gsp.gear[0].d_b, rp = 0.5 * gsp.gear[1].d_b, rr = 0.5 * gpr.gear[1].d_b;
+    const double delta = -(gpr.j_bt + 2e-6) / (rs + rr), beta = delta + (rs * delta + 1e-6) / rp;
+    out.phi.assign(nb, 0.0);
+    out.phi[std::size_t(s.carrier)] = delta;
+    for (int k = 0; k < s.planets; ++k) out.phi[std::size_t(1 + k)] = 2 * (2 * kPi * k / s.planets) + beta;
+  }
+  out.centre.assign(2 * nb, 0.0);
+  gm::TrainInputs in;
+  in.torque.assign(nb, 0.0);
+  in.torque[std::size_t(s.carrier)] = -500.0;
+  in.far_phi = {0.0};
+  in.far_omega = {0.0};
+  std::string msg;
+  EXPECT_EQ(train->static_state(s.sun, 0.0, in, out.phi, out.res, msg, &out.centre), GM_OK) << msg;
+  return out;
+}
+
+std::vector<double> sun_mesh_shares(const Planetary& s, const std::vector<gm_result>& res) {
+  double total = 0;
+  for (int k = 0; k < s.planets; ++k) total += res[std::size_t(2 * k)].normal_force;
+  std::vector<double> share;
+  for (int k = 0; k < s.planets; ++k) share.push_back(res[std::size_t(2 * k)].normal_force / total);
+  return share;
+}
+
+// An independent linear lumped-parameter static model of the stage (written here, not from the
+// train's code): each mesh a spring k_m (the element's tangent stiffness at the pin-error-free
+// equilibrium) along its deflection delta_m, whose gradient g_m over the coordinates (the sun's
+// spin (held), each planet's spin, the carrier's spin, the sun's centre x, y in the housing)
+// is read off the element's forces there: a mesh's force on a coordinate is -F_m g_m (moments
+// about the gears' centres on the spins; the forces on the gears carried, taken by the carrier
+// at their arm; the force on the sun's centre turned into the housing). A pin error e moves the
+// planet's centre: delta_m changes by -f_planet . e / F_m. Solved K dq = -sum k_m g_m de_m, the
+// change of each sun mesh's force is k_m (g_m . dq + de_m); returned: the shares with the pin
+// error (the equilibrium's forces plus the changes).
+std::vector<double> lumped_shares(const Planetary& s, const StageStatics& eq, bool floating, double pin_error) {
+  const int np = s.planets;
+  const int n = 2 + np + 2;  // sun spin, planets, carrier, sun x, sun y
+  const int carrier = 1 + np, sx = 2 + np;
+  const double arm = gm_model_parameters(s.sun_planet->m)->pair.center_distance;  // the planets' orbit
+  const double pc = eq.phi[std::size_t(s.carrier)];
+  std::vector<std::vector<double>> g;
+  std::vector<double> k, de, force;
+  for (int m = 0; m < 2 * np; ++m) {
+    const int planet = m / 2;
+    const bool sun_mesh = m % 2 == 0;
+    const gm_result& r = eq.res[std::size_t(m)];
+    const double F = r.normal_force;
+    const double th = pc + 2 * kPi * planet / np + (sun_mesh ? 0.0 : kPi);  // the element frame's angle
+    const double c = std::cos(th), sn = std::sin(th);
+    std::vector<double> gm_(std::size_t(n), 0.0);
+    const int pi = sun_mesh ? 1 : 0;  // the planet's gear in the element
+    // spins: the element's moment on each gear, relative to the carrier
+    gm_[std::size_t(1 + planet)] = -r.moment[pi][2] / F;
+    // the planet's centre relative to the carrier's axis, in the element frame: the sun mesh's
+    // frame has the sun (on the axis) at 0 and the planet at +a; the ring mesh's frame has the
+    // planet at 0 and the ring's centre (the axis) at +a
+    const double fp[2] = {r.force[pi][0], r.force[pi][1]};
+    const double radial = sun_mesh ? 1.0 : -1.0;
+    const double carrier_moment = radial * arm * fp[1];  // (radial a, 0) x f
+    if (sun_mesh) {
+      gm_[0] = -r.moment[0][2] / F;
+      // the sun's centre force in the housing
+      const double fs[2] = {c * r.force[0][0] - sn * r.force[0][1], sn * r.force[0][0] + c * r.force[0][1]};
+      if (floating) {
+        gm_[std::size_t(sx)] = -fs[0] / F;
+        gm_[std::size_t(sx + 1)] = -fs[1] / F;
+      }
+    }
+    // the carrier's spin moves the planet's centre on its orbit: its force's moment about the axis
+    gm_[std::size_t(carrier)] = -carrier_moment / F;
+    // the pin error: tangential (z x radial of the planet's position) in the element frame
+    const double e[2] = {0.0, radial * pin_error};
+    g.push_back(gm_);
+    k.push_back(r.stiffness);
+    de.push_back(planet == 0 ? -(fp[0] * e[0] + fp[1] * e[1]) / F : 0.0);
+    force.push_back(F);
+  }
+  // unknowns: every coordinate but the held sun spin (and the sun's centre when fixed)
+  std::vector<int> unknown;
+  for (int i = 1; i < n; ++i)
+    if (floating || i < sx) unknown.push_back(i);
+  const int u = int(unknown.size());
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(u, u);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(u);
+  for (std::size_t m = 0; m < g.size(); ++m)
+    for (int a = 0; a < u; ++a) {
+      rhs[a] -= k[m] * g[m][std::size_t(unknown[std::size_t(a)])] * de[m];
+      for (int b = 0; b < u; ++b)
+        K(a, b) += k[m] * g[m][std::size_t(unknown[std::size_t(a)])] * g[m][std::size_t(unknown[std::size_t(b)])];
+    }
+  const Eigen::VectorXd dq = K.fullPivLu().solve(rhs);
+  std::vector<double> sun_force;
+  double total = 0;
+  for (int p = 0; p < np; ++p) {
+    const std::size_t m = std::size_t(2 * p);
+    double d = de[m];
+    for (int a = 0; a < u; ++a) d += g[m][std::size_t(unknown[std::size_t(a)])] * dq[a];
+    sun_force.push_back(force[m] + k[m] * d);
+    total += sun_force.back();
+  }
+  for (double& f : sun_force) f /= total;
+  return sun_force;
+}
+
+// Load sharing under a planet's pin error (2 um tangential on planet 1), the sun floating or
+// fixed, against the independent lumped model:
+// * three planets and a floating sun share the load equally whatever the pin error (the
+//   statically determinate stage: the sun's force balance alone fixes the three forces);
+// * with the sun fixed, or with four planets, the shares move; the change of every share agrees
+//   with the lumped model within 10 % of the largest change.
+TEST(Train, FloatingSunAndPinErrorsAgainstALumpedModel) {
+  const double pin_error = 2e-6;
+  for (int planets : {3, 4})
+    for (bool floating : {true, false}) {
+      SCOPED_TRACE(std::to_string(planets) + " planets, sun " + (floating ? "floating" : "fixed"));
+      Planetary s(planets);
+      const StageStatics ref = stage_statics(s, floating, 0.0);
+      const StageStatics off = stage_statics(s, floating, pin_error, &ref.phi);
+      const std::vector<double> before = sun_mesh_shares(s, ref.res), after = sun_mesh_shares(s, off.res);
+      const std::vector<double> lumped = lumped_shares(s, ref, floating, pin_error);
+      double largest = 0;
+      for (int k = 0; k < planets; ++k) largest = std::max(largest, std::fabs(after[std::size_t(k)] - before[std::size_t(k)]));
+      for (int k = 0; k < planets; ++k) {
+        const double change = after[std::size_t(k)] - before[std::size_t(k)];
+        const double lumped_change = lumped[std::size_t(k)] - before[std::size_t(k)];
+        EXPECT_NEAR(change, lumped_change, 0.1 * largest + 1e-4) << "planet " << k + 1;
+        if (planets == 3 && floating) EXPECT_NEAR(after[std::size_t(k)], 1.0 / 3, 2e-4) << "planet " << k + 1;
+      }
+      if (!(planets == 3 && floating)) EXPECT_GT(largest, 0.02);
+      if (floating) {  // the sun moved, and balances its mesh forces alone
+        EXPECT_GT(std::hypot(off.centre[0], off.centre[1]), 1e-7);
+      }
+    }
+}
+
+// The sun on a bearing (0.5 kg, 1e8 N/m, 2000 N s/m), planet 1's pin 2 um off: the damped
+// dynamics with the sun's far end held settles where the static state (Newton on the same
+// equations, a different path) puts the sun's centre and the mesh forces; then the stage run
+// up to speed keeps its energy account (the bearing's and the meshes' work through the centre's
+// motion, booked in the element's frame, against the bodies' forces in the housing's).
+TEST(Train, SunOnABearingSettlesToItsStaticStateAndKeepsItsEnergyAccount) {
+  Planetary s(3);
+  gm::TrainBody sun{2e-3, false};
+  sun.mass = 0.5;
+  sun.bearing_stiffness = 1e8;
+  sun.bearing_damping = 2e3;
+  const std::unique_ptr<gm::Train> train = make_stage(s, sun, 2e-6, 50.0);
+  ASSERT_EQ(train->problem(), "");
+  const StageStatics nominal = stage_statics(s, true, 0.0);  // a start in contact: the floating sun's state
+  const StageStatics start = stage_statics(s, true, 2e-6, &nominal.phi);
+  const std::size_t nb = std::size_t(s.carrier + 1);
+  gm::TrainInputs in;
+  in.torque.assign(nb, 0.0);
+  in.torque[std::size_t(s.carrier)] = -500.0;
+  in.far_phi = {0.0};
+  in.far_omega = {0.0};
+  gm::TrainState st;
+  std::vector<gm_result> dyn;
+  std::string msg;
+  ASSERT_EQ(train->start(start.phi, std::vector<double>(nb, 0.0), in, st, dyn, msg), GM_OK) << msg;
+  for (int i = 0; i < 300; ++i) ASSERT_EQ(train->advance(in, 1e-3, st, dyn, msg), GM_OK) << msg;
+  std::vector<double> phi = st.phi, centre(2 * nb, 0.0);
+  std::vector<gm_result> res;
+  ASSERT_EQ(train->static_state(s.sun, st.phi[std::size_t(s.sun)], in, phi, res, msg, &centre), GM_OK) << msg;
+  EXPECT_GT(std::hypot(centre[0], centre[1]), 1e-8);  // the bearing carries the sun's unbalance
+  EXPECT_NEAR(st.centre[0], centre[0], 1e-10);
+  EXPECT_NEAR(st.centre[1], centre[1], 1e-10);
+  for (std::size_t m = 0; m < res.size(); ++m)
+    EXPECT_NEAR(dyn[m].normal_force, res[m].normal_force, 1e-5 * res[m].normal_force) << "mesh " << m + 1;
+
+  // run up: the far end at 100 rad/s, 0.1 s
+  in.far_omega = {100.0};
+  in.far_phi = {st.phi[std::size_t(s.sun)]};
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_EQ(train->advance(in, 1e-3, st, dyn, msg), GM_OK) << msg;
+    in.far_phi[0] += 100.0 * 1e-3;
+  }
+  EXPECT_GT(st.omega[std::size_t(s.carrier)], 10.0);
+  EXPECT_GT(st.work_in, 100.0);
+  EXPECT_LT(std::fabs(st.residual), 1e-4 * st.work_in) << "residual " << st.residual << " J of " << st.work_in;
+}
+
+// A translating body that cannot translate, or a pin error where no carrier is, is named.
+TEST(Train, TranslationsAndPinErrorsAreNamedWhereTheyDoNotBelong) {
+  Planetary s(3);
+  gm::TrainBody sun{2e-3, false};
+  sun.bearing_stiffness = 1e8;  // without a mass
+  const auto massless = make_stage(s, sun, 0.0, 50.0);
+  EXPECT_NE(massless->problem().find("body 1: a bearing stiffness or damping without a mass"), std::string::npos)
+      << massless->problem();
+  sun.mass = -1;
+  EXPECT_NE(make_stage(s, sun, 0.0, 50.0)->problem().find("body 1: mass"), std::string::npos);
+  Instance pair(set_a());
+  gm::TrainMesh me;
+  me.model = pair.m;
+  me.data = pair.d;
+  me.gear[0] = 0;
+  me.gear[1] = 1;
+  gm::TrainBody pinned{0.02, false};
+  pinned.pin_error[0] = 1e-6;
+  gm::Train housing({pinned, {0.02, false}}, {me}, {}, {});
+  EXPECT_NE(housing.problem().find("body 1: a pin error, but its mesh 1 is on the housing"), std::string::npos)
+      << housing.problem();
 }
 
 TEST(Train, BadTopologyIsNamed) {
