@@ -12,6 +12,7 @@ namespace gm {
 namespace {
 
 constexpr double kSqrt2 = 1.41421356237309504880;
+constexpr double kPi = 3.14159265358979323846;
 constexpr double kGamma = 2.0 - kSqrt2;
 constexpr double kD = kGamma / 2.0;
 constexpr double kW = kSqrt2 / 4.0;
@@ -589,6 +590,12 @@ Train::Train(std::vector<TrainBody> bodies, std::vector<TrainMesh> meshes, std::
       me.offset[i][1] += radial * body.pin_error[0];
     }
   }
+  finest_pitch_ = INFINITY;
+  for (const TrainMesh& me : meshes_)
+    for (int i = 0; i < 2; ++i)
+      finest_pitch_ = std::min(finest_pitch_, kPi * gm_model_geometry(me.model)->gear[i].d_b /
+                                                  gm_model_parameters(me.model)->gear[i].teeth);
+  if (!std::isfinite(finest_pitch_)) finest_pitch_ = 1e-3;
   for (int f : free_) {
     dof_mass_.push_back(bodies_[std::size_t(f)].inertia);
     dof_scale_.push_back(scale_[std::size_t(f)]);
@@ -636,46 +643,80 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
   Point x;
   // the generalized force on unknown i, a force times the body's rim radius (N m either way)
   const auto load = [&](int i) { return x.accel[i] * dof_mass_[std::size_t(i)] * dof_lever_[std::size_t(i)]; };
-  const auto residual = [&](const Vec& q, double* size) -> gm_status {
+  // the largest of them, and the potential energy (the elastic energy less the work of the held
+  // torques), whose minimum the equilibrium is
+  double energy = 0;
+  const auto residual = [&](const Vec& q, double* size, double* potential) -> gm_status {
     const gm_status s = st.evaluate_at(0.0, q, w, x, msg);
     if (s != GM_OK) return s;
     double worst = 0;
     for (int i : unknown) worst = std::max(worst, std::fabs(load(i)));
     *size = worst;
+    *potential = x.elastic;
+    for (int b = 0; b < nb; ++b)
+      if (slot_[std::size_t(b)] >= 0 && std::size_t(b) < in.torque.size())
+        *potential -= in.torque[std::size_t(b)] * q[slot_[std::size_t(b)]];
     return GM_OK;
   };
   double size = 0;
-  gm_status s = residual(p, &size);
+  gm_status s = residual(p, &size, &energy);
   if (s != GM_OK) return s;
   // converged when every torque is below 1e-9 of the largest input torque (or 1e-9 N m)
   double scale = 1.0;
   for (double t : in.torque) scale = std::max(scale, std::fabs(t));
   const double tol = 1e-9 * scale;
-  for (int it = 0; it < 100 && size > tol; ++it) {
-    if ((s = st.jacobian(x, msg)) != GM_OK) return s;
-    const Mat K = st.force_stiffness();
-    const int m = int(unknown.size());
-    Mat A(m, m);
-    Vec r(m);
-    for (int i = 0; i < m; ++i) {
-      r[i] = x.accel[unknown[std::size_t(i)]] * dof_mass_[std::size_t(unknown[std::size_t(i)])];
-      for (int j = 0; j < m; ++j) A(i, j) = K(unknown[std::size_t(i)], unknown[std::size_t(j)]);
+  // Newton, turned into Levenberg-Marquardt where it does not reduce the residual: (A - mu S) d =
+  // -r (A = dr/dq) with S the stiffness diagonal (floored, so that a body in its backlash, which no mesh
+  // holds, moves by r / (mu s), down the potential energy, and closes its contact in growing
+  // steps); a step is kept when the potential energy or the largest torque falls
+  const int m = int(unknown.size());
+  Mat A(m, m);
+  Vec r(m), S(m);
+  double mu = 0;
+  bool fresh = false;
+  for (int it = 0; it < 300 && size > tol; ++it) {
+    if (!fresh) {
+      if ((s = st.jacobian(x, msg)) != GM_OK) return s;
+      const Mat K = st.force_stiffness();
+      double largest = 0;
+      for (int i = 0; i < m; ++i) {
+        r[i] = x.accel[unknown[std::size_t(i)]] * dof_mass_[std::size_t(unknown[std::size_t(i)])];
+        for (int j = 0; j < m; ++j) A(i, j) = K(unknown[std::size_t(i)], unknown[std::size_t(j)]);
+        const double lever = dof_lever_[std::size_t(unknown[std::size_t(i)])];
+        largest = std::max(largest, std::fabs(A(i, i)) * lever * lever);
+      }
+      for (int i = 0; i < m; ++i) {
+        const double lever = dof_lever_[std::size_t(unknown[std::size_t(i)])];
+        S[i] = std::max(std::fabs(A(i, i)), 1e-3 * largest / (lever * lever));
+      }
+      fresh = true;
     }
-    const Vec d = A.fullPivLu().solve(-r);
-    if (!d.allFinite()) break;
-    // halve the Newton step until the residual falls (contact is one-sided: a full step may open it)
-    double lambda = 1.0, trial_size = INFINITY;
+    Mat B = A;  // d(force)/dq: negative where stable, so the damping is subtracted
+    B.diagonal() -= mu * S;
+    Vec d = B.fullPivLu().solve(-r);
+    // no step moves a rim by more than a tenth of the finest base pitch: the meshes repeat with
+    // every tooth, and a longer step could land on the same mesh states a few teeth on
+    double reach = 0;
+    for (int i = 0; i < m; ++i) reach = std::max(reach, std::fabs(d[i]) * dof_scale_[std::size_t(unknown[std::size_t(i)])]);
+    if (reach > 0.1 * finest_pitch_) d *= 0.1 * finest_pitch_ / reach;
     Vec trial = p;
-    for (int half = 0; half < 30; ++half, lambda *= 0.5) {
-      trial = p;
-      for (int i = 0; i < m; ++i) trial[unknown[std::size_t(i)]] += lambda * d[i];
-      if (residual(trial, &trial_size) == GM_OK && trial_size < size) break;
+    double trial_size = INFINITY, trial_energy = INFINITY;
+    if (d.allFinite()) {
+      for (int i = 0; i < m; ++i) trial[unknown[std::size_t(i)]] += d[i];
+      if (residual(trial, &trial_size, &trial_energy) != GM_OK) trial_size = trial_energy = INFINITY;
     }
-    if (!(trial_size < size)) break;
-    p = trial;
-    size = trial_size;
+    if (trial_size < size || trial_energy < energy) {
+      p = trial;
+      size = trial_size;
+      energy = trial_energy;
+      mu = mu > 1e-8 ? mu / 4 : 0.0;
+      fresh = false;
+      continue;
+    }
+    mu = std::max(1e-6, 4 * mu);
+    if (mu > 1e12) break;
   }
-  if ((s = residual(p, &size)) != GM_OK) return s;
+  if ((s = residual(p, &size, &energy)) != GM_OK) return s;
   if (!(size <= tol)) {
     msg = "static_state: no equilibrium found (largest torque left " + number(size) +
           " N m); start nearer contact";

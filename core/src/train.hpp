@@ -139,6 +139,7 @@ class Train {
   std::vector<double> scale_; // per body: its rim radius for the error (largest base radius or orbit)
   std::vector<double> dof_mass_, dof_scale_;  // per unknown: inertia or mass; rim radius or 1
   std::vector<double> dof_lever_;             // per unknown: 1 (torque) or the rim radius (force)
+  double finest_pitch_ = 0;                   // the smallest base pitch of the meshes' gears, m
   std::string problem_;
 };
 

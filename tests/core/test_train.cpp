@@ -616,6 +616,22 @@ TEST(Train, FloatingSunAndPinErrorsAgainstALumpedModel) {
 // equations, a different path) puts the sun's centre and the mesh forces; then the stage run
 // up to speed keeps its energy account (the bearing's and the meshes' work through the centre's
 // motion, booked in the element's frame, against the bodies' forces in the housing's).
+// The static state found from a start in the backlash (the planets at twice their position
+// angles, the carrier at 0: the ring meshes open by their backlash), where Newton alone has no
+// stiffness to work with: the same equilibrium as from a start in contact.
+TEST(Train, StaticStateCrossesTheBacklash) {
+  for (bool floating : {false, true}) {
+    Planetary s(3);
+    const StageStatics near = stage_statics(s, floating, 0.0);
+    std::vector<double> open(std::size_t(s.carrier + 1), 0.0);
+    for (int k = 0; k < s.planets; ++k) open[std::size_t(1 + k)] = 2 * (2 * kPi * k / s.planets);
+    const StageStatics far = stage_statics(s, floating, 0.0, &open);
+    for (std::size_t b = 0; b < near.phi.size(); ++b) EXPECT_NEAR(far.phi[b], near.phi[b], 1e-9) << "body " << b + 1;
+    for (std::size_t m = 0; m < near.res.size(); ++m)
+      EXPECT_NEAR(far.res[m].normal_force, near.res[m].normal_force, 1e-6 * near.res[m].normal_force);
+  }
+}
+
 TEST(Train, SunOnABearingSettlesToItsStaticStateAndKeepsItsEnergyAccount) {
   Planetary s(3);
   gm::TrainBody sun{2e-3, false};
