@@ -14,7 +14,7 @@
 #include "train_variables.h"
 #include "values.h"
 
-enum { NB = TRAIN_MAX_BODIES, NS = TRAIN_MAX_SHAFTS, NM = TRAIN_MAX_MESHES, NF = TRAIN_STRIDE, NSCALAR = 16 };
+enum { NB = TRAIN_MAX_BODIES, NS = TRAIN_MAX_SHAFTS, NM = TRAIN_MAX_MESHES, NF = TRAIN_STRIDE, NSCALAR = 32 };
 enum { NAME_SIZE = 64 };
 
 typedef struct train_values {
@@ -40,6 +40,8 @@ struct fmu_model {
   train_values v, start;
   gm_model* model[NM];
   gm_train* train;
+  double static_phi[2][NB], static_angle[2]; /* quasi-static: the last two equilibria */
+  int static_points;
   int built;     /* train matches the parameters */
   int evaluated; /* the outputs belong to the train's state */
 };
@@ -153,6 +155,7 @@ fmu_model* model_new(fmu_log_fn log, void* log_context) {
   m->start.scalar[1] = 1e-8;
   m->start.scalar[2] = 1e-3;
   m->start.scalar[3] = 1e-9;
+  m->start.scalar[16] = 1;
   m->v = m->start;
   return m;
 }
@@ -185,12 +188,15 @@ static int read_train(fmu_model* m, char* msg, size_t n) {
     if (sscanf(line, "%15s %63s", kind, name) != 2) {
       ok = 0;
     } else if (!strcmp(kind, "body") && m->nb < NB) {
-      double inertia, angle;
+      double inertia, angle, extra[5] = {0, 0, 0, 0, 0};
       int fixed;
-      ok = sscanf(line, "%*s %*s %lf %d %lf", &inertia, &fixed, &angle) == 3 && isfinite(angle);
+      const int got = sscanf(line, "%*s %*s %lf %d %lf %lf %lf %lf %lf %lf", &inertia, &fixed, &angle, &extra[0],
+                             &extra[1], &extra[2], &extra[3], &extra[4]);
+      ok = (got == 3 || got == 8) && isfinite(angle);
       snprintf(m->body_name[m->nb], NAME_SIZE, "%s", name);
       m->start.body[m->nb][0] = inertia;
       m->start.body[m->nb][1] = angle; /* the start of <body>.phi */
+      for (int k = 0; k < 5; ++k) m->start.body[m->nb][7 + k] = extra[k];
       m->fixed[m->nb++] = fixed != 0;
     } else if (!strcmp(kind, "shaft") && m->ns < NS) {
       gm_train_shaft* s = &m->shaft_def[m->ns];
@@ -264,7 +270,14 @@ static int build(fmu_model* m, char* msg, size_t n) {
     m->mesh_def[i].model = m->model[i];
   }
   gm_train_body bodies[NB];
-  for (int b = 0; b < m->nb; ++b) bodies[b] = (gm_train_body){m->v.body[b][0], m->fixed[b]};
+  for (int b = 0; b < m->nb; ++b)
+    bodies[b] = (gm_train_body){m->v.body[b][0], m->fixed[b], m->v.body[b][7], m->v.body[b][8], m->v.body[b][9],
+                                {m->v.body[b][10], m->v.body[b][11]}};
+  const int held = (int)m->v.scalar[16];
+  if (m->v.scalar[15] != 0 && m->v.scalar[15] != 1)
+    return snprintf(msg, n, "model.quasi_static = %g; allowed: 0 or 1", m->v.scalar[15]), 1;
+  if (m->v.scalar[15] == 1 && (held < 1 || held > m->nb || m->fixed[held - 1]))
+    return snprintf(msg, n, "static.held_body = %d; allowed: a body that is not fixed, 1..%d", held, m->nb), 1;
   for (int s = 0; s < m->ns; ++s) {
     m->shaft_def[s].stiffness = m->v.shaft[s][0];
     m->shaft_def[s].damping = m->v.shaft[s][1];
@@ -293,12 +306,17 @@ static void inputs(const fmu_model* m, double* phi, double* omega, double* torqu
 }
 
 static void publish(fmu_model* m) {
-  for (int b = 0; b < m->nb; ++b) gm_train_body_state(m->train, b, &m->v.body[b][4], &m->v.body[b][5], &m->v.body[b][6]);
+  for (int b = 0; b < m->nb; ++b) {
+    gm_train_body_state(m->train, b, &m->v.body[b][4], &m->v.body[b][5], &m->v.body[b][6]);
+    gm_train_body_centre(m->train, b, &m->v.body[b][12], &m->v.body[b][13]);
+  }
   for (int s = 0; s < m->ns; ++s) gm_train_shaft_torque(m->train, s, &m->v.shaft[s][4]);
   for (int i = 0; i < m->nm; ++i) {
     const gm_result* r = gm_train_mesh_result(m->train, i);
     double* out = m->v.mesh[i];
-    out[0] = r->te;
+    /* the element's TE counts whole teeth from its angles' zero; a train's gears start teeth apart */
+    const double pitch = gm_model_geometry(m->model[i])->p_bt;
+    out[0] = r->te - pitch * round(r->te / pitch);
     out[1] = r->normal_force;
     out[2] = r->max_load_share;
     out[3] = r->friction_power;
@@ -323,7 +341,32 @@ int model_evaluate(fmu_model* m, int restart, double time, double step, char* ms
   double phi[NB], omega[NB], torque[NB], far_phi[NS], far_omega[NS];
   inputs(m, phi, omega, torque, far_phi, far_omega);
   gm_status st;
-  if (restart || !m->evaluated) {
+  if (m->v.scalar[15] == 1) {
+    /* quasi-static: from the last equilibrium moved on by its last change per unit of the held
+       angle (a secant), or from the inputs' angles at the first */
+    const int held = (int)m->v.scalar[16] - 1;
+    const double angle = m->v.scalar[17];
+    double start[NB];
+    for (int b = 0; b < m->nb; ++b) start[b] = phi[b];
+    if (!restart && m->evaluated) {
+      const double moved = angle - m->static_angle[1];
+      const double last = m->static_angle[1] - m->static_angle[0];
+      for (int b = 0; b < m->nb; ++b) {
+        const double rate = m->static_points > 1 && last != 0 ? (m->static_phi[1][b] - m->static_phi[0][b]) / last : 0.0;
+        start[b] = m->static_phi[1][b] + rate * moved;
+      }
+    } else {
+      m->static_points = 0;
+    }
+    st = gm_train_static(m->train, held, angle, start, torque, far_phi);
+    if (st == GM_OK) {
+      memcpy(m->static_phi[0], m->static_phi[1], sizeof m->static_phi[0]);
+      m->static_angle[0] = m->static_angle[1];
+      for (int b = 0; b < m->nb; ++b) gm_train_body_state(m->train, b, &m->static_phi[1][b], NULL, NULL);
+      m->static_angle[1] = angle;
+      ++m->static_points;
+    }
+  } else if (restart || !m->evaluated) {
     for (int b = 0; b < m->nb; ++b)
       if (m->fixed[b] && (phi[b] != 0 || omega[b] != 0))
         return snprintf(msg, n, "%s.phi, .omega: a fixed body starts at 0; allowed: 0", m->body_name[b]), 1;

@@ -32,7 +32,10 @@
   X(11, "energy.parametric", Real, output, continuous, "J", "the meshes' non-conservative work")                \
   X(12, "energy.residual", Real, output, continuous, "J", "integration error: + lost, - made")                  \
   X(13, "dynamics.steps", Integer, output, discrete, "", "internal steps of the last step")                     \
-  X(14, "dynamics.rejected", Integer, output, discrete, "", "internal steps rejected in the last step")
+  X(14, "dynamics.rejected", Integer, output, discrete, "", "internal steps rejected in the last step")     \
+  X(15, "model.quasi_static", Integer, parameter, fixed, "", "1: each step is the static equilibrium (speeds 0) with static.held_body at static.held_angle; 0: the dynamics") \
+  X(16, "static.held_body", Integer, parameter, fixed, "", "quasi-static: the body held at static.held_angle (1 = the first body)") \
+  X(17, "static.held_angle", Real, input, continuous, "rad", "quasi-static: the held body's angle")
 
 #define TRAIN_BODY_FIELDS(X)                                                                                     \
   X(0, "inertia", Real, parameter, fixed, "kg.m2", "inertia about the spin axis (0 for a fixed body)")          \
@@ -41,7 +44,14 @@
   X(3, "torque", Real, input, continuous, "N.m", "external torque about +z, held over a step")                \
   X(4, "angle", Real, output, continuous, "rad", "spin angle")                                                 \
   X(5, "speed", Real, output, continuous, "rad/s", "spin speed")                                               \
-  X(6, "holding_torque", Real, output, continuous, "N.m", "torque that holds a fixed body (0 if free)")
+  X(6, "holding_torque", Real, output, continuous, "N.m", "torque that holds a fixed body (or the held body of the quasi-static mode; 0 if free)") \
+  X(7, "mass", Real, parameter, fixed, "kg", "mass of a body whose centre translates on its bearing (0: it does not)") \
+  X(8, "bearing_stiffness", Real, parameter, fixed, "N/m", "bearing stiffness per axis (with a mass; 0: floating)") \
+  X(9, "bearing_damping", Real, parameter, fixed, "N.s/m", "bearing damping per axis (with a mass)")        \
+  X(10, "pin_error_tangential", Real, parameter, fixed, "m", "a planet's centre off its place along the carrier's turning") \
+  X(11, "pin_error_radial", Real, parameter, fixed, "m", "a planet's centre off its place, outwards")       \
+  X(12, "x", Real, output, continuous, "m", "centre's displacement along the housing's x (translating bodies)") \
+  X(13, "y", Real, output, continuous, "m", "centre's displacement along the housing's y (translating bodies)")
 
 #define TRAIN_SHAFT_FIELDS(X)                                                                                    \
   X(0, "stiffness", Real, parameter, fixed, "N.m/rad", "torsional stiffness")                                  \
@@ -51,7 +61,7 @@
   X(4, "torque", Real, output, continuous, "N.m", "the shaft's torque on its body (the far end feels minus it)")
 
 #define TRAIN_MESH_FIELDS(X)                                                                                     \
-  X(0, "te", Real, output, continuous, "m", "transmission error of the mesh's element")                       \
+  X(0, "te", Real, output, continuous, "m", "transmission error of the mesh's element, whole base pitches taken off")                       \
   X(1, "normal_force", Real, output, continuous, "N", "normal force")                                          \
   X(2, "max_load_share", Real, output, continuous, "", "share of the force on the most loaded tooth pair")     \
   X(3, "friction_power", Real, output, continuous, "W", "friction loss")                                       \
@@ -63,6 +73,7 @@
 /* Resources of a train FMU (written by tools/gearmesh/train_fmu.py):
  *   resources/train.txt: "gearmesh-train 1", then one line per member, in index order:
  *     body <name> <inertia kg m^2> <fixed 0|1> <initial angle rad, the start of <body>.phi>
+ *          [<mass kg> <bearing stiffness N/m> <bearing damping N s/m> <pin error tangential m> <radial m>]
  *     shaft <name> <body> <other body or -1: far end> <stiffness> <damping>
  *     mesh <name> <gear1 body> <gear2 body> <carrier body or -1> <orientation rad>
  *   resources/mesh<k>/gearmesh-start-values.txt: the k-th mesh's element parameters (k from 1),

@@ -613,7 +613,8 @@ Train::Train(std::vector<TrainBody> bodies, std::vector<TrainMesh> meshes, std::
 }
 
 gm_status Train::static_state(int held, double held_angle, const TrainInputs& in, std::vector<double>& phi,
-                              std::vector<gm_result>& res, std::string& msg, std::vector<double>* centre) {
+                              std::vector<gm_result>& res, std::string& msg, std::vector<double>* centre,
+                              double* held_torque) {
   if (!problem_.empty()) {
     msg = problem_;
     return GM_ERR_PARAMETER;
@@ -644,14 +645,20 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
   // the generalized force on unknown i, a force times the body's rim radius (N m either way)
   const auto load = [&](int i) { return x.accel[i] * dof_mass_[std::size_t(i)] * dof_lever_[std::size_t(i)]; };
   // the largest of them, and the potential energy (the elastic energy less the work of the held
-  // torques), whose minimum the equilibrium is
-  double energy = 0;
-  const auto residual = [&](const Vec& q, double* size, double* potential) -> gm_status {
+  // torques), whose minimum the equilibrium is; converged when every torque is below 1e-9 of the
+  // largest torque in the train (input, mesh or shaft; at least 1 N m): a locked-in torque counts
+  double scale = 1.0;
+  for (double t : in.torque) scale = std::max(scale, std::fabs(t));
+  double energy = 0, tol = 0;
+  const auto residual = [&](const Vec& q, double* size, double* potential, double* limit) -> gm_status {
     const gm_status s = st.evaluate_at(0.0, q, w, x, msg);
     if (s != GM_OK) return s;
-    double worst = 0;
+    double worst = 0, inside = scale;
     for (int i : unknown) worst = std::max(worst, std::fabs(load(i)));
+    for (const gm_result& r : x.res) inside = std::max({inside, std::fabs(r.moment[0][2]), std::fabs(r.moment[1][2])});
+    for (double t : x.shaft_torque) inside = std::max(inside, std::fabs(t));
     *size = worst;
+    *limit = 1e-9 * inside;
     *potential = x.elastic;
     for (int b = 0; b < nb; ++b)
       if (slot_[std::size_t(b)] >= 0 && std::size_t(b) < in.torque.size())
@@ -659,12 +666,8 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
     return GM_OK;
   };
   double size = 0;
-  gm_status s = residual(p, &size, &energy);
+  gm_status s = residual(p, &size, &energy, &tol);
   if (s != GM_OK) return s;
-  // converged when every torque is below 1e-9 of the largest input torque (or 1e-9 N m)
-  double scale = 1.0;
-  for (double t : in.torque) scale = std::max(scale, std::fabs(t));
-  const double tol = 1e-9 * scale;
   // Newton, turned into Levenberg-Marquardt where it does not reduce the residual: (A - mu S) d =
   // -r (A = dr/dq) with S the stiffness diagonal (floored, so that a body in its backlash, which no mesh
   // holds, moves by r / (mu s), down the potential energy, and closes its contact in growing
@@ -687,7 +690,9 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
       }
       for (int i = 0; i < m; ++i) {
         const double lever = dof_lever_[std::size_t(unknown[std::size_t(i)])];
-        S[i] = std::max(std::fabs(A(i, i)), 1e-3 * largest / (lever * lever));
+        // and where nothing is in contact yet, a mesh-like 1e8 N/m at the rim
+        const double rim = dof_scale_[std::size_t(unknown[std::size_t(i)])];
+        S[i] = std::max({std::fabs(A(i, i)), 1e-3 * largest / (lever * lever), 1e8 * rim * rim});
       }
       fresh = true;
     }
@@ -700,15 +705,16 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
     for (int i = 0; i < m; ++i) reach = std::max(reach, std::fabs(d[i]) * dof_scale_[std::size_t(unknown[std::size_t(i)])]);
     if (reach > 0.1 * finest_pitch_) d *= 0.1 * finest_pitch_ / reach;
     Vec trial = p;
-    double trial_size = INFINITY, trial_energy = INFINITY;
+    double trial_size = INFINITY, trial_energy = INFINITY, trial_tol = 0;
     if (d.allFinite()) {
       for (int i = 0; i < m; ++i) trial[unknown[std::size_t(i)]] += d[i];
-      if (residual(trial, &trial_size, &trial_energy) != GM_OK) trial_size = trial_energy = INFINITY;
+      if (residual(trial, &trial_size, &trial_energy, &trial_tol) != GM_OK) trial_size = trial_energy = INFINITY;
     }
     if (trial_size < size || trial_energy < energy) {
       p = trial;
       size = trial_size;
       energy = trial_energy;
+      tol = trial_tol;
       mu = mu > 1e-8 ? mu / 4 : 0.0;
       fresh = false;
       continue;
@@ -716,7 +722,7 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
     mu = std::max(1e-6, 4 * mu);
     if (mu > 1e12) break;
   }
-  if ((s = residual(p, &size, &energy)) != GM_OK) return s;
+  if ((s = residual(p, &size, &energy, &tol)) != GM_OK) return s;
   if (!(size <= tol)) {
     msg = "static_state: no equilibrium found (largest torque left " + number(size) +
           " N m); start nearer contact";
@@ -727,6 +733,7 @@ gm_status Train::static_state(int held, double held_angle, const TrainInputs& in
     if (shift_[std::size_t(b)] >= 0 && centre)
       for (int a = 0; a < 2; ++a) (*centre)[2 * std::size_t(b) + std::size_t(a)] = p[shift_[std::size_t(b)] + a];
   }
+  if (held_torque) *held_torque = -x.accel[held_dof] * dof_mass_[std::size_t(held_dof)];
   res = x.res;
   return GM_OK;
 }

@@ -111,10 +111,12 @@ class Train {
   // the torques of `in` applied (a load on the output); phi (per body) is the start of the
   // search and the answer. Shafts to far ends hold their far ends at in.far_phi. res: each
   // mesh's evaluation there. centre (x, y per body; NULL: from the nominal places): the
-  // start of the translating bodies' centres and their answer. GM_ERR_SOLVER if Newton does not
+  // start of the translating bodies' centres and their answer. held_torque: the torque that holds
+  // the held body there (minus the sum of the others on it), N m. GM_ERR_SOLVER if Newton does not
   // converge (a start in the backlash: start nearer contact).
   gm_status static_state(int held, double held_angle, const TrainInputs& in, std::vector<double>& phi,
-                         std::vector<gm_result>& res, std::string& msg, std::vector<double>* centre = nullptr);
+                         std::vector<gm_result>& res, std::string& msg, std::vector<double>* centre = nullptr,
+                         double* held_torque = nullptr);
 
   const gm_model* mesh_model(int m) const { return meshes_[std::size_t(m)].model; }
 

@@ -67,7 +67,15 @@ gm_status gm_train_create(const gm_train_body* bodies, int body_count, const gm_
   try {
     auto t = std::make_unique<gm_train>();
     std::vector<gm::TrainBody> b;
-    for (int i = 0; i < body_count; ++i) b.push_back({bodies[i].inertia, bodies[i].fixed != 0});
+    for (int i = 0; i < body_count; ++i) {
+      gm::TrainBody body{bodies[i].inertia, bodies[i].fixed != 0};
+      body.mass = bodies[i].mass;
+      body.bearing_stiffness = bodies[i].bearing_stiffness;
+      body.bearing_damping = bodies[i].bearing_damping;
+      body.pin_error[0] = bodies[i].pin_error[0];
+      body.pin_error[1] = bodies[i].pin_error[1];
+      b.push_back(body);
+    }
     std::vector<gm::TrainMesh> m;
     for (int i = 0; i < mesh_count; ++i) {
       gm::TrainMesh me;
@@ -158,6 +166,50 @@ gm_status gm_train_advance(gm_train* t, const double* torque, const double* far_
   }
 }
 
+gm_status gm_train_static(gm_train* t, int held, double held_angle, const double* phi, const double* torque,
+                          const double* far_phi) {
+  if (!t || !torque || (t->shafts > 0 && !far_phi) || (!phi && !t->started)) return GM_ERR_ARGUMENT;
+  const int nb = t->train->body_count();
+  if (!finite(torque, nb) || !std::isfinite(held_angle) || (phi && !finite(phi, nb)) ||
+      (t->shafts > 0 && !finite(far_phi, t->shafts))) {
+    t->message = "gm_train_static: the held angle, start angles, torques and far ends must be finite";
+    return GM_ERR_INPUT;
+  }
+  if (held < 0 || held >= nb) {
+    t->message = "gm_train_static: held body " + std::to_string(held + 1) + "; allowed: 1.." + std::to_string(nb);
+    return GM_ERR_ARGUMENT;
+  }
+  try {
+    const std::vector<double> zero(std::size_t(std::max(t->shafts, 1)), 0.0);
+    const gm::TrainInputs in = inputs(*t, torque, far_phi, zero.data());
+    std::vector<double> angles = phi ? std::vector<double>(phi, phi + nb) : t->state.phi;
+    std::vector<double> centre = t->started ? t->state.centre : std::vector<double>(2 * std::size_t(nb), 0.0);
+    std::vector<gm_result> res;
+    double holding = 0;
+    gm_status st = t->train->static_state(held, held_angle, in, angles, res, t->message, &centre, &holding);
+    if (st != GM_OK) return st;
+    gm::TrainState s;
+    const std::vector<double> rest(std::size_t(nb), 0.0), still(2 * std::size_t(nb), 0.0);
+    st = t->train->start(angles, rest, in, s, res, t->message, &centre, &still);
+    if (st != GM_OK) return st;
+    s.reaction[std::size_t(held)] = holding;
+    t->state = std::move(s);
+    t->res = std::move(res);
+    t->started = true;
+    t->message.clear();
+    return GM_OK;
+  } catch (const std::bad_alloc&) {
+    return GM_ERR_MEMORY;
+  }
+}
+
+gm_status gm_train_body_centre(const gm_train* t, int body, double* x, double* y) {
+  if (!t || !t->started || body < 0 || body >= t->train->body_count()) return GM_ERR_ARGUMENT;
+  if (x) *x = t->state.centre[2 * std::size_t(body)];
+  if (y) *y = t->state.centre[2 * std::size_t(body) + 1];
+  return GM_OK;
+}
+
 gm_status gm_train_body_state(const gm_train* t, int body, double* phi, double* omega, double* holding_torque) {
   if (!t || !t->started || body < 0 || body >= t->train->body_count()) return GM_ERR_ARGUMENT;
   if (phi) *phi = t->state.phi[std::size_t(body)];
@@ -202,10 +254,12 @@ const char* gm_train_message(const gm_train* t) { return t ? t->message.c_str() 
 
 namespace {
 
-// The doubles of a state: per body phi, omega, reaction; per shaft torque; the scalars.
+// The doubles of a state: per body phi, omega, reaction, centre x, y and their speeds; per shaft
+// torque; the scalars.
+constexpr int kPerBody = 7;
 constexpr int kScalars = 10;  // kinetic, elastic, initial, work in/out, friction, damping, parametric, residual, step
 std::size_t doubles_of(const gm_train* t) {
-  return std::size_t(3 * t->train->body_count() + t->shafts + kScalars);
+  return std::size_t(kPerBody * t->train->body_count() + t->shafts + kScalars);
 }
 
 }  // namespace
@@ -232,6 +286,10 @@ gm_status gm_train_state_save(const gm_train* t, void* buf, size_t size) {
     x.push_back(t->started ? s.phi[b] : 0.0);
     x.push_back(t->started ? s.omega[b] : 0.0);
     x.push_back(t->started ? s.reaction[b] : 0.0);
+    for (int a = 0; a < 2; ++a) {
+      x.push_back(t->started ? s.centre[2 * b + std::size_t(a)] : 0.0);
+      x.push_back(t->started ? s.centre_speed[2 * b + std::size_t(a)] : 0.0);
+    }
   }
   for (int i = 0; i < t->shafts; ++i) x.push_back(t->started ? s.shaft_torque[std::size_t(i)] : 0.0);
   for (double v : {s.kinetic, s.elastic, s.initial_energy, s.work_in, s.work_out, s.friction, s.damping,
@@ -288,6 +346,10 @@ gm_status gm_train_state_load(gm_train* t, const void* buf, size_t size) {
     s.phi.push_back(x[k++]);
     s.omega.push_back(x[k++]);
     s.reaction.push_back(x[k++]);
+    for (int a = 0; a < 2; ++a) {
+      s.centre.push_back(x[k++]);
+      s.centre_speed.push_back(x[k++]);
+    }
   }
   for (int i = 0; i < t->shafts; ++i) s.shaft_torque.push_back(x[k++]);
   for (double* v : {&s.kinetic, &s.elastic, &s.initial_energy, &s.work_in, &s.work_out, &s.friction, &s.damping,

@@ -116,6 +116,7 @@ def test_layout_is_the_binarys_header():
 
 
 PLANETARY = REPO / "scenarios" / "trains" / "planetary_3_planets.toml"
+PLANETARY4 = REPO / "scenarios" / "trains" / "planetary_4_planets.toml"
 
 
 def check_planetary_stage(fmu) -> None:
@@ -290,12 +291,88 @@ def test_main_job_train_section(fmu_path, tmp_path):
     from gearmesh.train_report import section
 
     text = section(PLANETARY, fmu_path, tmp_path)
+    run, static = text.split("### Quasi-static")
     rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
-            for line in text.splitlines() if line.startswith("| ") and not line.startswith("| body")}
+            for line in run.splitlines() if line.startswith("| ") and not line.startswith("| body")}
     assert abs(float(rows["carrier"][1]) - 0.25) < 1e-3
     assert abs(float(rows["planet2"][1]) + 0.5) < 1e-3
     assert all(abs(float(rows[f"sun_planet{p}"][2]) - 1 / 3) < 1e-3 for p in (1, 2, 3))
     assert (tmp_path / "planetary_3_planets" / "train_run.png").stat().st_size > 10_000
+    # the quasi-static sweep: three in-phase planets share exactly, K_gamma 1
+    assert "sun_planet_21_21.toml on carrier: 1.0000" in static
+    assert (tmp_path / "planetary_3_planets" / "train_static.png").stat().st_size > 10_000
+
+
+def test_quasi_static_reducer_stages_are_single_pairs(fmu_path, tmp_path):
+    """The two-stage reducer in the quasi-static mode (its input held at 25 angles over one
+    revolution of the output, 200 N m on the output): each stage's TE and normal force equal the
+    single pair's quasi-static answer (the generic FMU on the stage's scene, a one-element static
+    problem solved by other code) at the stage's pinion angle and its wheel's torque: 200 N m on
+    stage 2, 200 r_b(23) / r_b(61) on stage 1 (the intermediate shaft's balance; no friction)."""
+    import math
+
+    from gearmesh.fmu_driver import GearMeshFMU
+    from gearmesh.scene import load_scene
+    from gearmesh.train_report import quasi_static
+
+    fmu = train_fmu.build_train_fmu(SCENE, tmp_path / "reducer.fmu", fmu_path)
+    train = train_fmu.load_train(SCENE)
+    r = quasi_static(fmu, train, points=24)
+    scenes = {m["name"]: load_scene(m["_scene"], fmu_path) for m in train.meshes}
+    radii = {}
+    for name, scene in scenes.items():
+        with GearMeshFMU(fmu_path, scene.parameters) as pair:
+            g = pair.get(["gear1.base_diameter", "gear2.base_diameter", "geometry.base_pitch"])
+        radii[name] = (0.5 * g["gear1.base_diameter"], 0.5 * g["gear2.base_diameter"], g["geometry.base_pitch"])
+    wheel_torque = {"stage2": LOAD, "stage1": LOAD * radii["stage2"][0] / radii["stage2"][1]}
+    pinion = {"stage1": (r["input.angle"], 0.0), "stage2": (r["intermediate.angle"], math.pi / 2)}
+    te_error, force_error = [], []
+    for name in ("stage1", "stage2"):
+        with GearMeshFMU(fmu_path, {**scenes[name].parameters, "model.quasi_static": True}) as qs:
+            for k in range(len(r["held"])):
+                flank = r[f"{name}.flank"][k]
+                load = wheel_torque[name] * (1 if flank == 1 else -1)
+                qs.step({"gear1.phi": pinion[name][0][k] - pinion[name][1], "mesh.load_torque": load})
+                ref = qs.get(["mesh.te", "mesh.normal_force"])
+                te_error.append(abs(math.remainder(r[f"{name}.te"][k] - ref["mesh.te"], radii[name][2])))
+                force_error.append(abs(r[f"{name}.normal_force"][k] / ref["mesh.normal_force"] - 1))
+    # The pair's quasi-static mode balances the load by the force along the TE coordinate
+    # (load / r_b2, core/src/evaluate.cpp); the train balances the element's moments, whose arm
+    # is r_b2 only while every contact is on the involutes: where a tooth's tip corner carries
+    # (a few positions near the ends of contact) the two differ by up to 0.5 %.
+    te_error, force_error = np.array(te_error), np.array(force_error)
+    exact = (te_error < 1e-9) & (force_error < 1e-6)
+    assert exact.mean() > 0.75, (te_error, force_error)
+    assert te_error.max() < 2e-8 and force_error.max() < 5e-3, (te_error.max(), force_error.max())
+
+
+def test_floating_sun_shares_equally_under_a_pin_error(fmu_path, tmp_path):
+    """Planet load sharing over a carrier revolution (quasi-static, 100 N m on the carrier) with
+    planet 1's pin 3 um off tangentially: three planets with a floating sun share the load equally
+    at every angle (the sun's force balance alone fixes three forces along three lines of action
+    120 degrees apart: statics, not stiffness); with the sun fixed planet 1 is unloaded by the pin
+    error (its share changes by more than 0.05); with four planets and a floating sun the shares
+    split (the four forces are not fixed by the sun's balance: a hyperstatic stage) into
+    opposite pairs."""
+    from gearmesh.train_report import quasi_static, sharing
+
+    three = train_fmu.load_train(PLANETARY)
+    fmu3 = train_fmu.build_train_fmu(PLANETARY, tmp_path / "p3.fmu", fmu_path)
+    pin = {"planet1.pin_error_tangential": 3e-6}
+    floating = quasi_static(fmu3, three, points=48, parameters={**pin, "sun.mass": 1.0})
+    shares = sharing(three, floating)
+    sun_meshes = [f"sun_planet{p}" for p in (1, 2, 3)]
+    assert max(abs(shares[n] - 1 / 3).max() for n in sun_meshes) < 5e-4
+    assert np.hypot(floating["sun.x"], floating["sun.y"]).min() > 1e-6  # the sun moved to balance
+    fixed = sharing(three, quasi_static(fmu3, three, points=48, parameters=pin))
+    assert abs(fixed["sun_planet1"] - 1 / 3).min() > 0.05
+
+    four = train_fmu.load_train(PLANETARY4)
+    fmu4 = train_fmu.build_train_fmu(PLANETARY4, tmp_path / "p4.fmu", fmu_path)
+    plain = sharing(four, quasi_static(fmu4, four, points=48, parameters={"sun.mass": 1.0}))
+    pinned = sharing(four, quasi_static(fmu4, four, points=48, parameters={**pin, "sun.mass": 1.0}))
+    change = [(pinned[f"sun_planet{p}"] - plain[f"sun_planet{p}"]).mean() for p in (1, 2, 3, 4)]
+    assert change[0] < -0.01 and change[2] < -0.01 and change[1] > 0.01 and change[3] > 0.01, change
 
 
 def test_an_impossible_start_names_the_mesh(fmu_path, tmp_path):

@@ -65,6 +65,14 @@ TRAIN_KEYS: dict[str, dict[str, tuple[str, str, str]]] = {
         "fixed": ("bool", "", "held in the housing at angle 0 (a ring); default false"),
         "angle_deg": ("float", "deg", "initial spin angle (the start of NAME.phi): puts the meshes in contact, "
                       "e.g. a planet's teeth; default 0"),
+        "mass_kg": ("float", "kg", "a mass lets the body's centre translate in the housing's plane on its bearing "
+                    "(a sun or a ring: a body on the housing's axis that carries no mesh); default 0: it does not"),
+        "bearing_stiffness_N_per_m": ("float", "N/m", "the bearing's stiffness per axis, with mass_kg; default 0: "
+                                      "floating (held by its meshes only)"),
+        "bearing_damping_Ns_per_m": ("float", "N s/m", "the bearing's damping per axis, with mass_kg; default 0"),
+        "pin_error_tangential_um": ("float", "µm", "a planet's centre off its place in the carrier along the "
+                                    "carrier's turning; default 0"),
+        "pin_error_radial_um": ("float", "µm", "a planet's centre off its place in the carrier, outwards; default 0"),
     },
     "shaft": {
         "name": ("string", "", "the shaft's name; its variables are NAME.stiffness, .damping, .far_phi, "
@@ -93,12 +101,26 @@ TRAIN_KEYS: dict[str, dict[str, tuple[str, str, str]]] = {
         "duration_s": ("float", "s", "the run's length; default 1"),
         "step_s": ("float", "s", "the run's communication step; default 1e-2"),
     },
+    "static": {
+        "held_body": ("string", "", "the main job's quasi-static analysis: the body held at each angle of the "
+                      "sweep (default: the body of the first port's shaft)"),
+        "sweep_body": ("string", "", "the sweep covers one revolution of this body (default: the run's "
+                       "load_body)"),
+        "points": ("integer", "", "equilibria over the sweep; default 240"),
+    },
     "dynamics": {
         "tolerance_m": ("float", "m", "local error of the rim motion per internal step; default 1e-8"),
         "max_step_s": ("float", "s", "largest internal step; default 1e-3"),
         "min_step_s": ("float", "s", "smallest internal step; default 1e-9"),
     },
 }
+
+
+# The body fields (train_variables.h) a scene key sets (SI after load_train), in train.txt's order.
+BODY_EXTRA = ["mass", "bearing_stiffness", "bearing_damping", "pin_error_tangential", "pin_error_radial"]
+BODY_KEYS = {"_mass": "mass_kg", "_bearing_stiffness": "bearing_stiffness_N_per_m",
+             "_bearing_damping": "bearing_damping_Ns_per_m", "_pin_error_tangential": "pin_error_tangential_um",
+             "_pin_error_radial": "pin_error_radial_um"}
 
 
 @dataclass(frozen=True)
@@ -142,6 +164,15 @@ class Train:
     dynamics: dict = field(default_factory=dict)
     path: pathlib.Path | None = None
     run: dict = field(default_factory=dict)
+    static: dict = field(default_factory=dict)
+
+    def held_body(self) -> int:
+        """The quasi-static analysis's held body: [static] held_body, else the first port's body."""
+        names = [b["name"] for b in self.bodies]
+        if "held_body" in self.static:
+            return names.index(self.static["held_body"])
+        ports = [s["_body"] for s in self.shafts if s["_other"] == -1]
+        return ports[0] if ports else next(i for i, b in enumerate(self.bodies) if not b["_fixed"])
 
 
 def is_train_scene(path: pathlib.Path) -> bool:
@@ -209,6 +240,17 @@ def load_train(path: pathlib.Path, lay: Layout | None = None) -> Train:
                 not (fixed or (math.isfinite(inertia) and inertia > 0)):
             raise _fail(path, f"{b['name']}: inertia_kgm2 > 0 (finite), or fixed = true")
         b["_inertia"], b["_fixed"] = float(inertia), fixed
+        for key, scale in (("mass_kg", 1.0), ("bearing_stiffness_N_per_m", 1.0), ("bearing_damping_Ns_per_m", 1.0),
+                           ("pin_error_tangential_um", 1e-6), ("pin_error_radial_um", 1e-6)):
+            v = b.get(key, 0.0)
+            signed = key.startswith("pin_error")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or \
+                    (not signed and v < 0):
+                raise _fail(path, f"{b['name']}.{key} = {v!r}: allowed: finite" + ("" if signed else " and >= 0"))
+            b["_" + key] = float(v) * scale
+        if b["_mass_kg"] == 0 and (b["_bearing_stiffness_N_per_m"] or b["_bearing_damping_Ns_per_m"]):
+            raise _fail(path, f"{b['name']}: a bearing stiffness or damping without mass_kg; allowed: mass_kg > 0 "
+                        "(the centre translates) or neither")
     for s in shafts:
         s["_body"] = body_of(s, "body")
         s["_other"] = body_of(s, "other", ("port",))
@@ -238,13 +280,22 @@ def load_train(path: pathlib.Path, lay: Layout | None = None) -> Train:
     run = data.get("run", {})
     if run and run.get("load_body", bodies[0]["name"]) not in index:
         raise _fail(path, f"[run] load_body = {run.get('load_body')!r}: allowed: {', '.join(index)}")
-    return Train(name, bodies, shafts, meshes, data.get("dynamics", {}), path, run)
+    static = data.get("static", {})
+    for key in ("held_body", "sweep_body"):
+        if key in static and static[key] not in index:
+            raise _fail(path, f"[static] {key} = {static[key]!r}: allowed: {', '.join(index)}")
+    if "held_body" in static and bodies[index[static["held_body"]]]["_fixed"]:
+        raise _fail(path, f"[static] held_body = {static['held_body']!r} is fixed; allowed: a body that turns")
+    points = static.get("points", 240)
+    if isinstance(points, bool) or not isinstance(points, int) or not 2 <= points <= 100000:
+        raise _fail(path, f"[static] points = {points!r}: allowed: an integer in [2, 100000]")
+    return Train(name, bodies, shafts, meshes, data.get("dynamics", {}), path, run, static)
 
 
 def _scalar_start(train: Train) -> dict[int, float]:
     d = train.dynamics
     return {1: float(d.get("tolerance_m", 1e-8)), 2: float(d.get("max_step_s", 1e-3)),
-            3: float(d.get("min_step_s", 1e-9))}
+            3: float(d.get("min_step_s", 1e-9)), 15: 0, 16: train.held_body() + 1, 17: 0.0}
 
 
 def model_description(train: Train, lay: Layout) -> str:
@@ -266,6 +317,8 @@ def model_description(train: Train, lay: Layout) -> str:
                         start = member["_inertia"]
                     if block == "BODY" and f.name == "phi":
                         start = member["_angle"]
+                    if block == "BODY" and "_" + f.name in BODY_KEYS:
+                        start = member["_" + BODY_KEYS["_" + f.name]]
                     if block == "SHAFT" and f.name == "stiffness":
                         start = float(member.get("stiffness_Nm_per_rad", 0.0))
                     if block == "SHAFT" and f.name == "damping":
@@ -305,7 +358,8 @@ def model_description(train: Train, lay: Layout) -> str:
 def train_text(train: Train) -> str:
     lines = ["gearmesh-train 1"]
     for b in train.bodies:
-        lines.append(f"body {b['name']} {b['_inertia']!r} {int(b['_fixed'])} {b['_angle']!r}")
+        extra = " ".join(repr(b["_" + BODY_KEYS["_" + f]]) for f in BODY_EXTRA)
+        lines.append(f"body {b['name']} {b['_inertia']!r} {int(b['_fixed'])} {b['_angle']!r} {extra}")
     for s in train.shafts:
         lines.append(f"shaft {s['name']} {s['_body']} {s['_other']} {float(s.get('stiffness_Nm_per_rad', 0.0))!r} "
                      f"{float(s.get('damping_Nms_per_rad', 0.0))!r}")

@@ -21,6 +21,11 @@ typedef struct gm_train gm_train;
 typedef struct gm_train_body {
   double inertia; /* kg m^2 about its axis, > 0 unless fixed */
   int fixed;      /* held at angle 0 (a ring in the housing); its holding torque is reported */
+  double mass;    /* kg; > 0: the centre translates in the housing's plane on its bearing (a body on
+                     the housing's axis carrying no mesh: a sun, a ring); 0: it does not */
+  double bearing_stiffness, bearing_damping; /* N/m, N s/m per axis; 0 and 0 with a mass: floating */
+  double pin_error[2]; /* a planet's centre off its place in the carrier, tangential (along the
+                          carrier's turning) and radial (outwards), m */
 } gm_train_body;
 
 typedef struct gm_train_mesh {
@@ -58,8 +63,18 @@ gm_status gm_train_start(gm_train* t, const double* phi, const double* omega, co
 gm_status gm_train_advance(gm_train* t, const double* torque, const double* far_phi, const double* far_omega,
                            double duration);
 
-/* The state after the last start or advance. */
+/* The static equilibrium (the quasi-static train): body `held` at held_angle, every other free
+ * body's torque (and translating body's force) balanced, speeds zero, the torques applied and
+ * the far ends held at far_phi; phi (one per body) is the start of the search (NULL: the current
+ * state's angles). It becomes the state (at rest, energies zeroed), the held body's holding
+ * torque its output. GM_ERR_SOLVER (state unchanged) if no equilibrium is found. */
+gm_status gm_train_static(gm_train* t, int held, double held_angle, const double* phi, const double* torque,
+                          const double* far_phi);
+
+/* The state after the last start, advance or static solve. */
 gm_status gm_train_body_state(const gm_train* t, int body, double* phi, double* omega, double* holding_torque);
+/* A translating body's centre in the housing, m (0, 0 for the others). */
+gm_status gm_train_body_centre(const gm_train* t, int body, double* x, double* y);
 gm_status gm_train_shaft_torque(const gm_train* t, int shaft, double* torque); /* on its body, N m */
 const gm_result* gm_train_mesh_result(const gm_train* t, int mesh);          /* NULL if out of range */
 gm_train_energy gm_train_energy_account(const gm_train* t);
