@@ -342,6 +342,61 @@ TEST(Train, CApiIsTheTrainAndNamesBadInput) {
   EXPECT_NE(std::string(text).find("mesh 1"), std::string::npos) << text;
 }
 
+// Through the C API, a set-A pair whose gear 1 sits on a bearing (2 kg, 1e8 N/m): the static
+// state (gm_train_static, gear 1 held, 200 N m on gear 2) puts gear 1's centre where its
+// bearing takes the whole mesh force (k |x| = the normal force, frictionless: a closed form), at
+// right angles to the centres' line, up to the pressure angle: along the line of action; the
+// dynamics from there keeps its state bit for bit through save and load, centres included.
+TEST(Train, CApiBearingStaticAndState) {
+  Instance pair(set_a());
+  gm_train_body bodies[2] = {{0.02, 0}, {0.02, 0}};
+  bodies[0].mass = 2.0;
+  bodies[0].bearing_stiffness = 1e8;
+  bodies[0].bearing_damping = 500.0;
+  const gm_train_mesh meshes[1] = {{pair.m, {0, 1}, -1, 0.0}};
+  const gm_train_shaft shafts[1] = {{0, -1, 2e4, 20.0}};
+  gm_train* t = nullptr;
+  char text[256];
+  ASSERT_EQ(gm_train_create(bodies, 2, meshes, 1, shafts, 1, 1e-8, 1e-3, 1e-9, &t, text, sizeof text), GM_OK) << text;
+  std::unique_ptr<gm_train, void (*)(gm_train*)> guard(t, gm_train_free);
+  const double phi[2] = {0.0, 0.0}, torque[2] = {0.0, 200.0}, far_phi = 0.0;
+  ASSERT_EQ(gm_train_static(t, 0, 0.0, phi, torque, &far_phi), GM_OK) << gm_train_message(t);
+  double x = 0, y = 0;
+  ASSERT_EQ(gm_train_body_centre(t, 0, &x, &y), GM_OK);
+  const gm_result* r = gm_train_mesh_result(t, 0);
+  ASSERT_NE(r, nullptr);
+  EXPECT_GT(r->normal_force, 1000.0);
+  EXPECT_NEAR(1e8 * std::hypot(x, y), r->normal_force, 1e-6 * r->normal_force);
+  const double alpha = gm_model_geometry(pair.m)->alpha_wt;  // the line of action's angle to y
+  EXPECT_NEAR(std::fabs(std::atan2(std::fabs(x), std::fabs(y))), alpha, 1e-6);
+  double hold = 0;
+  ASSERT_EQ(gm_train_body_state(t, 0, nullptr, nullptr, &hold), GM_OK);
+  EXPECT_NEAR(std::fabs(hold), 200.0 * pair.rb(0) / pair.rb(1), 1e-6 * 200);  // the held pinion's torque
+
+  // the dynamics from the static state, saved, run on, restored, run again
+  const double w = 50.0;
+  double fp = 0.0;
+  double omega[2] = {w, -w * pair.rb(0) / pair.rb(1)}, angles[2];
+  for (int b = 0; b < 2; ++b) gm_train_body_state(t, b, &angles[b], nullptr, nullptr);
+  ASSERT_EQ(gm_train_start(t, angles, omega, torque, &fp, &w), GM_OK) << gm_train_message(t);
+  for (int i = 0; i < 5; ++i, fp += w * 1e-3) ASSERT_EQ(gm_train_advance(t, torque, &fp, &w, 1e-3), GM_OK);
+  std::vector<unsigned char> blob(gm_train_state_size(t));
+  ASSERT_EQ(gm_train_state_save(t, blob.data(), blob.size()), GM_OK);
+  const auto run_on = [&]() {
+    double f = fp;
+    for (int i = 0; i < 5; ++i, f += w * 1e-3) EXPECT_EQ(gm_train_advance(t, torque, &f, &w, 1e-3), GM_OK);
+    double cx = 0, cy = 0;
+    gm_train_body_centre(t, 0, &cx, &cy);
+    return std::vector<double>{cx, cy, gm_train_mesh_result(t, 0)->te, gm_train_energy_account(t).residual};
+  };
+  const std::vector<double> first = run_on();
+  EXPECT_NE(first[0], x);  // the centre moves on
+  ASSERT_EQ(gm_train_state_load(t, blob.data(), blob.size()), GM_OK);
+  EXPECT_EQ(run_on(), first);
+  EXPECT_EQ(gm_train_static(t, 2, 0.0, phi, torque, &far_phi), GM_ERR_ARGUMENT);
+  EXPECT_NE(std::string(gm_train_message(t)).find("held body 3; allowed: 1..2"), std::string::npos);
+}
+
 // The quasi-static train (Train::static_state) on the planetary stage with the sun held, the
 // carrier loaded by 100 N m and the ring in the housing, 3 planets:
 // * without pin errors each planet carries a third of the sun's force, and the torques are the
