@@ -552,7 +552,7 @@ def train_keys_part() -> str:
            "A train scene (`gearmesh train-fmu TRAIN.toml`) names bodies, shafts and meshes; each mesh's "
            "element comes from a pair scene. Keys from `gearmesh.train_fmu.TRAIN_KEYS`.\n"]
     for table, keys in TRAIN_KEYS.items():
-        heading = f"[{table}]" if table in ("train", "dynamics") else f"[[{table}]]"
+        heading = f"[[{table}]]" if table in ("body", "shaft", "mesh") else f"[{table}]"  # arrays of tables
         out += [f"## Train scenes: `{heading}`\n",
                 _table(["key", "type", "unit", "meaning"],
                        [[_code(k), t, u, m] for k, (t, u, m) in keys.items()])]
