@@ -51,8 +51,12 @@ STUDY_SEED = 7
 # name -> file; the order is the order they are made in
 FILES = {"schematic": "schematic.png", "pareto": "pareto.png", "te_set_a": "te_set_a.png",
          "stability_map": "stability_map.png", "study_histogram": "study_histogram.png",
-         "compliance_mesh": "compliance_mesh.png", "planetary_sharing": "planetary_sharing.png"}
+         "compliance_mesh": "compliance_mesh.png", "planetary_sharing": "planetary_sharing.png",
+         "planetary_pin_error": "planetary_pin_error.png"}
 PLANETARY = REPO / "scenarios" / "trains" / "planetary_4_planets.toml"
+PLANETARY3 = REPO / "scenarios" / "trains" / "planetary_3_planets.toml"
+PIN_ERROR = 3e-6  # m, tangential, on planet 1
+PIN_LOAD = 1000.0  # N m on the carrier
 
 
 @dataclass
@@ -644,9 +648,48 @@ def planetary_sharing(path: pathlib.Path, opt: Options) -> str:
     return f"{len(angle)} samples over {angle[-1] - angle[0]:.1f} deg of the carrier"
 
 
+def planetary_pin_error(path: pathlib.Path, opt: Options) -> str:
+    """Quasi-static planet load sharing over a carrier revolution with planet 1's pin 3 µm off
+    tangentially (gearmesh.train_report.quasi_static on the planetary scenes, 1000 N m on the
+    carrier): three planets with the sun fixed and floating, four planets floating."""
+    from gearmesh import train_fmu
+    from gearmesh.train_report import quasi_static, sharing
+
+    opt.work.mkdir(parents=True, exist_ok=True)
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), sharey=True)
+    cases = ((PLANETARY3, {}, "3 planets, sun fixed"), (PLANETARY3, {"sun.mass": 1.0}, "3 planets, sun floating"),
+             (PLANETARY, {"sun.mass": 1.0}, "4 planets, sun floating"))
+    factors = []
+    for ax, (scene, extra, title) in zip(axes, cases):
+        train = train_fmu.load_train(scene)
+        fmu = train_fmu.build_train_fmu(scene, opt.work / f"{scene.stem}.fmu", opt.fmu)
+        r = quasi_static(fmu, train, load_Nm=PIN_LOAD, points=360,
+                         parameters={"planet1.pin_error_tangential": PIN_ERROR, **extra})
+        shares = sharing(train, r)
+        angle = np.degrees(r["carrier.angle"] - r["carrier.angle"][0])
+        sun = [n for n in shares if n.startswith("sun_planet")]
+        for n in sun:
+            ax.plot(angle, shares[n], label=n.replace("sun_", ""))
+        k_gamma = len(sun) * max(shares[n].max() for n in sun)
+        factors.append(f"{title}: K_γ {k_gamma:.3f}")
+        ax.set(xlabel="carrier angle (deg)", title=f"{title}\nK_γ = {k_gamma:.3f}")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right")
+    axes[0].set_ylabel("share of the sun's force")
+    fig.suptitle(f"Planet 1's pin {PIN_ERROR * 1e6:g} µm off tangentially, {PIN_LOAD:g} N m on the carrier "
+                 "(quasi-static)",
+                 fontsize=10)
+    fig.tight_layout()
+    _save(fig, path)
+    plt.close(fig)
+    return "; ".join(factors)
+
+
 MAKERS = {"te_set_a": te_set_a, "schematic": schematic, "pareto": pareto,
           "stability_map": stability_map, "study_histogram": study_histogram,
-          "compliance_mesh": compliance_mesh, "planetary_sharing": planetary_sharing}
+          "compliance_mesh": compliance_mesh, "planetary_sharing": planetary_sharing,
+          "planetary_pin_error": planetary_pin_error}
 
 
 def make(out: pathlib.Path = DEFAULT_OUT, only: list[str] | None = None,
