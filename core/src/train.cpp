@@ -1,5 +1,5 @@
-// A gear train's spins integrated over a step (train.hpp): the pair's TR-BDF2 (dynamics.cpp,
-// whose constants and reasons this follows) on n free bodies.
+// A gear train's spins and centres integrated over a step (train.hpp): the pair's TR-BDF2
+// (trbdf2.hpp: the method's constants and step rules, shared with dynamics.cpp) on its unknowns.
 #include "train.hpp"
 
 #include <algorithm>
@@ -8,20 +8,13 @@
 
 #include <Eigen/Dense>
 
+#include "trbdf2.hpp"
+
 namespace gm {
 namespace {
 
-constexpr double kSqrt2 = 1.41421356237309504880;
+using namespace trbdf2;  // the method's constants and step rules (trbdf2.hpp)
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kGamma = 2.0 - kSqrt2;
-constexpr double kD = kGamma / 2.0;
-constexpr double kW = kSqrt2 / 4.0;
-constexpr double kE1 = (1.0 - 4.0 * kW) / 3.0, kE2 = 1.0 / 3.0, kE3 = -2.0 * kD / 3.0;
-constexpr int kMaxNewton = 10;
-constexpr double kNewtonFraction = 1e-2;  // dynamics.cpp: after the forced first correction
-constexpr double kEventFraction = 0.25;   // dynamics.cpp: contact lost or made, flank changed
-constexpr double kStaleContraction = 0.05;
-constexpr int kJacobianAge = 20;
 
 using Vec = Eigen::VectorXd;
 using Mat = Eigen::MatrixXd;
@@ -30,15 +23,6 @@ std::string number(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", x);
   return buf;
-}
-
-bool contact_changed(const gm_result& a, const gm_result& b) {
-  return a.flank != b.flank || (a.pairs_in_contact == 0) != (b.pairs_in_contact == 0);
-}
-
-double step_factor(double fraction) {
-  if (!(fraction > 0)) return 2.0;
-  return std::clamp(0.9 * std::cbrt(1.0 / fraction), 0.2, 2.0);
 }
 
 }  // namespace
