@@ -398,3 +398,30 @@ def test_planets_that_cannot_be_assembled_are_refused(fmu_path, tmp_path):
                                                                      "orientation_deg = 100.0"))
     with pytest.raises(SceneError, match=r"sun_planet2: a planet at 100 deg .* allowed: psi a multiple of 4.28571 deg"):
         train_fmu.build_train_fmu(tmp_path / "bad.toml", tmp_path / "bad.fmu", fmu_path)
+
+
+@pytest.mark.parametrize("name", ["two_stage_reducer", "idler", "planetary_3_planets", "planetary_4_planets",
+                                  "back_to_back_set_a"])
+def test_every_train_scene_validates_and_makes_its_main_job_section(fmu_path, tmp_path, name):
+    """Each train scene of scenarios/trains: its FMU passes fmpy's validation, and the main job's
+    section runs it at 1e-2 s steps (a master stepping explicitly: the ports' far ends and the
+    load set at each communication point) without making energy (the residual of the FMU's own
+    account >= -1e-3 of the work put in) and adds its quasi-static sweep, with both pictures."""
+    import re
+
+    from fmpy.validation import validate_fmu
+
+    from gearmesh.train_report import section
+
+    scene = REPO / "scenarios" / "trains" / f"{name}.toml"
+    fmu = train_fmu.build_train_fmu(scene, tmp_path / f"{name}.fmu", fmu_path)
+    assert validate_fmu(str(fmu)) == []
+    text = section(scene, fmu_path, tmp_path)
+    energy = re.search(r"Energy: (\S+) J put in, residual (\S+) J", text)
+    assert energy, text
+    work_in, residual = float(energy.group(1)), float(energy.group(2))
+    assert work_in > 0 and residual >= -1e-3 * work_in, (work_in, residual)
+    assert "### Quasi-static" in text
+    assert (tmp_path / name / "train_run.png").is_file()
+    static_rows = [line for line in text.split("### Quasi-static")[1].splitlines() if line.startswith("| ")]
+    assert len(static_rows) == 1 + len(train_fmu.load_train(scene).meshes)  # the header and a row per mesh
