@@ -132,6 +132,7 @@ class Train::Stepper {
   }
 
   gm_status evaluate_at(double t, const Vec& q, const Vec& qd, Point& out, std::string& msg) {
+    ++evaluations;
     const std::size_t nb = t_.bodies_.size();
     Full& f = full_;  // scratch kept over the calls: no allocation once warm
     full(q, qd, f);
@@ -275,6 +276,7 @@ class Train::Stepper {
           double dtheta;
           if (!seed_along(me, f, j, which == 1, seed, dtheta)) continue;
           gm_result dr{};
+          ++derivatives;
           if (gm_directional_derivative(me.model, me.data, &at, &seed, &dr) != GM_OK) {
             msg = "mesh " + std::to_string(m + 1) + ": " + gm_data_message(me.data);
             return GM_ERR_SOLVER;
@@ -440,6 +442,7 @@ class Train::Stepper {
   }
 
   double contraction = 0;
+  long evaluations = 0, derivatives = 0;  // calls so far
   // d(generalized force)/d(unknowns) at the last jacobian(): M A_phi
   Mat force_stiffness() const {
     Mat K = a_phi_;
@@ -898,6 +901,8 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
     }
   }
   s.step = h;
+  s.evaluations = st.evaluations;
+  s.derivatives = st.derivatives;
   unpack(x1.phi, x1.omega, s);
   s.reaction = x1.reaction;
   s.shaft_torque = x1.shaft_torque;

@@ -86,6 +86,8 @@ struct TrainState {
   double work_in = 0, work_out = 0, friction = 0, damping = 0, parametric = 0, residual = 0;
   double step = 0;                          // internal step to try first, s
   int steps = 0, rejected = 0;              // of the last advance
+  long evaluations = 0, derivatives = 0;    // of the last advance: of the whole train (every mesh
+                                            // once), and single meshes' directional derivatives
 };
 
 class Train {

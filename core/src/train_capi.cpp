@@ -250,6 +250,11 @@ void gm_train_steps(const gm_train* t, int* accepted, int* rejected) {
   if (rejected) *rejected = t && t->started ? t->state.rejected : 0;
 }
 
+void gm_train_work(const gm_train* t, long* evaluations, long* derivatives) {
+  if (evaluations) *evaluations = t && t->started ? t->state.evaluations : 0;
+  if (derivatives) *derivatives = t && t->started ? t->state.derivatives : 0;
+}
+
 const char* gm_train_message(const gm_train* t) { return t ? t->message.c_str() : ""; }
 
 namespace {

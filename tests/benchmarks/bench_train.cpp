@@ -4,7 +4,9 @@
 // step over 5 rounds of 0.1 s (after 0.1 s of settling), internal steps per communication step,
 // and the ratio of the time per internal step to one evaluation of every mesh (their sum),
 // measured in the same run: the train's "evaluation-equivalents per internal step", comparable
-// with the pair's (bench_dynamics). Prints; never asserts on time.
+// with the pair's (bench_dynamics); and the train's overhead: the time per internal step over
+// what the evaluations and directional derivatives it made (gm_train_work) cost alone, each
+// timed in the same run. Prints; never asserts on time.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -33,8 +35,9 @@ gm_model* pair(int z1, int z2, double x, double a) {
   return m;
 }
 
-// One evaluation of each mesh at a loaded pose, ns (the sum over the meshes).
-double evaluations_ns(gm_model* const* models, int n) {
+// One evaluation (derivative = false) or one directional derivative along gear 1's spin of each
+// mesh at a loaded pose, ns (the sum over the meshes).
+double evaluations_ns(gm_model* const* models, int n, bool derivative = false) {
   double total = 0;
   for (int i = 0; i < n; ++i) {
     gm_data* d = nullptr;
@@ -47,7 +50,13 @@ double evaluations_ns(gm_model* const* models, int n) {
     for (int j = 0; j < count; ++j) {
       k.phi[0] = 1e-4 * j;
       k.phi[1] = 10e-6 / rb2 - 1e-4 * j * gm_model_geometry(models[i])->gear[0].d_b / (2 * rb2);
-      gm_evaluate(models[i], d, &k, &r);
+      if (derivative) {
+        gm_kinematics seed{};
+        seed.phi[0] = 1.0;
+        gm_directional_derivative(models[i], d, &k, &seed, &r);
+      } else {
+        gm_evaluate(models[i], d, &k, &r);
+      }
     }
     total += std::chrono::duration<double, std::nano>(Clock::now() - t0).count() / count;
     gm_data_free(d);
@@ -73,7 +82,7 @@ void run(double rpm) {
     std::printf("start: %s\n", gm_train_message(t));
     return;
   }
-  long steps = 0;
+  long steps = 0, evaluations = 0, derivatives = 0;
   int comm = 0;
   const auto advance = [&](int count) {
     for (int i = 0; i < count; ++i) {
@@ -85,15 +94,20 @@ void run(double rpm) {
       int a = 0, r = 0;
       gm_train_steps(t, &a, &r);
       steps += a;
+      long e = 0, dd = 0;
+      gm_train_work(t, &e, &dd);
+      evaluations += e;
+      derivatives += dd;
     }
     return true;
   };
   if (!advance(100)) return;
-  steps = 0;
+  steps = evaluations = derivatives = 0;
   std::vector<double> us;
-  double base = 0;
+  double base = 0, derivative = 0;
   for (int round = 0; round < 5; ++round) {
     base += evaluations_ns(models, 2) / 5;
+    derivative += evaluations_ns(models, 2, true) / 5 / 2;  // one mesh's, on average
     const auto t0 = Clock::now();
     if (!advance(100)) return;
     comm += 100;
@@ -101,9 +115,14 @@ void run(double rpm) {
   }
   std::sort(us.begin(), us.end());
   const double internal = double(steps) / comm;
+  const double e_per = double(evaluations) / steps, d_per = double(derivatives) / steps;
+  const double alone_ns = e_per * base + d_per * derivative;  // the element's share of an internal step
   std::printf("two-stage reducer, level 4, %5.0f rpm in  H %g  %8.1f us per step (IQR %.1f-%.1f)  %6.2f internal steps"
-              "  %5.2f x (one evaluation of each mesh, %.2f us) per internal step  %6.3f s wall per s\n",
-              rpm, H, us[2], us[1], us[3], internal, us[2] * 1e3 / internal / base, base * 1e-3, us[2] * 1e-6 / H);
+              "  %5.2f x (one evaluation of each mesh, %.2f us) per internal step  %6.3f s wall per s\n"
+              "    per internal step: %.2f train evaluations, %.2f mesh derivatives (%.2f us each); "
+              "time / (their cost alone) = %.2f\n",
+              rpm, H, us[2], us[1], us[3], internal, us[2] * 1e3 / internal / base, base * 1e-3, us[2] * 1e-6 / H,
+              e_per, d_per, derivative * 1e-3, us[2] * 1e3 / internal / alone_ns);
   gm_train_free(t);
   for (gm_model* m : models) gm_model_free(m);
 }

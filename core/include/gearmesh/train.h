@@ -80,6 +80,9 @@ const gm_result* gm_train_mesh_result(const gm_train* t, int mesh);          /* 
 gm_train_energy gm_train_energy_account(const gm_train* t);
 /* Internal steps accepted and rejected by the last advance. */
 void gm_train_steps(const gm_train* t, int* accepted, int* rejected);
+/* The work of the last advance: evaluations of the whole train (each evaluates every mesh once)
+ * and directional derivatives of single meshes (the Jacobian's columns). */
+void gm_train_work(const gm_train* t, long* evaluations, long* derivatives);
 const char* gm_train_message(const gm_train* t);
 
 /* The train's state (spins, energies, the next internal step and each mesh's evaluation memory)
