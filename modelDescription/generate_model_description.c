@@ -127,18 +127,28 @@ static void put_bound(FILE* f, const char* attribute, double x, gm_fmu_type type
 }
 
 /* FMI 2.0 has closed bounds only: an open one is said in the description and, for tools, in the
- * variable's annotation <Tool name="GearMesh"><Range minExclusive/maxExclusive="true"/>. */
+ * model's <VendorAnnotations><Tool name="GearMesh"><Ranges><Range variable="NAME" minExclusive/
+ * maxExclusive="true"/>: at model level, where every importer reads or skips them (fmi-sim 0.7
+ * refuses a ScalarVariable's own <Annotations>). */
 static const char* open_note(const gm_param_range* r) {
   if (!r || !(r->lo_open || r->hi_open)) return "";
   return r->lo_open && r->hi_open ? " (min and max exclusive)" : r->lo_open ? " (min exclusive)" : " (max exclusive)";
 }
 
-static void put_open_annotation(FILE* f, const gm_param_range* r) {
-  if (!r || !(r->lo_open || r->hi_open)) return;
-  fputs("      <Annotations><Tool name=\"GearMesh\"><Range", f);
-  if (r->lo_open) fputs(" minExclusive=\"true\"", f);
-  if (r->hi_open) fputs(" maxExclusive=\"true\"", f);
-  fputs("/></Tool></Annotations>\n", f);
+static void put_open_annotations(FILE* f) {
+  /* the schema allows one element in a Tool: the Range elements go into one Ranges */
+  fputs("  <VendorAnnotations>\n    <Tool name=\"GearMesh\">\n      <Ranges>\n", f);
+  for (size_t i = 0; i < N_VARIABLES; i++) {
+    const gm_param_range* r = gm_param_range_find(gm_fmu_variables[i].name);
+    if (!r || !(r->lo_open || r->hi_open)) continue;
+    fputs("        <Range variable=\"", f);
+    put_escaped(f, gm_fmu_variables[i].name);
+    fputc('"', f);
+    if (r->lo_open) fputs(" minExclusive=\"true\"", f);
+    if (r->hi_open) fputs(" maxExclusive=\"true\"", f);
+    fputs("/>\n", f);
+  }
+  fputs("      </Ranges>\n    </Tool>\n  </VendorAnnotations>\n", f);
 }
 
 static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* start) {
@@ -262,6 +272,7 @@ int main(int argc, char** argv) {
   /* 10 mesh periods at about 1000 rpm, 100 steps per mesh period for the default 57 teeth. */
   fputs("  <DefaultExperiment startTime=\"0\" stopTime=\"0.01\" stepSize=\"1e-05\"/>\n", f);
 
+  put_open_annotations(f);
   fputs("  <ModelVariables>\n", f);
   for (size_t i = 0; i < N_VARIABLES; i++) {
     const gm_fmu_variable* v = &gm_fmu_variables[i];
@@ -290,7 +301,6 @@ int main(int argc, char** argv) {
     }
     if (strcmp(v->initial, "exact") == 0) put_start(f, v, &start);
     fputs("/>\n", f);
-    put_open_annotation(f, r);
     fputs("    </ScalarVariable>\n", f);
   }
   fputs("  </ModelVariables>\n", f);

@@ -1,7 +1,8 @@
 """The FMU parameters' ranges as the FMU declares them: min and max in its modelDescription.xml,
 written from the core's one range table (core/src/param_ranges.cpp) that the binary enforces.
-Open bounds, which FMI 2.0 cannot state, are marked in the variable's annotation
-<Tool name="GearMesh"><Range minExclusive="true" .../> (modelDescription/generate_model_description.c).
+Open bounds, which FMI 2.0 cannot state, are marked in the model's vendor annotation
+<Tool name="GearMesh"><Ranges><Range variable="..." minExclusive="true" .../>
+(modelDescription/generate_model_description.c).
 """
 from __future__ import annotations
 
@@ -60,6 +61,13 @@ def fmu_ranges(fmu: pathlib.Path | str | None = None) -> Mapping[str, Range]:
     return _read(str(path.resolve()), stat.st_mtime_ns, stat.st_size)
 
 
+def open_bounds(root: ET.Element) -> dict[str, dict[str, str]]:
+    """variable name -> its exclusive-bound flags (minExclusive, maxExclusive), from the model's
+    <VendorAnnotations><Tool name="GearMesh"><Ranges><Range variable=...> (generate_model_description.c)."""
+    return {r.get("variable"): dict(r.attrib)
+            for r in root.findall("VendorAnnotations/Tool[@name='GearMesh']/Ranges/Range")}
+
+
 @functools.lru_cache(maxsize=8)
 def _read(path: str, mtime_ns: int, size: int) -> Mapping[str, Range]:
     """The ranges of the FMU at path (mtime and size: a rebuilt FMU is read again)."""
@@ -69,12 +77,12 @@ def _read(path: str, mtime_ns: int, size: int) -> Mapping[str, Range]:
     except (OSError, KeyError, zipfile.BadZipFile, ET.ParseError) as exc:
         raise OSError(f"{path}: not an FMU with a readable modelDescription.xml ({exc})") from None
     out = {}
+    exclusive = open_bounds(root)
     for sv in root.iter("ScalarVariable"):
         typ = sv[0]
         if sv.get("causality") != "parameter" or ("min" not in typ.attrib and "max" not in typ.attrib):
             continue
-        open_ = sv.find("Annotations/Tool[@name='GearMesh']/Range")
-        flags = open_.attrib if open_ is not None else {}
+        flags = exclusive.get(sv.get("name"), {})
         out[sv.get("name")] = Range(float(typ.get("min", "-inf")), float(typ.get("max", "inf")),
                                     flags.get("minExclusive") == "true",
                                     flags.get("maxExclusive") == "true")

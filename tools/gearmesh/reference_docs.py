@@ -104,11 +104,13 @@ def model_description(fmu: pathlib.Path | str | None = None) -> ET.Element:
 
 
 def variables(root: ET.Element) -> list[Variable]:
+    from gearmesh.param_ranges import open_bounds
+
     out = []
+    exclusive = open_bounds(root)
     for index, sv in enumerate(root.iter("ScalarVariable"), start=1):
         typ = sv[0]
-        flags = sv.find("Annotations/Tool[@name='GearMesh']/Range")
-        flags = flags.attrib if flags is not None else {}
+        flags = exclusive.get(sv.get("name"), {})
         out.append(Variable(index, sv.get("name"), int(sv.get("valueReference")),
                             sv.get("causality", "local"), sv.get("variability", "continuous"),
                             typ.tag, typ.get("unit", ""), typ.get("displayUnit", ""),
@@ -185,7 +187,7 @@ def fmu_variables_page(root: ET.Element) -> str:
            "* start: the `start` attribute (parameters: the core's defaults; inputs: 0, the "
            "nominal pose at rest), with its value in the display unit;",
            "* range: `min` and `max`; a round bracket marks a bound the FMU excludes (the "
-           "variable's `<Annotations><Tool name=\"GearMesh\"><Range minExclusive/maxExclusive>`), "
+           "model's `<VendorAnnotations><Tool name=\"GearMesh\"><Ranges><Range variable=... minExclusive/maxExclusive>`), "
            "or a missing one; then the same range in the display unit. A parameter outside it is "
            "refused at `fmi2ExitInitializationMode`;",
            "* description: the `description` attribute.",

@@ -99,7 +99,7 @@ def model_variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
     root = ET.fromstring(xml)
     out = {}
     for sv in root.iter("ScalarVariable"):
-        typ = sv[0]  # the type element; Annotations may follow
+        typ = sv[0]  # the type element
         out[sv.get("name")] = (typ.tag, sv.get("causality", "local"), typ.get("start"))
     return out
 

@@ -155,6 +155,10 @@ def restrict_model_description(xml: str, listed: set[str]) -> str:
             _renumber_dependencies(unknown_el, new_index)
         if len(section) == 0:
             structure.remove(section)
+    for ranges in root.findall("VendorAnnotations/Tool[@name='GearMesh']/Ranges"):  # the listed variables' only
+        for rng in ranges.findall("Range"):
+            if rng.get("variable") not in listed:
+                ranges.remove(rng)
     ET.indent(root, space="  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
