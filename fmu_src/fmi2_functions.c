@@ -48,6 +48,9 @@ typedef struct instance {
   int stop_defined;
   double stop_time;
   fmu_model* model;
+  void** states;     /* the FMU states this instance made and has not freed: no other pointer is */
+  size_t n_states;   /* taken for one (an importer's stale or uninitialised pointer is refused) */
+  size_t cap_states;
   char msg[1024]; /* message from the model layer (may hold a path in resources/) */
 } instance;
 
@@ -248,6 +251,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
 void fmi2FreeInstance(fmi2Component component) {
   instance* c = (instance*)component;
   if (!c) return;
+  for (size_t i = 0; i < c->n_states; i++) free(c->states[i]); /* states not freed by the importer */
+  free(c->states);
   model_free(c->model);
   free(c->resources);
   free(c->name);
@@ -554,14 +559,50 @@ static size_t check_state(const instance* c, const char* function, const unsigne
   return (size_t)payload;
 }
 
+/* The index of state s among the instance's, or n_states if it is not one of them. */
+static size_t state_index(const instance* c, const void* s) {
+  size_t i = 0;
+  while (i < c->n_states && c->states[i] != s) i++;
+  return i;
+}
+
+/* A state of this instance, or an error naming the function and the pointer. */
+#define CHECK_STATE(s)                                                                                      \
+  if (state_index(c, s) == c->n_states)                                                                     \
+  return error(c, "%s: FMU state %p was not made by this instance (fmi2GetFMUstate or "                    \
+               "fmi2DeSerializeFMUstate) or was freed", __func__, (const void*)(s))
+
+/* *slot: NULL or a state of this instance, reallocated to hold `bytes` more than the header (a
+ * previous state of ours is reused). NULL (nothing changed) on an unknown pointer or no memory. */
+static fmu_state* state_for(instance* c, const char* function, fmi2FMUstate* slot, size_t bytes) {
+  const size_t i = *slot ? state_index(c, *slot) : c->n_states;
+  if (*slot && i == c->n_states) {
+    error(c, "%s: *FMUstate = %p was not made by this instance; allowed: NULL (a new state) or a state "
+          "this instance made", function, *slot);
+    return NULL;
+  }
+  if (!*slot && c->n_states == c->cap_states) {
+    const size_t cap = c->cap_states ? 2 * c->cap_states : 4;
+    void** grown = realloc(c->states, cap * sizeof *grown);
+    if (!grown) return error(c, "%s: out of memory", function), NULL;
+    c->states = grown;
+    c->cap_states = cap;
+  }
+  fmu_state* s = realloc(*slot, sizeof *s + bytes);
+  if (!s) return error(c, "%s: out of memory", function), NULL;
+  if (*slot) c->states[i] = s;
+  else c->states[c->n_states++] = s;
+  *slot = s;
+  return s;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component component, fmi2FMUstate* FMUstate) {
   CHECK_MODE(MASK_GET_STATE);
   CHECK_POINTER(FMUstate);
   uint64_t payload = STATE_PAYLOAD_OFFSET + model_state_size(c->model);
   size_t size = STATE_HEADER_SIZE + (size_t)payload;
-  fmu_state* s = realloc(*FMUstate, sizeof *s + size); /* a previous state of ours is reused */
-  if (!s) return error(c, "fmi2GetFMUstate: out of memory");
-  *FMUstate = s;
+  fmu_state* s = state_for(c, __func__, FMUstate, size);
+  if (!s) return fmi2Error;
   uint32_t mode = (uint32_t)c->mode;
   unsigned char* b = s->bytes;
   s->size = size;
@@ -578,6 +619,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component component, fmi2FMUstate* FMUstate) {
 fmi2Status fmi2SetFMUstate(fmi2Component component, fmi2FMUstate FMUstate) {
   CHECK_MODE(ANY_MODE);
   CHECK_POINTER(FMUstate);
+  CHECK_STATE(FMUstate);
   const fmu_state* s = FMUstate;
   size_t payload = check_state(c, __func__, s->bytes, s->size);
   if (!payload) return fmi2Error;
@@ -597,10 +639,12 @@ fmi2Status fmi2SetFMUstate(fmi2Component component, fmi2FMUstate FMUstate) {
 
 fmi2Status fmi2FreeFMUstate(fmi2Component component, fmi2FMUstate* FMUstate) {
   CHECK_MODE(ANY_MODE);
-  if (FMUstate) {
-    free(*FMUstate);
-    *FMUstate = NULL;
-  }
+  if (!FMUstate || !*FMUstate) return fmi2OK;
+  CHECK_STATE(*FMUstate);
+  const size_t i = state_index(c, *FMUstate);
+  c->states[i] = c->states[--c->n_states];
+  free(*FMUstate);
+  *FMUstate = NULL;
   return fmi2OK;
 }
 
@@ -608,6 +652,7 @@ fmi2Status fmi2SerializedFMUstateSize(fmi2Component component, fmi2FMUstate FMUs
   CHECK_MODE(ANY_MODE);
   CHECK_POINTER(FMUstate);
   CHECK_POINTER(size);
+  CHECK_STATE(FMUstate);
   *size = ((const fmu_state*)FMUstate)->size;
   return fmi2OK;
 }
@@ -617,6 +662,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component component, fmi2FMUstate FMUstate,
   CHECK_MODE(ANY_MODE);
   CHECK_POINTER(FMUstate);
   CHECK_POINTER(serializedState);
+  CHECK_STATE(FMUstate);
   const fmu_state* s = FMUstate;
   if (size < s->size) return error(c, "%s: buffer of %zu bytes, the state needs %zu", __func__, size, s->size);
   memcpy(serializedState, s->bytes, s->size);
@@ -629,11 +675,10 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component component, const fmi2Byte seria
   CHECK_POINTER(serializedState);
   CHECK_POINTER(FMUstate);
   if (!check_state(c, __func__, (const unsigned char*)serializedState, size)) return fmi2Error;
-  fmu_state* s = realloc(*FMUstate, sizeof *s + size); /* a previous state of ours is reused */
-  if (!s) return error(c, "%s: out of memory", __func__);
+  fmu_state* s = state_for(c, __func__, FMUstate, size);
+  if (!s) return fmi2Error;
   s->size = size;
   memcpy(s->bytes, serializedState, size);
-  *FMUstate = s;
   return fmi2OK;
 }
 

@@ -13,7 +13,7 @@ import threading
 import xml.etree.ElementTree as ET
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
-from ctypes import byref, c_double, c_int, c_size_t, create_string_buffer
+from ctypes import addressof, byref, c_double, c_int, c_size_t, create_string_buffer
 
 import pytest
 from fmpy import simulate_fmu
@@ -725,3 +725,38 @@ def test_truncated_or_foreign_state_is_refused(new):
                      byref(state))
     assert len(inst.log.messages("logStatusError")) == 6
     run(inst, 1, t0=2 * H)  # the instance is unaffected
+
+
+def test_a_state_pointer_the_instance_did_not_make_is_refused(new):
+    """An importer's stale, foreign or uninitialised FMUstate pointer (FMI4j passes one to
+    fmi2GetFMUstate) is refused with fmi2Error and a message by every state function, never
+    dereferenced or freed; a freed state is refused too; a state of another instance is not one
+    of this instance's; the instance stays usable."""
+    inst, other = new(name="a"), new(name="b")
+    inst.initialize()
+    other.initialize()
+    run(inst, 2)
+    garbage = create_string_buffer(b"\x5a" * 64)  # not a state at all
+    stranger = other.slave.getFMUstate()          # a state, but of another instance
+    s = inst.slave
+    for bad in (fmi2FMUstate(addressof(garbage)), stranger):
+        assert_error(s.fmi2SetFMUstate, s.component, bad)
+        assert_error(s.fmi2SerializedFMUstateSize, s.component, bad, byref(c_size_t()))
+        assert_error(s.fmi2SerializeFMUstate, s.component, bad, create_string_buffer(64), c_size_t(64))
+        slot = fmi2FMUstate(bad.value)
+        assert_error(s.fmi2GetFMUstate, s.component, byref(slot))
+        assert slot.value == bad.value  # left as it was
+        assert_error(s.fmi2FreeFMUstate, s.component, byref(slot))
+        blob = s.serializeFMUstate(s.getFMUstate())
+        assert_error(s.fmi2DeSerializeFMUstate, s.component, create_string_buffer(blob, len(blob)),
+                     c_size_t(len(blob)), byref(slot))
+    assert garbage.raw[:64] == b"\x5a" * 64  # untouched
+    freed = s.getFMUstate()
+    s.freeFMUstate(freed)
+    assert_error(s.fmi2SetFMUstate, s.component, freed)
+    assert any("was not made by this instance" in m for m in inst.log.messages("logStatusError"))
+    state = s.getFMUstate()  # the instance is unaffected
+    after = run(inst, 2, t0=2 * H)
+    s.setFMUstate(state)
+    assert run(inst, 2, t0=2 * H) == after
+    other.slave.setFMUstate(stranger)  # and the other instance's state is still its own
