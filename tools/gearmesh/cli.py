@@ -80,6 +80,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default 1e-6 1e-5 1e-4 1e-3 1e-2; --quick: 1e-5 1e-3 1e-2)")
     p_stab.add_argument("--out", type=pathlib.Path, default=REPO / "output" / "stability")
     p_stab.add_argument("--quick", action="store_true", help="the CI subset")
+    p_stab.add_argument("--trains", action="store_true", help="the gear-train cases instead "
+                        "(gearmesh.stability_trains: each train scene damped and undamped under an "
+                        "explicit master; --cases: scene names, optionally :damped or :undamped; "
+                        "--steps default 1e-3 1e-2; writes results.md and results.json)")
     sub.add_parser("platforms", add_help=False,
                    help="build the multi-platform FMU (linux64, win64, darwin64) into build-platforms/")
     p_fmu = sub.add_parser("fmu", help="write a scene's FMU listing only what the scene uses "
@@ -181,6 +185,12 @@ def main(argv: list[str] | None = None) -> int:
         from gearmesh import stability
 
         try:
+            if args.trains:
+                if args.modes or args.quick:
+                    raise ValueError("--trains: --modes and --quick do not apply to the train cases")
+                from gearmesh import stability_trains
+
+                return stability_trains.main(args.fmu, args.cases, args.steps, args.out)
             return stability.main(args.fmu, args.cases, args.modes, args.steps, args.out,
                                   args.quick)
         except ValueError as exc:
