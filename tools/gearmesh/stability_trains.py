@@ -27,7 +27,15 @@ output finite; the speeds bounded (every body and the motor within SPEED_LIMIT x
 speed of the train's kinematics at the reference speed); energy, from the train FMU's own account
 (energy.residual: + lost, - made), as for the pair: damped runs |residual| <= ENERGY_TOL of the
 work in (initial energy + energy.work_in); undamped runs: the energy made (-residual) <=
-UNDAMPED_GAIN of the run's largest kinetic + elastic energy; and the undamped runs at a steady
+UNDAMPED_GAIN of the run's largest kinetic + elastic energy plus THROUGHPUT_DRIFT of the work
+that passed through the train (energy.work_in). The second term is the train's own: a pair under
+balanced torques passes no power, a loaded train passes kilowatts, and the account's residual
+then drifts with the throughput, steadily and of either sign (-3.5 to +1.5 mW over 2.5 kW in
+the 10 s runs, at most 3e-6 of the power, damped or not: TR-BDF2's local error on the power
+integrals, within its tolerance), which a fixed fraction of the stored energy would fail once a
+run is long enough (the undamped 3-planet stage at 1e-3 s crosses 1e-3 of its 33 J at 9.5 s).
+An oscillation that feeds itself grows with the stored energy, not with the throughput, and the
+envelope rule below sees it; and the undamped runs at a steady
 speed (the port body's mean speed over both windows within STEADY_TOL of the reference): each
 mesh's TE envelope (peak to peak of the TE at the communication points) over the last TE_WINDOW
 no wider than over the first TE_WINDOW of the steady part (from STEADY_START), plus the mesh's
@@ -56,6 +64,8 @@ from tqdm import tqdm
 
 from gearmesh.stability import ENERGY_TOL, UNDAMPED_GAIN, _fmt, _mark, parse_steps
 from gearmesh.train_fmu import Train, build_train_fmu, load_train
+
+THROUGHPUT_DRIFT = 1e-5  # of the work passed through: the account's drift an undamped run may show
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 TRAINS = REPO / "scenarios" / "trains"
@@ -466,9 +476,12 @@ def judge(r: TrainRun, damped: bool, ripple: dict[str, float] | None = None) -> 
     else:
         v.scale = float(np.max(e["energy.kinetic"] + e["energy.elastic"]))
         v.energy = -v.residual / v.scale if v.scale > 0 else math.inf
-        if not v.energy <= UNDAMPED_GAIN:
-            failed.append(f"energy made: {-v.residual:.3g} J, {v.energy:.3g} of the largest "
-                          f"kinetic + elastic energy {v.scale:.3g} J (allowed {UNDAMPED_GAIN:g})")
+        through = float(e["energy.work_in"][-1])
+        allowed = UNDAMPED_GAIN * v.scale + THROUGHPUT_DRIFT * through
+        if not -v.residual <= allowed:
+            failed.append(f"energy made: {-v.residual:.3g} J, {v.energy:.3g} of the largest kinetic + elastic "
+                          f"energy {v.scale:.3g} J (allowed {UNDAMPED_GAIN:g} of it plus {THROUGHPUT_DRIFT:g} of "
+                          f"the {through:.3g} J passed through: {allowed:.3g} J)")
         _judge_envelopes(r, ripple, v)
     v.passed = not failed
     return v
