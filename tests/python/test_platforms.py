@@ -1,10 +1,12 @@
 """The multi-platform FMU, the source FMU and the FMI checkers (docs/platforms.md).
 
-build-platforms/GearMesh.fmu is built by tools/bootstrap-platforms.sh (`python -m gearmesh
-platforms`), which also installs fmi-sim and VDMCheck2 into the cache; a missing piece fails
-these tests, it does not skip them. What runs for real here: linux64 (this machine: Debian 12,
-glibc 2.36, so newer than the 2.17 the binary needs), win64 under wine, the sources built by
-the host compiler; the darwin64 binary is only built and inspected."""
+build-platforms/GearMesh.fmu and the train binaries, build-platforms/GearTrain/binaries, are
+built by tools/bootstrap-platforms.sh (`python -m gearmesh platforms`), which also installs
+fmi-sim and VDMCheck2 into the cache; a missing piece fails these tests, it does not skip them.
+What runs for real here: linux64 (this machine: Debian 12, glibc 2.36, so newer than the 2.17
+the binary needs), win64 under wine, the sources built by the host compiler; the darwin64
+binary is only built and inspected. The binaries' checks run on the pair's (GearMesh) and on
+the train's (GearTrain, packed into the two-stage reducer's train FMU)."""
 from __future__ import annotations
 
 import hashlib
@@ -19,7 +21,7 @@ import zipfile
 import lief
 import pytest
 
-from gearmesh import platforms
+from gearmesh import platforms, train_fmu
 from gearmesh.fmu_command import write_scene_fmu
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.scene import load_scene
@@ -28,6 +30,8 @@ from gearmesh.scene_fmu import build_scene_fmu
 REPO = pathlib.Path(__file__).resolve().parents[2]
 PLATFORMS = REPO / "build-platforms"
 SCENE = REPO / "scenarios" / "paper_setA_3U4U.toml"
+TRAIN_SCENE = REPO / "scenarios" / "trains" / "two_stage_reducer.toml"
+MODELS = [platforms.MODEL_IDENTIFIER, platforms.TRAIN_IDENTIFIER]  # GearMesh, GearTrain
 FMI2 = platforms.exported_functions()
 OUTPUTS = ["mesh.te", "mesh.normal_force", "mesh.pairs_in_contact", "mesh.friction_power",
            "gear1.fx", "gear1.fy", "gear1.mz", "gear2.fx", "gear2.fy", "gear2.mz"]
@@ -45,16 +49,36 @@ def multi_fmu() -> pathlib.Path:
 
 
 @pytest.fixture(scope="module")
-def binary(multi_fmu, tmp_path_factory):
-    """platform -> the bytes of binaries/<platform>/GearMesh.<suffix> of the multi-platform FMU."""
-    with zipfile.ZipFile(multi_fmu) as z:
+def train_binaries() -> pathlib.Path:
+    return need(platforms.train_binaries(PLATFORMS), "the multi-platform train binaries")
+
+
+@pytest.fixture(scope="module")
+def multi_train_fmu(multi_fmu, train_binaries, tmp_path_factory) -> pathlib.Path:
+    """The two-stage reducer's train FMU with every train binary of the platform build
+    (gearmesh train-fmu --binaries build-platforms/GearTrain/binaries)."""
+    return train_fmu.build_train_fmu(TRAIN_SCENE, tmp_path_factory.mktemp("train") / "reducer.fmu", multi_fmu,
+                                     binaries_folder=train_binaries)
+
+
+def fmu_binaries(fmu: pathlib.Path, model: str) -> dict[str, bytes]:
+    """platform -> the bytes of binaries/<platform>/<model>.<suffix> of `fmu`."""
+    with zipfile.ZipFile(fmu) as z:
         names = set(z.namelist())
         out = {}
         for platform, suffix in platforms.SUFFIX.items():
-            name = f"binaries/{platform}/GearMesh{suffix}"
-            assert name in names, f"{multi_fmu} has no {name}"
+            name = f"binaries/{platform}/{model}{suffix}"
+            assert name in names, f"{fmu} has no {name}"
             out[platform] = z.read(name)
     return out
+
+
+@pytest.fixture(scope="module", params=MODELS)
+def binary(request):
+    """platform -> the bytes of each platform's binary: the multi-platform FMU's (GearMesh) and
+    the reducer's train FMU's (GearTrain)."""
+    fmu = "multi_fmu" if request.param == platforms.MODEL_IDENTIFIER else "multi_train_fmu"
+    return fmu_binaries(request.getfixturevalue(fmu), request.param)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -204,8 +228,28 @@ def run_calls_output(cmd: list[str], env=None) -> list[list[float]]:
     return [[float(x) for x in line.split()[1:]] for line in done.stdout.splitlines() if line.startswith("get")]
 
 
+@pytest.fixture(scope="module")
+def run_calls(tmp_path_factory) -> dict[str, pathlib.Path]:
+    """tests/platforms/run_calls.c built for Windows by Zig (win64) and for this machine by cc
+    (linux64): platform -> executable."""
+    out = tmp_path_factory.mktemp("run_calls")
+    driver = REPO / "tests" / "platforms" / "run_calls.c"
+    flags = ["-O2", f"-I{platforms.FMI2_HEADERS}"]
+    subprocess.run([platforms.zig(), "cc", "-target", platforms.WINDOWS_TARGET, *flags, driver, "-o",
+                    out / "run_calls.exe"], check=True, env=platforms.zig_env())
+    subprocess.run(["cc", *flags, driver, "-o", out / "run_calls", "-ldl"], check=True)
+    return {"win64": out / "run_calls.exe", "linux64": out / "run_calls"}
+
+
+def under_wine(run_calls: dict[str, pathlib.Path], library: pathlib.Path, script: pathlib.Path) -> list[list[float]]:
+    """run_calls.exe under wine on a DLL and a script, both named by their Z: (/) paths."""
+    env = {**os.environ, "WINEPREFIX": str(platforms.cache_dir() / "wineprefix"), "WINEDEBUG": "-all"}
+    return run_calls_output([wine(), run_calls["win64"], "Z:" + library.as_posix(), "Z:" + script.as_posix()],
+                            env=env)
+
+
 @pytest.mark.parametrize("quasi_static, rel", [(False, 1e-12), (True, 1e-10)], ids=["plain", "quasi_static"])
-def test_win64_runs_under_wine_like_linux64(multi_fmu, tmp_path, quasi_static, rel):
+def test_win64_runs_under_wine_like_linux64(multi_fmu, run_calls, tmp_path, quasi_static, rel):
     """run_calls.c, cross-compiled for Windows, LoadLibrary's the DLL under wine and runs the
     scene's calls; the same driver built for Linux runs them on the linux64 binary. The
     resource location is a file URI with a drive letter (file:///Z:/..., wine's Z: is /).
@@ -217,23 +261,70 @@ def test_win64_runs_under_wine_like_linux64(multi_fmu, tmp_path, quasi_static, r
     unzipped = tmp_path / "unzipped"
     with zipfile.ZipFile(fmu) as z:
         z.extractall(unzipped)
-    driver = REPO / "tests" / "platforms" / "run_calls.c"
-    flags = ["-O2", f"-I{platforms.FMI2_HEADERS}"]
-    subprocess.run([platforms.zig(), "cc", "-target", platforms.WINDOWS_TARGET, *flags, driver, "-o",
-                    tmp_path / "run_calls.exe"], check=True, env=platforms.zig_env())
-    subprocess.run(["cc", *flags, driver, "-o", tmp_path / "run_calls", "-ldl"], check=True)
     resources = (unzipped / "resources").as_posix() + "/"
     (tmp_path / "linux.txt").write_text(call_script(fmu, "file://" + resources, quasi_static))
     (tmp_path / "win.txt").write_text(call_script(fmu, "file:///Z:" + resources, quasi_static))
-    linux = run_calls_output([tmp_path / "run_calls", unzipped / "binaries/linux64/GearMesh.so",
-                              tmp_path / "linux.txt"])
-    env = {**os.environ, "WINEPREFIX": str(platforms.cache_dir() / "wineprefix"), "WINEDEBUG": "-all"}
-    win = run_calls_output([wine(), tmp_path / "run_calls.exe",
-                            "Z:" + (unzipped / "binaries/win64/GearMesh.dll").as_posix(),
-                            "Z:" + (tmp_path / "win.txt").as_posix()], env=env)
+    linux = run_calls_output([run_calls["linux64"], unzipped / "binaries/linux64/GearMesh.so", tmp_path / "linux.txt"])
+    win = under_wine(run_calls, unzipped / "binaries/win64/GearMesh.dll", tmp_path / "win.txt")
     assert len(linux) == 30
     assert all(row[1] > 0 for row in linux)  # loaded: a normal force at every step
     assert_close(win, linux, rel)
+
+
+# The train binary (GearTrain) under wine: the two-stage reducer turning at the motor's speed with
+# the load on its output (tests/python/test_train_fmu.py's run), a few communication steps.
+W_IN, LOAD = 100.0, 200.0                     # rad/s at the motor, N m against the output's turning
+RATIO = (57 / 19) * (61 / 23)                 # input over output speed
+TRAIN_OUTPUTS = ["stage1.te", "stage1.normal_force", "stage2.te", "stage2.normal_force", "input.speed",
+                 "output.speed", "motor.torque", "dynamics.steps"]
+
+
+def train_call_script(fmu: pathlib.Path, uri: str, steps: int = 10, h: float = 1e-3) -> str:
+    """The reducer's run as a run_calls script: the bodies start at the motor's speed (through
+    the ratios), then `steps` steps of h with the motor's far end turning at W_IN and the load
+    on the output."""
+    import fmpy
+
+    md = fmpy.read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    get = {v.name: ("i" if v.type == "Integer" else "r") + str(v.valueReference) for v in md.modelVariables}
+    start = {"input.omega": W_IN, "intermediate.omega": -W_IN * 19 / 57, "output.omega": W_IN / RATIO,
+             "motor.far_omega": W_IN, "output.torque": -LOAD}
+    lines = [f"instantiate {md.guid} {uri}", "setup 0", *[f"real {vr[n]} {x!r}" for n, x in start.items()], "init"]
+    for k in range(steps):
+        inputs = {"motor.far_phi": W_IN * k * h, "motor.far_omega": W_IN, "output.torque": -LOAD}
+        lines += [f"real {vr[n]} {x!r}" for n, x in inputs.items()]
+        lines += [f"step {h!r}", "get " + " ".join(get[n] for n in TRAIN_OUTPUTS)]
+    lines.append("terminate")
+    return "\n".join(lines) + "\n"
+
+
+def test_win64_train_runs_under_wine_like_linux64(multi_train_fmu, run_calls, tmp_path):
+    """The reducer's train FMU, built with the platform build's train binaries: its GearTrain.dll
+    under wine (resources through a file:///Z:/... location) against its linux64 GearTrain.so,
+    10 steps of 1 ms; the linux64 one also against the host build's (GCC) GearTrain.so.
+    The load closes the backlash in the first step and the meshes' contacts ring down: the two C
+    runtimes' libm round some results differently (UCRT, glibc), and the contacts carry that up
+    to 1.1e-8 relative here (measured: stage1.normal_force, step 8; over 40 steps it peaks at
+    4.7e-7 in step 11, then the damped train lets it decay to 1e-11), with the same internal
+    steps in every step. So 1e-6, far below the integrator's own accuracy (1e-8 m of local error
+    per internal step against TEs of 3e-6 to 5e-5 m) and far below a wrong parameter or resource
+    (docs/platforms.md). Zig's linux64 binary and the host build's agree bit for bit (held to
+    1e-12, as the pair's)."""
+    unzipped = tmp_path / "unzipped"
+    with zipfile.ZipFile(multi_train_fmu) as z:
+        z.extractall(unzipped)
+    resources = (unzipped / "resources").as_posix() + "/"
+    (tmp_path / "linux.txt").write_text(train_call_script(multi_train_fmu, "file://" + resources))
+    (tmp_path / "win.txt").write_text(train_call_script(multi_train_fmu, "file:///Z:" + resources))
+    linux = run_calls_output([run_calls["linux64"], unzipped / "binaries/linux64/GearTrain.so", tmp_path / "linux.txt"])
+    host = run_calls_output([run_calls["linux64"], need(REPO / "build" / "fmu_src" / "GearTrain.so", "the host build"),
+                             tmp_path / "linux.txt"])
+    win = under_wine(run_calls, unzipped / "binaries/win64/GearTrain.dll", tmp_path / "win.txt")
+    assert len(linux) == 10
+    assert all(row[1] > 0 and row[3] > 0 for row in linux[-3:])  # both stages loaded at the end
+    assert_close(host, linux, rel=1e-12)
+    assert_close(win, linux, rel=1e-6)
 
 
 def test_win64_exports_the_fmi2_functions(binary):
@@ -262,7 +353,7 @@ def test_darwin64_is_a_universal_dylib_exporting_the_fmi2_functions(binary):
         others = {e for e in exported if not e.startswith("_fmi2")}
         assert exported - others == {"_" + f for f in FMI2}
         assert all(re.match(r"__Z(nw|na|dl|da)", e) for e in others - {"__mh_dylib_header", "___dso_handle"}), others
-        assert [lib.name for lib in macho.libraries if not lib.name.endswith("GearMesh.dylib")] == \
+        assert [lib.name for lib in macho.libraries if not lib.name.endswith(("GearMesh.dylib", "GearTrain.dylib"))] == \
             ["/usr/lib/libSystem.B.dylib"]
     assert cpus == {lief.MachO.Header.CPU_TYPE.X86_64, lief.MachO.Header.CPU_TYPE.ARM64}
 
@@ -275,6 +366,30 @@ def test_the_multi_platform_fmu_carries_every_platform_and_the_sources(multi_fmu
         assert {n for n in names if n.startswith("sources/")} == \
             {n for n in host.namelist() if n.startswith("sources/")}
         assert multi.read("modelDescription.xml") == host.read("modelDescription.xml")
+
+
+def test_the_train_fmu_carries_every_platform(multi_train_fmu, train_binaries, fmu_path, tmp_path, monkeypatch):
+    """gearmesh train-fmu --binaries (or $GEARMESH_TRAIN_BINARIES) packs the platform build's
+    GearTrain for linux64, win64 and darwin64; without either, the host build's linux64 binary
+    alone, as before. The rest of the FMU is the same."""
+    expected = {f"binaries/{p}/GearTrain{s}": (train_binaries / p / f"GearTrain{s}").read_bytes()
+                for p, s in platforms.SUFFIX.items()}
+    monkeypatch.delenv("GEARMESH_TRAIN_BINARY", raising=False)
+    monkeypatch.delenv("GEARMESH_TRAIN_BINARIES", raising=False)
+    default = train_fmu.build_train_fmu(TRAIN_SCENE, tmp_path / "default.fmu", fmu_path)
+    monkeypatch.setenv("GEARMESH_TRAIN_BINARIES", str(train_binaries))
+    from_env = train_fmu.build_train_fmu(TRAIN_SCENE, tmp_path / "env.fmu", fmu_path)
+
+    def contents(fmu: pathlib.Path) -> tuple[dict[str, bytes], dict[str, bytes]]:
+        with zipfile.ZipFile(fmu) as z:
+            files = {n: z.read(n) for n in z.namelist()}
+        return ({n: d for n, d in files.items() if n.startswith("binaries/")},
+                {n: d for n, d in files.items() if not n.startswith("binaries/")})
+
+    multi, env, host = contents(multi_train_fmu), contents(from_env), contents(default)
+    assert multi[0] == expected and env[0] == expected
+    assert host[0] == {"binaries/linux64/GearTrain.so": (REPO / "build" / "fmu_src" / "GearTrain.so").read_bytes()}
+    assert multi[1] == env[1] == host[1]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -104,6 +104,11 @@ def build_parser() -> argparse.ArgumentParser:
     p_train.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu",
                          help="the generic pair FMU, whose variables the meshes' parameters are "
                          "checked against (default build/GearMesh.fmu)")
+    p_train.add_argument("--binaries", type=pathlib.Path, metavar="DIR",
+                         help="pack the train binary of each platform in DIR (DIR/linux64/GearTrain.so, "
+                         "win64/GearTrain.dll, darwin64/GearTrain.dylib: gearmesh platforms writes "
+                         "build-platforms/GearTrain/binaries); default: $GEARMESH_TRAIN_BINARIES, else "
+                         "linux64 only ($GEARMESH_TRAIN_BINARY, else build/fmu_src/GearTrain.so)")
     sub.add_parser("fmu-docs", help="regenerate the FMU's documentation/index.html from README.md "
                    "and docs/fmi.md")
     p_acc = sub.add_parser("accuracy", help="error of every stiffness setting against the FE "
@@ -162,7 +167,8 @@ def main(argv: list[str] | None = None) -> int:
 
         try:
             train = train_fmu.load_train(args.train)
-            out = train_fmu.build_train_fmu(args.train, args.out or REPO / "output" / f"{train.name}.fmu", args.fmu)
+            out = train_fmu.build_train_fmu(args.train, args.out or REPO / "output" / f"{train.name}.fmu", args.fmu,
+                                            binaries_folder=args.binaries)
         except (SceneError, OSError, ValueError) as exc:
             print(f"gearmesh: {exc}", file=sys.stderr)
             return 2

@@ -8,8 +8,15 @@ one cross toolchain, Zig's clang (the `ziglang` package from PyPI), beside the F
 * win64, darwin64: the <SourceFiles> of that FMU compiled from its sources/ alone (what an
   importer of the source FMU does), one Zig target each; the two macOS slices are joined into
   one universal (fat) Mach-O by llvm-lipo, since FMI 2.0 has one darwin64 folder.
+* The gear-train FMU's binary, GearTrain (fmu_src/model_train.c in place of model_gearmesh.c,
+  the same core and FMI layer): linux64 from the same CMake build (its GearTrain target), win64
+  and darwin64 from the objects of the sources/ build above plus fmu_src/model_train.c, read
+  from the repository (the pair FMU's sources/ is its own source FMU: every unit there is one of
+  its <SourceFiles>, and an importer that compiles them all must not meet a second model).
+  `gearmesh train-fmu --binaries` packs them into a train scene's FMU.
 
-`python -m gearmesh platforms` writes build-platforms/GearMesh.fmu; tools/bootstrap-platforms.sh
+`python -m gearmesh platforms` writes build-platforms/GearMesh.fmu and the train binaries,
+build-platforms/GearTrain/binaries/<platform>/GearTrain.<suffix>; tools/bootstrap-platforms.sh
 runs it in the test command, and tests/python/test_platforms.py checks the result.
 """
 from __future__ import annotations
@@ -30,6 +37,9 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 FMI2_HEADERS = REPO / "third_party" / "fmi2"
 EXPORT_MAP = REPO / "fmu_src" / "GearMesh.map"  # the fmi2 functions the binary exports
 MODEL_IDENTIFIER = "GearMesh"
+TRAIN_IDENTIFIER = "GearTrain"
+PAIR_MODEL = "model_gearmesh.c"  # the pair's unit of <SourceFiles>; the train binary has instead:
+TRAIN_MODEL = REPO / "fmu_src" / "model_train.c"
 
 LINUX_TARGET = "x86_64-linux-gnu.2.17"  # glibc 2.17 (2012): CentOS 7 and every later distribution
 WINDOWS_TARGET = "x86_64-windows-gnu"
@@ -115,8 +125,9 @@ def _write_wrapper(path: pathlib.Path, tool: str, target: str) -> pathlib.Path:
     return path
 
 
-def build_linux64(out: pathlib.Path, jobs: int) -> pathlib.Path:
-    """The FMU-only CMake build with Zig for glibc 2.17; returns its GearMesh.fmu (linux64 only)."""
+def build_linux64(out: pathlib.Path, jobs: int) -> tuple[pathlib.Path, pathlib.Path]:
+    """The FMU-only CMake build with Zig for glibc 2.17; returns its GearMesh.fmu (linux64 only)
+    and its train binary, GearTrain.so."""
     build = out / "linux64"
     cc = _write_wrapper(out / "zig" / "cc", "cc", LINUX_TARGET)
     cxx = _write_wrapper(out / "zig" / "c++", "c++", LINUX_TARGET)
@@ -127,9 +138,9 @@ def build_linux64(out: pathlib.Path, jobs: int) -> pathlib.Path:
               # the FMU alone must not need them: configure fails if anything still looks for them
               "-DCMAKE_DISABLE_FIND_PACKAGE_Python3=ON", "-DCMAKE_DISABLE_FIND_PACKAGE_GTest=ON"],
              "configuring the linux64 build", env=zig_env())
-    _run(["cmake", "--build", build, "--target", "fmu", "--parallel", str(jobs)],
-         "building the linux64 FMU", env=zig_env())
-    return build / "GearMesh.fmu"
+    _run(["cmake", "--build", build, "--target", "fmu", TRAIN_IDENTIFIER, "--parallel", str(jobs)],
+         "building the linux64 FMU and train binary", env=zig_env())
+    return build / "GearMesh.fmu", build / "fmu_src" / f"{TRAIN_IDENTIFIER}.so"
 
 
 def source_files(model_description: str) -> list[str]:
@@ -144,19 +155,21 @@ def source_files(model_description: str) -> list[str]:
 def compile_sources(sources: pathlib.Path, files: list[str], cc: list[str], cxx: list[str],
                     link: list[str], out: pathlib.Path, objects: pathlib.Path, jobs: int,
                     env: dict | None = None) -> pathlib.Path:
-    """Compile `files` (names inside `sources`) with `cc`/`cxx` and link them with `cxx` into the
-    shared library `out`: sources/, the FMI 2.0 headers and Eigen are the only include directories.
-    An object newer than its source and every header in `sources` is kept."""
+    """Compile `files` (names inside `sources`, or paths of files elsewhere: an object is named
+    by the file's name) with `cc`/`cxx` and link them with `cxx` into the shared library `out`:
+    sources/, the FMI 2.0 headers and Eigen are the only include directories. An object newer
+    than its source and every header in `sources` is kept."""
     includes = [f"-I{sources}", f"-I{FMI2_HEADERS}", f"-I{eigen_include()}"]
     headers = max(p.stat().st_mtime for p in sources.rglob("*") if p.is_file() and p.suffix in (".h", ".hpp"))
     objects.mkdir(parents=True, exist_ok=True)
 
-    def one(name: str) -> pathlib.Path:
-        obj = objects / (name + ".o")
-        if obj.is_file() and obj.stat().st_mtime > max(headers, (sources / name).stat().st_mtime):
+    def one(name: str | pathlib.Path) -> pathlib.Path:
+        source = sources / name  # an absolute path stays itself
+        obj = objects / (source.name + ".o")
+        if obj.is_file() and obj.stat().st_mtime > max(headers, source.stat().st_mtime):
             return obj
-        compiler, flags = (cxx, CXX_FLAGS) if name.endswith((".cpp", ".cc", ".cxx")) else (cc, C_FLAGS)
-        _run([*compiler, *flags, *includes, "-c", sources / name, "-o", obj], f"compiling {name}", env=env)
+        compiler, flags = (cxx, CXX_FLAGS) if source.suffix in (".cpp", ".cc", ".cxx") else (cc, C_FLAGS)
+        _run([*compiler, *flags, *includes, "-c", source, "-o", obj], f"compiling {source.name}", env=env)
         return obj
 
     with concurrent.futures.ThreadPoolExecutor(max(1, jobs)) as pool:
@@ -182,33 +195,41 @@ def _sync(z: zipfile.ZipFile, prefix: str, target: pathlib.Path) -> None:
             path.write_bytes(data)
 
 
-def build_from_sources(fmu: pathlib.Path, out: pathlib.Path, jobs: int) -> dict[str, pathlib.Path]:
-    """win64 and darwin64 binaries from the sources/ of `fmu`: platform -> library."""
+def build_from_sources(fmu: pathlib.Path, out: pathlib.Path, jobs: int) -> dict[str, dict[str, pathlib.Path]]:
+    """win64 and darwin64 binaries from the sources/ of `fmu`: model identifier (GearMesh,
+    GearTrain) -> platform -> library. The train binary links the same objects with
+    fmu_src/model_train.c's in place of model_gearmesh.c's (compiled with the same include
+    directories, against the headers of sources/): only that one unit is compiled for it."""
     work = out / "sources-build"
     sources = work / "sources"
     with zipfile.ZipFile(fmu) as z:
         md = z.read("modelDescription.xml").decode("utf-8")
         _sync(z, "sources/", sources)
     files = source_files(md)
+    if PAIR_MODEL not in files:
+        raise BuildError(f"modelDescription.xml's <SourceFiles> lists no {PAIR_MODEL}")
+    units = {MODEL_IDENTIFIER: files, TRAIN_IDENTIFIER: [f for f in files if f != PAIR_MODEL] + [TRAIN_MODEL]}
     env = zig_env()
 
     def target(t: str) -> tuple[list[str], list[str]]:
         return [str(zig()), "cc", "-target", t], [str(zig()), "c++", "-target", t]
 
-    built = {}
-    cc, cxx = target(WINDOWS_TARGET)
-    # the DLL exports what fmi2Functions.h marks __declspec(dllexport): the fmi2 functions
-    dll = compile_sources(sources, files, cc, cxx, ["-shared"], work / WINDOWS_TARGET / "GearMesh.dll",
-                          work / WINDOWS_TARGET / "obj", jobs, env)
-    built["win64"] = dll
-    # Zig's Mach-O linker ignores -exported_symbols_list: hidden visibility leaves the fmi2
-    # functions and libc++'s replaceable operator new/delete exported (docs/platforms.md).
-    slices = []
-    for t in DARWIN_TARGETS:
-        cc, cxx = target(t)
-        slices.append(compile_sources(sources, files, cc, cxx, ["-shared", "-Wl,-install_name,@rpath/GearMesh.dylib"],
-                                      work / t / "GearMesh.dylib", work / t / "obj", jobs, env))
-    built["darwin64"] = lipo(slices, work / "GearMesh.dylib")
+    built: dict[str, dict[str, pathlib.Path]] = {name: {} for name in units}
+    for name, unit_files in units.items():
+        cc, cxx = target(WINDOWS_TARGET)
+        # the DLL exports what fmi2Functions.h marks __declspec(dllexport): the fmi2 functions
+        built[name]["win64"] = compile_sources(sources, unit_files, cc, cxx, ["-shared"],
+                                               work / WINDOWS_TARGET / f"{name}.dll",
+                                               work / WINDOWS_TARGET / "obj", jobs, env)
+        # Zig's Mach-O linker ignores -exported_symbols_list: hidden visibility leaves the fmi2
+        # functions and libc++'s replaceable operator new/delete exported (docs/platforms.md).
+        slices = []
+        for t in DARWIN_TARGETS:
+            cc, cxx = target(t)
+            slices.append(compile_sources(sources, unit_files, cc, cxx,
+                                          ["-shared", f"-Wl,-install_name,@rpath/{name}.dylib"],
+                                          work / t / f"{name}.dylib", work / t / "obj", jobs, env))
+        built[name]["darwin64"] = lipo(slices, work / f"{name}.dylib")
     return built
 
 
@@ -245,12 +266,28 @@ def pack(linux_fmu: pathlib.Path, binaries: dict[str, pathlib.Path], out: pathli
     return out
 
 
+def train_binaries(out: pathlib.Path) -> pathlib.Path:
+    """The folder of the train binaries, <platform>/GearTrain<suffix> (the layout of an FMU's
+    binaries/, which `gearmesh train-fmu --binaries` takes)."""
+    return out / TRAIN_IDENTIFIER / "binaries"
+
+
 def build(out: pathlib.Path, jobs: int) -> pathlib.Path:
-    """The multi-platform FMU, out/GearMesh.fmu (removed first: a failed build leaves none)."""
+    """The multi-platform FMU, out/GearMesh.fmu, and the train binaries, train_binaries(out)
+    (both removed first: a failed build leaves neither)."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "GearMesh.fmu").unlink(missing_ok=True)
-    linux_fmu = build_linux64(out, jobs)
-    return pack(linux_fmu, build_from_sources(linux_fmu, out, jobs), out / "GearMesh.fmu")
+    shutil.rmtree(out / TRAIN_IDENTIFIER, ignore_errors=True)
+    linux_fmu, linux_train = build_linux64(out, jobs)
+    built = build_from_sources(linux_fmu, out, jobs)
+    fmu = pack(linux_fmu, built[MODEL_IDENTIFIER], out / "GearMesh.fmu")
+    staging = out / f"{TRAIN_IDENTIFIER}.tmp"
+    shutil.rmtree(staging, ignore_errors=True)
+    for platform, lib in {"linux64": linux_train, **built[TRAIN_IDENTIFIER]}.items():
+        (staging / "binaries" / platform).mkdir(parents=True)
+        shutil.copy2(lib, staging / "binaries" / platform / f"{TRAIN_IDENTIFIER}{SUFFIX[platform]}")
+    os.replace(staging, out / TRAIN_IDENTIFIER)
+    return fmu
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -266,6 +303,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gearmesh platforms: {exc}", file=sys.stderr)
         return 1
     print(fmu)
+    print(train_binaries(args.out.resolve()))
     return 0
 
 

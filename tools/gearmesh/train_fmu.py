@@ -375,6 +375,29 @@ def binary(path: pathlib.Path | None = None) -> pathlib.Path:
     return p
 
 
+def binaries(folder: pathlib.Path | None = None, train_binary: pathlib.Path | None = None) -> dict[str, pathlib.Path]:
+    """The FMU's binaries, binaries/<platform>/GearTrain.<suffix> -> file. With a folder of train
+    binaries (`folder`; else, unless `train_binary` is given, $GEARMESH_TRAIN_BINARIES), every
+    <platform>/GearTrain.<suffix> in it (`gearmesh platforms` writes
+    build-platforms/GearTrain/binaries: linux64, win64, darwin64); without one, the linux64
+    binary of binary(train_binary)."""
+    from gearmesh.platforms import SUFFIX, TRAIN_IDENTIFIER
+
+    if folder is None and train_binary is None:
+        folder = os.environ.get("GEARMESH_TRAIN_BINARIES")
+    if not folder:
+        return {f"binaries/linux64/{TRAIN_IDENTIFIER}.so": binary(train_binary)}
+    folder = pathlib.Path(folder)
+    found = {f"binaries/{platform}/{TRAIN_IDENTIFIER}{suffix}": folder / platform / f"{TRAIN_IDENTIFIER}{suffix}"
+             for platform, suffix in SUFFIX.items()}
+    found = {name: path for name, path in found.items() if path.is_file()}
+    if not found:
+        raise FileNotFoundError(f"{folder}: no train binary (<platform>/{TRAIN_IDENTIFIER}.<suffix> for "
+                                f"{', '.join(SUFFIX)}); `gearmesh platforms` writes them to "
+                                "build-platforms/GearTrain/binaries")
+    return found
+
+
 def check_assembly(train: Train, scenes: list) -> None:
     """The assembly condition of a planetary stage: a planet whose sun mesh points at psi (in the
     carrier's frame) fits both the sun and the ring only where (z_s + z_r) psi / 2 pi is a whole
@@ -399,18 +422,22 @@ def check_assembly(train: Train, scenes: list) -> None:
 
 
 def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: pathlib.Path,
-                    train_binary: pathlib.Path | None = None) -> pathlib.Path:
-    """Write the train scene's FMU to out; returns out."""
+                    train_binary: pathlib.Path | None = None,
+                    binaries_folder: pathlib.Path | None = None) -> pathlib.Path:
+    """Write the train scene's FMU to out; returns out. Its binaries: binaries(binaries_folder,
+    train_binary)."""
     lay = layout()
     train = load_train(train_scene, lay)
     with zipfile.ZipFile(generic_fmu) as z:
         variables = model_variables(z.read("modelDescription.xml").decode("utf-8"))
     scenes = [load_scene(m["_scene"], generic_fmu) for m in train.meshes]
     check_assembly(train, scenes)
+    libraries = binaries(binaries_folder, train_binary)
     out.parent.mkdir(parents=True, exist_ok=True)
     with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", model_description(train, lay))
-        z.write(binary(train_binary), "binaries/linux64/GearTrain.so")
+        for name, library in libraries.items():
+            z.write(library, name)
         z.writestr(f"resources/{TRAIN_FILE}", train_text(train))
         for k, (m, scene) in enumerate(zip(train.meshes, scenes), start=1):
             if scene.parameters.get("model.stiffness") == 5:
