@@ -26,6 +26,9 @@ struct fmu_model {
   int outputs_current; /* v.y and v.ds belong to the current v.p and v.k */
   int evaluated;       /* k_eval holds the inputs of the last model_evaluate */
   gm_kinematics k_eval; /* those inputs (held over the last step): the TE jump check's reference */
+  int unloaded_points;  /* large-step: communication points in a row with both gears loaded and no contact */
+  double unloaded_since; /* the time of the first of them, s */
+  int warned_unloaded;  /* the warning that the mesh carries nothing was given */
   fmu_log_fn log;
   void* log_context;
 };
@@ -129,6 +132,7 @@ int model_set_resources(fmu_model* m, const char* resources, char* msg, size_t n
 /* The core model is dropped with its memory. */
 int model_reset(fmu_model* m) {
   drop_core(m);
+  m->unloaded_points = m->warned_unloaded = 0;
   return set_start_values(m);
 }
 
@@ -247,6 +251,63 @@ static double te_of(const fmu_model* m, const gm_kinematics* k) {
   return 0.5 * m->v.g.gear[0].d_b * k->phi[0] + s * 0.5 * m->v.g.gear[1].d_b * k->phi[1];
 }
 
+/* The sense of gear i's own rotation about the housing's +z (gm_fmu_ports): +1 for gear 1 and an
+ * internal gear 2, -1 for an external gear 2 (it turns the other way). */
+static double own_sense(const fmu_model* m, int i) {
+  return i == 0 || m->v.p.pair.internal ? 1.0 : -1.0;
+}
+
+/* The large-step inputs the core integrates with: the housing-frame ones plus the ports'. */
+static gm_dynamics_inputs dynamics_inputs(const fmu_model* m) {
+  gm_dynamics_inputs in = m->v.di;
+  for (int i = 0; i < 2; i++) {
+    const double s = own_sense(m, i);
+    in.torque[i] += s * m->v.port.torque[i];
+    in.shaft_phi[i] += s * m->v.port.shaft_phi[i];
+    in.shaft_omega[i] += s * m->v.port.shaft_omega[i];
+  }
+  return in;
+}
+
+/* The ports' outputs: the spin state in each gear's own sense. */
+static void publish_ports(fmu_model* m) {
+  for (int i = 0; i < 2; i++) {
+    const double s = own_sense(m, i);
+    m->v.port.angle[i] = s * m->v.ds.phi[i];
+    m->v.port.speed[i] = s * m->v.ds.omega[i];
+    m->v.port.shaft_torque[i] = s * m->v.ds.shaft_torque[i];
+  }
+}
+
+/* Large-step mode: a warning, once, when both gears have been driven or braked (a torque or a
+ * shaft) for UNLOADED_POINTS communication points and UNLOADED_TIME in a row without contact:
+ * the usual sign slip (a brake on an external gear 2 as a negative gear2.torque: both gears run
+ * up in the same sense), which no error catches. A rattle through the backlash is back in
+ * contact within milliseconds. */
+enum { UNLOADED_POINTS = 5 };
+#define UNLOADED_TIME 0.05
+static void check_unloaded(fmu_model* m, double time, const gm_result* r) {
+  if (!m->v.dynamics || m->warned_unloaded) return;
+  const gm_dynamics_inputs in = dynamics_inputs(m);
+  int loaded = 1;
+  for (int i = 0; i < 2; i++)
+    loaded = loaded && (in.torque[i] != 0 || (m->v.dp.shaft_stiffness[i] > 0 && m->v.ds.shaft_torque[i] != 0));
+  if (!loaded || r->normal_force > 0) {
+    m->unloaded_points = 0;
+    return;
+  }
+  if (m->unloaded_points++ == 0) m->unloaded_since = time;
+  if (m->unloaded_points < UNLOADED_POINTS || time - m->unloaded_since < UNLOADED_TIME) return;
+  m->warned_unloaded = 1;
+  m->log(m->log_context, GM_LOG_WARNING,
+         "t = %g s: both gears are driven or braked (torques %g and %g N.m about the housing's +z, shaft torques %g "
+         "and %g N.m) but the mesh has carried nothing since t = %g s, gear speeds %g and %g rad/s: check the signs. "
+         "About +z an external gear 2 turns against gear 1, so a brake on it is a positive gear2.torque; "
+         "load.torque and drive.torque are in each gear's own sense (a brake -T against a drive +T)",
+         time, in.torque[0], in.torque[1], m->v.ds.shaft_torque[0], m->v.ds.shaft_torque[1], m->unloaded_since,
+         m->v.ds.omega[0], m->v.ds.omega[1]);
+}
+
 /* The spin state outputs of the prescribed-motion mode: the inputs, no shafts, no account. */
 static void prescribed_state(fmu_model* m) {
   gm_dynamics_state s;
@@ -267,6 +328,7 @@ static void publish(fmu_model* m, int restart, double time, const gm_result* r) 
   m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d iterations, residual %g m", time, r->solver_iterations,
          r->solver_residual);
   if (!m->v.dynamics) prescribed_state(m);
+  publish_ports(m);
   m->v.y = *r;
   m->outputs_current = 1;
 }
@@ -275,8 +337,9 @@ static void publish(fmu_model* m, int restart, double time, const gm_result* r) 
  * (restart) or advanced by step. */
 static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r) {
   if (!m->v.dynamics) return gm_evaluate(m->core, m->data, &m->v.k, r);
-  if (restart) return gm_dynamics_start(m->core, m->data, &m->v.dp, &m->v.k, &m->v.di, &m->v.ds, r);
-  return gm_dynamics_advance(m->core, m->data, &m->v.dp, &m->v.k, &m->v.di, step, &m->v.ds, r);
+  const gm_dynamics_inputs in = dynamics_inputs(m);
+  if (restart) return gm_dynamics_start(m->core, m->data, &m->v.dp, &m->v.k, &in, &m->v.ds, r);
+  return gm_dynamics_advance(m->core, m->data, &m->v.dp, &m->v.k, &in, step, &m->v.ds, r);
 }
 
 /* 1 (msg set) if the step's TE jumps by half a base pitch or more from the last accepted
@@ -313,6 +376,8 @@ int model_evaluate(fmu_model* m, int restart, double time, double step, char* ms
     return m->v.dynamics && status == GM_ERR_SOLVER ? 2 : 1;
   }
   publish(m, restart, time, &r);
+  if (restart) m->unloaded_points = 0;
+  else check_unloaded(m, time, &r);
   if (m->v.dynamics)
     m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d internal steps, %d rejected", time, m->v.ds.steps,
            m->v.ds.rejected);
@@ -378,6 +443,8 @@ static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_valu
   for (int i = 0; !m->v.dynamics && i < 2; i++) {
     out->ds.phi[i] = seed->k.phi[i];
     out->ds.omega[i] = seed->k.omega[i];
+    out->port.angle[i] = own_sense(m, i) * seed->k.phi[i];
+    out->port.speed[i] = own_sense(m, i) * seed->k.omega[i];
   }
   return 0;
 }

@@ -263,7 +263,7 @@ def test_model_description_is_consistent(fmu_path, md):
     # The union over the modes (docs/fmi.md, "Feedthrough"; every pair measured in
     # test_fmu_feedthrough.py): the contact outputs on every input but the large-step drive,
     # the TE also not on the axial velocities (damping only), the energy account on none.
-    drive = {f"gear{g}.{n}" for g in (1, 2) for n in ("torque", "shaft_phi", "shaft_omega")}
+    drive = {f"{g}.{n}" for g in ("gear1", "gear2", "drive", "load") for n in ("torque", "shaft_phi", "shaft_omega")}
     inputs = [name for name, i in index.items() if causality[i] == "input"]
     outputs = {int(u.get("index")): u for u in root.findall("ModelStructure/Outputs/Unknown")}
     for name, ignored in (("gear1.fx", drive), ("mesh.te", drive | {"gear1.vz", "gear2.vz"}),

@@ -1,6 +1,6 @@
 """The system-simulation guide's two-inertia example runs as printed and prints what the guide
-says; its steady state is the closed form (motor torque = load, speeds T_m / c_load, gear 2
-counter-rotating at the ratio of set A's equal gears) and its TE is the quasi-static TE at the
+says; its steady state is the closed form (motor torque = load, speeds T_m / c_load, gear 2's
+in its own sense equal to the motor's: set A's gears have equal teeth) and its TE is the quasi-static TE at the
 load torque, measured here independently through the FMU's quasi-static mode."""
 from __future__ import annotations
 
@@ -58,9 +58,9 @@ def test_two_inertia_example_runs_as_printed(fmu_path, tmp_path):
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == promised
     motor, gear2, load, te = map(float, re.match(
-        r"motor (\S+) rad/s, gear 2 (\S+) rad/s, load (\S+) N m, TE (\S+) um", promised).groups())
+        r"motor (\S+) rad/s, gear 2 (\S+) rad/s, brake (\S+) N m, TE (\S+) um", promised).groups())
     T_m, c_load = 200.0, 10.0
     assert abs(motor - T_m / c_load) < 0.01 * T_m / c_load
-    assert abs(gear2 + motor) < 0.01 * motor          # equal teeth, counter-rotating
+    assert abs(gear2 - motor) < 0.01 * motor          # equal teeth; gear 2's speed in its own sense
     assert abs(load - T_m) < 0.01 * T_m
     assert abs(te * 1e-6 - quasi_static_mean_te(fmu_path, T_m)) < 0.3e-6

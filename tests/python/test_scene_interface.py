@@ -11,6 +11,7 @@ import math
 import pathlib
 import zipfile
 
+import numpy as np
 import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
@@ -59,15 +60,17 @@ def test_fmpy_validates_every_interface(set_a_fmus, interface):
 def test_torsional_lists_the_spins_and_the_mesh_outputs(set_a_fmus):
     fmu = set_a_fmus["torsional"]
     # set A fixes no mode: the inputs and outputs of all three modes
+    # (the large-step mode's torques and shaft ends as the drive and load ports, each in its
+    # gear's own sense of rotation; the housing-frame ones are the full interface's)
     assert names(fmu, "input") == {"gear1.phi", "gear2.phi", "gear1.omega", "gear2.omega",
-                                   "mesh.load_torque", "gear1.torque", "gear2.torque",
-                                   "gear1.shaft_phi", "gear2.shaft_phi", "gear1.shaft_omega",
-                                   "gear2.shaft_omega"}
+                                   "mesh.load_torque", "drive.torque", "load.torque",
+                                   "drive.shaft_phi", "load.shaft_phi", "drive.shaft_omega",
+                                   "load.shaft_omega"}
     # the large-step mode's energy account is there for a master to check the integration by
     energy = {f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
                                       "damping", "parametric", "residual")}
     assert names(fmu, "output") == set(TORSIONAL_OUTPUTS) | energy | {
-        f"gear{i}.{x}" for i in (1, 2) for x in ("angle", "speed", "shaft_torque")}
+        f"{p}.{x}" for p in ("drive", "load") for x in ("angle", "speed", "shaft_torque")}
     parameters = names(fmu, "parameter")
     fixed = load_scene(SET_A).parameters
     assert not parameters & set(fixed), "a parameter the scene sets is listed"
@@ -120,7 +123,7 @@ def test_a_large_step_scene_lists_its_energy_account(tmp_path, fmu_path):
     assert set(account) <= names(out, "output")
     with GearMeshFMU(out) as f:
         for _ in range(20):
-            f.step({"gear1.torque": 100.0, "gear2.torque": 100.0}, 1e-3)
+            f.step({"drive.torque": 100.0, "load.torque": -100.0}, 1e-3)
         e = f.get(account)
     assert e["energy.work_in"] > 0
     balance = (e["energy.work_in"] - e["energy.work_out"] - (e["energy.kinetic"] + e["energy.elastic"] - e["energy.initial"])
@@ -210,14 +213,47 @@ def test_large_step_outputs_equal_the_full_fmus_bit_for_bit(tmp_path, fmu_path):
     for i, path in fmus.items():
         write_scene_fmu(scene, fmu_path, path, i)
     torsional_inputs = names(fmus["torsional"], "input")
-    assert {"gear1.torque", "gear2.torque", "gear1.shaft_phi"} <= torsional_inputs
-    assert "mesh.load_torque" not in torsional_inputs
+    assert {"drive.torque", "load.torque", "drive.shaft_phi"} <= torsional_inputs
+    assert not {"mesh.load_torque", "gear1.torque", "gear2.torque"} & torsional_inputs
     outputs = names(fmus["torsional"], "output")
     start = {"gear1.omega": W1, "gear2.omega": -W1}
-    inputs = [{"gear1.torque": 20.0 + k, "gear2.torque": -18.0} for k in range(8)]
+    inputs = [{"drive.torque": 20.0 + k, "load.torque": 18.0} for k in range(8)]
     mine, full = run(fmus["torsional"], start, inputs, outputs), run(fmus["full"], start, inputs, outputs)
     assert mine == full
-    assert mine[-1]["gear1.speed"] != W1  # the torques moved the spins
+    assert mine[-1]["drive.speed"] != W1  # the torques moved the spins
+
+
+def test_the_usual_wiring_loads_the_mesh(tmp_path, fmu_path):
+    """A drive +T and a brake -T on the torsional FMU's ports (each in its gear's own sense)
+    load the mesh: set A's equal gears at rest, 150 N m, 0.2 s at 1 ms; the mean normal force is
+    T / r_b1 (the static balance) within 2 %, the gears stay near rest, the load port's speed is
+    gear 2's speed negated (an external gear 2 turns against +z), and no warning is logged. The
+    same torques as +T, -T about the housing's +z (the full interface's gear<i>.torque) drive
+    both gears the same way: the mesh carries nothing, the gears run up, and the FMU warns once,
+    naming the signs."""
+    scene = scene_with(tmp_path, '[fmu]\nmode = "large_step"\n')
+    fmus = {i: tmp_path / f"{i}.fmu" for i in ("torsional", "full")}
+    for i, path in fmus.items():
+        write_scene_fmu(scene, fmu_path, path, i)
+    T, h = 150.0, 1e-3
+    with GearMeshFMU(fmus["torsional"], {"model.damping": 4e5}) as f:
+        rb1 = 0.5 * f.get(["gear1.base_diameter"])["gear1.base_diameter"]
+        forces = []
+        for _ in range(200):
+            f.step({"drive.torque": T, "load.torque": -T}, h)
+            forces.append(f.get(["mesh.normal_force"])["mesh.normal_force"])
+        ports = f.get(["drive.speed", "load.speed", "drive.angle", "load.angle"])
+        assert abs(np.mean(forces[100:]) / (T / rb1) - 1) < 0.02
+        assert abs(ports["drive.speed"]) < 1.0 and abs(ports["load.speed"]) < 1.0
+        assert not f.warnings, f.warnings
+    with GearMeshFMU(fmus["full"], {"model.damping": 4e5}) as f:
+        for _ in range(200):
+            f.step({"gear1.torque": T, "gear2.torque": -T}, h)
+        got = f.get(["mesh.normal_force", "gear1.speed", "gear2.speed", "load.speed", "drive.speed"])
+        assert got["mesh.normal_force"] == 0 and got["gear1.speed"] > 100 and got["gear2.speed"] < -100
+        assert got["load.speed"] == -got["gear2.speed"] and got["drive.speed"] == got["gear1.speed"]
+        warned = [w for w in f.warnings if "check the signs" in w]
+        assert len(warned) == 1, f.warnings
 
 
 def test_level_5_resources_only_at_level_5(tmp_path, fmu_path, set_a_fmus):

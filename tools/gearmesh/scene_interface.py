@@ -2,12 +2,14 @@
 (docs/fmi.md, "Scene interfaces").
 
 * torsional: the spins in (angles and speeds, and what the scene's modes add: gear 2's load in
-  the quasi-static mode, torques and shaft ends in the large-step mode); the gear torques, TE,
-  mesh force, flank in contact and the losses out (and in the large-step mode the spins, shaft
-  torques and the energy account);
+  the quasi-static mode; in the large-step mode the drive and load ports, gear 1's and gear 2's
+  torques and shaft ends each in its gear's own sense of rotation, so that a drive +T and a
+  brake -T load the mesh); the gear torques, TE, mesh force, flank in contact and the losses out
+  (and in the large-step mode the ports' spins and shaft torques and the energy account);
 * planar: torsional plus the gear centres' in-plane motion in (ux, uy, vx, vy) and the in-plane
   contact forces out (fx, fy);
-* full: every variable of the generic FMU.
+* full: every variable of the generic FMU (the ports and the housing-frame gear<i>.torque,
+  .shaft_phi, .shaft_omega, .angle, .speed, .shaft_torque, all about +z).
 
 Parameters the scene sets are not listed (the binary reads them from the scene's start values
 file in resources/) unless named tunable; those it leaves at the FMU's defaults stay parameters
@@ -31,15 +33,15 @@ GEARS = (1, 2)
 MODE_INPUTS = {
     "prescribed": [f"gear{i}.{x}" for i in GEARS for x in ("phi", "omega")],
     "quasi_static": ["gear1.phi", "gear1.omega", "gear2.omega", "mesh.load_torque"],
-    "large_step": [f"gear{i}.{x}" for i in GEARS
-                   for x in ("phi", "omega", "torque", "shaft_phi", "shaft_omega")],
+    "large_step": [f"gear{i}.{x}" for i in GEARS for x in ("phi", "omega")]
+    + [f"{p}.{x}" for p in ("drive", "load") for x in ("torque", "shaft_phi", "shaft_omega")],
 }
 # the large-step mode's energy account (docs/dynamics.md, "Energy account"): a master checks with it
 # that the integration inside the FMU neither makes nor loses more energy than it reports
 ENERGY_OUTPUTS = [f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
                                           "damping", "parametric", "residual")]
 MODE_OUTPUTS = {"prescribed": [], "quasi_static": [],
-                "large_step": [f"gear{i}.{x}" for i in GEARS for x in ("angle", "speed", "shaft_torque")]
+                "large_step": [f"{p}.{x}" for p in ("drive", "load") for x in ("angle", "speed", "shaft_torque")]
                 + ENERGY_OUTPUTS}
 TORSIONAL_OUTPUTS = ["gear1.mz", "gear2.mz", "mesh.te", "mesh.te_angle", "mesh.normal_force",
                      "mesh.flank", "mesh.friction_power", "mesh.damping_power"]
