@@ -425,3 +425,26 @@ def test_every_train_scene_validates_and_makes_its_main_job_section(fmu_path, tm
     assert (tmp_path / name / "train_run.png").is_file()
     static_rows = [line for line in text.split("### Quasi-static")[1].splitlines() if line.startswith("| ")]
     assert len(static_rows) == 1 + len(train_fmu.load_train(scene).meshes)  # the header and a row per mesh
+
+
+def test_meshes_that_cannot_be_built_together_are_named(fmu_path, tmp_path):
+    """A planet whose ring mesh has another centre distance than its sun mesh (a ring of the wrong
+    tooth count for the planet's radius) and three gears meshing in a ring on the housing (they
+    lock) are refused when the FMU is built, naming the mesh and what is allowed; a compound body
+    (the reducer's intermediate shaft with 57 and 23 teeth) is not."""
+    import shutil
+
+    for f in PLANETARY.parent.glob("*.toml"):
+        shutil.copy(f, tmp_path / f.name)
+    ring = (tmp_path / "planet_ring_21_63.toml").read_text()
+    (tmp_path / "planet_ring_21_63.toml").write_text(ring.replace("center_distance_mm = 42", "center_distance_mm = 43"))
+    assert "center_distance_mm = 43" in (tmp_path / "planet_ring_21_63.toml").read_text()
+    with pytest.raises(SceneError, match=r"planet1_ring: centre distance 43 mm, but sun_planet1 puts planet1 42 mm "
+                                         r"from the axis of carrier; allowed"):
+        train_fmu.build_train_fmu(tmp_path / PLANETARY.name, tmp_path / "p.fmu", fmu_path)
+    loop = tmp_path / "loop.toml"
+    loop.write_text((tmp_path / "idler.toml").read_text().replace("../paper_setB_P1P2.toml", "stage1_19_57.toml") + '\n[[mesh]]\nname = "output_input"\n'
+                    'scene = "stage1_19_57.toml"\ngear1 = "input"\ngear2 = "output"\norientation_deg = 120.0\n')
+    with pytest.raises(SceneError, match=r"output_input: closes a loop of gears meshing on the housing"):
+        train_fmu.build_train_fmu(loop, tmp_path / "loop.fmu", fmu_path)
+    assert train_fmu.build_train_fmu(SCENE, tmp_path / "reducer.fmu", fmu_path).is_file()

@@ -421,6 +421,45 @@ def check_assembly(train: Train, scenes: list) -> None:
                                 f"{360 / (z_s + z_r):.6g} deg (the planets cannot be assembled elsewhere)")
 
 
+def check_geometry(train: Train, scenes: list) -> None:
+    """Meshes that can be built together: a planet sits at one radius on its carrier (its meshes
+    there, with the sun and with the ring, have one centre distance: for unshifted gears the ring
+    has z_s + 2 z_p teeth), and the meshes on the housing form no closed loop (gears meshing in a
+    ring lock: a loop is closed by a shaft). A body may carry several gears (an intermediate shaft,
+    a stepped planet): the tooth counts of its meshes need not agree. Whether one mesh's gears can
+    mesh at its centre distance is the element's own check (the pair scene's)."""
+    radius: dict[tuple[int, int], tuple[str, float]] = {}
+    for m, s in zip(train.meshes, scenes):
+        if m["_carrier"] < 0:
+            continue
+        a = s.parameters["pair.center_distance"]
+        for body in m["_gear"]:
+            key = (m["_carrier"], body)
+            if key in radius and abs(radius[key][1] - a) > 1e-9:
+                raise _fail(train.path, f"{m['name']}: centre distance {a * 1e3:g} mm, but {radius[key][0]} puts "
+                            f"{train.bodies[body]['name']} {radius[key][1] * 1e3:g} mm from the axis of "
+                            f"{train.bodies[m['_carrier']]['name']}; allowed: the planet's meshes at one centre "
+                            "distance (sun + planet = ring - planet)")
+            radius.setdefault(key, (m["name"], a))
+    parent = list(range(len(train.bodies)))
+
+    def root(b: int) -> int:
+        while parent[b] != b:
+            b = parent[b]
+        return b
+
+    for m in train.meshes:
+        if m["_carrier"] >= 0:
+            continue
+        a, b = (root(x) for x in m["_gear"])
+        if a == b:
+            raise _fail(train.path, f"{m['name']}: closes a loop of gears meshing on the housing "
+                        f"({train.bodies[m['_gear'][0]]['name']} and {train.bodies[m['_gear'][1]]['name']} already "
+                        "turn together through other meshes): the gears would lock; allowed: close a loop with a "
+                        "shaft (a back-to-back rig)")
+        parent[a] = b
+
+
 def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: pathlib.Path,
                     train_binary: pathlib.Path | None = None,
                     binaries_folder: pathlib.Path | None = None) -> pathlib.Path:
@@ -431,6 +470,7 @@ def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: p
     with zipfile.ZipFile(generic_fmu) as z:
         variables = model_variables(z.read("modelDescription.xml").decode("utf-8"))
     scenes = [load_scene(m["_scene"], generic_fmu) for m in train.meshes]
+    check_geometry(train, scenes)
     check_assembly(train, scenes)
     libraries = binaries(binaries_folder, train_binary)
     out.parent.mkdir(parents=True, exist_ok=True)
