@@ -32,6 +32,7 @@ struct fmu_model {
   int nb, ns, nm;
   char body_name[NB][NAME_SIZE], shaft_name[NS][NAME_SIZE], mesh_name[NM][NAME_SIZE];
   int fixed[NB];
+  int group[NM]; /* planet group of each mesh (1..), 0: none */
   gm_train_shaft shaft_def[NS];
   gm_train_mesh mesh_def[NM];
   gm_model_params mesh_params[NM];
@@ -207,7 +208,11 @@ static int read_train(fmu_model* m, char* msg, size_t n) {
       m->ns++;
     } else if (!strcmp(kind, "mesh") && m->nm < NM) {
       gm_train_mesh* me = &m->mesh_def[m->nm];
-      ok = sscanf(line, "%*s %*s %d %d %d %lf", &me->gear[0], &me->gear[1], &me->carrier, &me->orientation) == 4;
+      int group = 0;
+      const int got = sscanf(line, "%*s %*s %d %d %d %lf %d", &me->gear[0], &me->gear[1], &me->carrier,
+                             &me->orientation, &group);
+      ok = (got == 4 || got == 5) && group >= 0 && group <= NM;
+      m->group[m->nm] = group;
       snprintf(m->mesh_name[m->nm++], NAME_SIZE, "%s", name);
     } else {
       ok = 0;
@@ -324,6 +329,13 @@ static void publish(fmu_model* m) {
     out[5] = r->elastic_energy;
     out[6] = r->flank;
     out[7] = r->pairs_in_contact;
+  }
+  /* each mesh's share of its planet group's force */
+  for (int i = 0; i < m->nm; ++i) {
+    double total = 0;
+    for (int j = 0; j < m->nm; ++j)
+      if (m->group[i] && m->group[j] == m->group[i]) total += m->v.mesh[j][1];
+    m->v.mesh[i][8] = !m->group[i] ? 1.0 : total > 0 ? m->v.mesh[i][1] / total : 0.0;
   }
   const gm_train_energy e = gm_train_energy_account(m->train);
   const double account[] = {e.kinetic, e.elastic, e.initial, e.work_in, e.work_out, e.friction, e.damping,

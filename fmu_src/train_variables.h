@@ -68,14 +68,15 @@
   X(4, "stiffness", Real, output, continuous, "N/m", "tangent mesh stiffness")                                 \
   X(5, "elastic_energy", Real, output, continuous, "J", "elastic energy")                                      \
   X(6, "flank", Integer, output, discrete, "", "0 none, 1 flank A, 2 flank B, 3 both")                         \
-  X(7, "pairs_in_contact", Integer, output, discrete, "", "loaded tooth pairs")
+  X(7, "pairs_in_contact", Integer, output, discrete, "", "loaded tooth pairs")                                 \
+  X(8, "planet_share", Real, output, continuous, "", "share of its planet group's normal force (the meshes of one pair scene on one carrier; 1 outside a group)")
 
 /* Resources of a train FMU (written by tools/gearmesh/train_fmu.py):
  *   resources/train.txt: "gearmesh-train 1", then one line per member, in index order:
  *     body <name> <inertia kg m^2> <fixed 0|1> <initial angle rad, the start of <body>.phi>
  *          [<mass kg> <bearing stiffness N/m> <bearing damping N s/m> <pin error tangential m> <radial m>]
  *     shaft <name> <body> <other body or -1: far end> <stiffness> <damping>
- *     mesh <name> <gear1 body> <gear2 body> <carrier body or -1> <orientation rad>
+ *     mesh <name> <gear1 body> <gear2 body> <carrier body or -1> <orientation rad> [<planet group, 0: none>]
  *   resources/mesh<k>/gearmesh-start-values.txt: the k-th mesh's element parameters (k from 1),
  *     in the format of the pair FMU's start values (fmu_src/values.h). */
 #define TRAIN_FILE "train.txt"

@@ -362,6 +362,8 @@ def test_floating_sun_shares_equally_under_a_pin_error(fmu_path, tmp_path):
     floating = quasi_static(fmu3, three, points=48, parameters={**pin, "sun.mass": 1.0})
     shares = sharing(three, floating)
     sun_meshes = [f"sun_planet{p}" for p in (1, 2, 3)]
+    total = sum(floating[f"{n}.normal_force"] for n in sun_meshes)  # the FMU's planet_share is force / group's
+    assert all(np.allclose(shares[n], floating[f"{n}.normal_force"] / total, rtol=1e-12) for n in sun_meshes)
     assert max(abs(shares[n] - 1 / 3).max() for n in sun_meshes) < 5e-4
     assert np.hypot(floating["sun.x"], floating["sun.y"]).min() > 1e-6  # the sun moved to balance
     fixed = sharing(three, quasi_static(fmu3, three, points=48, parameters=pin))

@@ -355,7 +355,19 @@ def model_description(train: Train, lay: Layout) -> str:
     return "\n".join(lines)
 
 
+def planet_groups(train: Train) -> dict[str, list[str]]:
+    """The meshes that share a load in parallel: those of one pair scene on one carrier (a planetary
+    stage's sun meshes, its ring meshes), by "<scene file> on <carrier>"; each mesh's
+    <mesh>.planet_share is its share of its group's normal force."""
+    groups: dict[str, list[str]] = {}
+    for m in train.meshes:
+        if m["_carrier"] >= 0:
+            groups.setdefault(f"{m['_scene'].name} on {train.bodies[m['_carrier']]['name']}", []).append(m["name"])
+    return {k: v for k, v in groups.items() if len(v) > 1}
+
+
 def train_text(train: Train) -> str:
+    group = {n: k for k, members in enumerate(planet_groups(train).values(), start=1) for n in members}
     lines = ["gearmesh-train 1"]
     for b in train.bodies:
         extra = " ".join(repr(b["_" + BODY_KEYS["_" + f]]) for f in BODY_EXTRA)
@@ -364,7 +376,8 @@ def train_text(train: Train) -> str:
         lines.append(f"shaft {s['name']} {s['_body']} {s['_other']} {float(s.get('stiffness_Nm_per_rad', 0.0))!r} "
                      f"{float(s.get('damping_Nms_per_rad', 0.0))!r}")
     for m in train.meshes:
-        lines.append(f"mesh {m['name']} {m['_gear'][0]} {m['_gear'][1]} {m['_carrier']} {m['_orientation']!r}")
+        lines.append(f"mesh {m['name']} {m['_gear'][0]} {m['_gear'][1]} {m['_carrier']} {m['_orientation']!r} "
+                     f"{group.get(m['name'], 0)}")
     return "\n".join(lines) + "\n"
 
 

@@ -2,7 +2,7 @@
 simulator would, at the scene's [run] step (default 1e-2 s): every port's far end ramped from
 rest to port_speed_rpm and the load on load_body ramped to load_Nm against its turning, for
 duration_s. Reported: each body's mean speed and its ratio to the port's, each mesh's mean force
-and its share among meshes of the same gear pair scene (a planetary stage's load sharing), the
+and a planet mesh's share of its group's force (<mesh>.planet_share: a planetary stage's load sharing), the
 energy account, and two pictures (speeds, mesh forces). Then the quasi-static train (the FMU's
 model.quasi_static mode): the static equilibrium at every point of a sweep of the held body over
 one revolution of the sweep body ([static] table), the load on load_body: the train's TE at the
@@ -15,7 +15,7 @@ import pathlib
 
 import numpy as np
 
-from gearmesh.train_fmu import build_train_fmu, load_train
+from gearmesh.train_fmu import build_train_fmu, load_train, planet_groups
 
 RPM = 2 * math.pi / 60
 
@@ -32,7 +32,8 @@ def simulate(fmu: pathlib.Path, train, run: dict) -> dict[str, np.ndarray]:
     f.exitInitializationMode()
     ports = [s["name"] for s in train.shafts if s["_other"] == -1]
     read = ([f"{b['name']}.speed" for b in train.bodies] + [f"{m['name']}.normal_force" for m in train.meshes] +
-            [f"{m['name']}.te" for m in train.meshes] + ["energy.residual", "energy.work_in", "energy.kinetic",
+            [f"{m['name']}.te" for m in train.meshes] + [f"{m['name']}.planet_share" for m in train.meshes] +
+            ["energy.residual", "energy.work_in", "energy.kinetic",
                                                           "energy.elastic"])
     rows, angle, sense = [], 0.0, 1.0
     loaded = [b["name"] for b in train.bodies].index(load_body)  # its speed's column in read
@@ -86,7 +87,8 @@ def quasi_static(fmu: pathlib.Path, train, load_Nm: float | None = None, points:
     for name, value in (parameters or {}).items():
         f.setReal([vr[name]], [float(value)])
     read = ([f"{n}.angle" for n in names] + [f"{m['name']}.te" for m in train.meshes] +
-            [f"{m['name']}.normal_force" for m in train.meshes] + [f"{names[held]}.holding_torque"] +
+            [f"{m['name']}.normal_force" for m in train.meshes] + [f"{m['name']}.planet_share" for m in train.meshes] +
+            [f"{names[held]}.holding_torque"] +
             [f"{n}.{a}" for n in names for a in ("x", "y")])
     flanks = [f"{m['name']}.flank" for m in train.meshes]
     sense = 1.0
@@ -124,24 +126,10 @@ def quasi_static(fmu: pathlib.Path, train, load_Nm: float | None = None, points:
     return out
 
 
-def planet_groups(train) -> dict[str, list[str]]:
-    """The meshes that share a load in parallel: those of one pair scene on one carrier (a planetary
-    stage's sun meshes, its ring meshes), by the scene's file name."""
-    groups: dict[str, list[str]] = {}
-    for m in train.meshes:
-        if m["_carrier"] >= 0:
-            groups.setdefault(f"{m['_scene'].name} on {train.bodies[m['_carrier']]['name']}", []).append(m["name"])
-    return {k: v for k, v in groups.items() if len(v) > 1}
-
-
 def sharing(train, r: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """Each planet mesh's share of its group's force (planet_groups) per point."""
-    shares = {}
-    for mates in planet_groups(train).values():
-        total = sum(r[f"{n}.normal_force"] for n in mates)
-        for n in mates:
-            shares[n] = np.divide(r[f"{n}.normal_force"], total, out=np.zeros_like(total), where=total > 0)
-    return shares
+    """Each planet mesh's share of its group's force per point (the FMU's <mesh>.planet_share;
+    the groups: gearmesh.train_fmu.planet_groups)."""
+    return {n: r[f"{n}.planet_share"] for mates in planet_groups(train).values() for n in mates}
 
 
 def static_section(fmu: pathlib.Path, train, folder: pathlib.Path) -> list[str]:
@@ -224,15 +212,11 @@ def section(train_scene: pathlib.Path, generic_fmu: pathlib.Path, out: pathlib.P
     for b in train.bodies:
         w = r[f"{b['name']}.speed"][last].mean()
         lines.append(f"| {b['name']} | {w:.4g} | {w / port:.5g} |")
-    lines += ["", "| mesh | element scene | mean normal force (N) | share among its scene's meshes |", "|---|---|---|---|"]
-    by_scene: dict[str, list[str]] = {}
+    lines += ["", "| mesh | element scene | mean normal force (N) | mean planet share |", "|---|---|---|---|"]
+    grouped = {n for mates in planet_groups(train).values() for n in mates}
     for m in train.meshes:
-        by_scene.setdefault(str(m["_scene"]), []).append(m["name"])
-    for m in train.meshes:
-        mates = by_scene[str(m["_scene"])]
         force = r[f"{m['name']}.normal_force"][last].mean()
-        total = sum(r[f"{n}.normal_force"][last].mean() for n in mates)
-        share = f"{force / total:.4f}" if total > 0 else "–"
+        share = f"{r[m['name'] + '.planet_share'][last].mean():.4f}" if m["name"] in grouped else "–"
         lines.append(f"| {m['name']} | {m['_scene'].name} | {force:.4g} | {share} |")
     residual, work_in = r["energy.residual"][-1], r["energy.work_in"][-1]
     lines += ["", f"Energy: {work_in:.4g} J put in, residual {residual:+.3g} J "
