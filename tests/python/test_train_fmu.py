@@ -450,3 +450,37 @@ def test_meshes_that_cannot_be_built_together_are_named(fmu_path, tmp_path):
     with pytest.raises(SceneError, match=r"output_input: closes a loop of gears meshing on the housing"):
         train_fmu.build_train_fmu(loop, tmp_path / "loop.fmu", fmu_path)
     assert train_fmu.build_train_fmu(SCENE, tmp_path / "reducer.fmu", fmu_path).is_file()
+
+
+def test_a_train_fmu_lists_the_outputs_its_scene_asks_for(fmu_path, tmp_path):
+    """[fmu] outputs narrows the train FMU's outputs to the patterns named (inputs and parameters
+    stay): it validates and runs; a pattern that names no output is refused; `gearmesh fmu` on a
+    train scene writes its train FMU."""
+    import shutil
+
+    from fmpy import read_model_description
+    from fmpy.validation import validate_fmu
+
+    from gearmesh.cli import main as cli_main
+
+    for f in SCENE.parent.glob("*.toml"):
+        shutil.copy(f, tmp_path / f.name)
+    scene = tmp_path / "narrow.toml"
+    scene.write_text(SCENE.read_text() + '\n[fmu]\noutputs = ["stage*.te", "output.speed", "energy.residual"]\n')
+    fmu = train_fmu.build_train_fmu(scene, tmp_path / "narrow.fmu", fmu_path)
+    assert validate_fmu(str(fmu)) == []
+    md = read_model_description(str(fmu))
+    outputs = {v.name for v in md.modelVariables if v.causality == "output"}
+    assert outputs == {"stage1.te", "stage2.te", "output.speed", "energy.residual"}
+    assert {"motor.far_phi", "output.torque", "input.inertia"} <= {v.name for v in md.modelVariables}
+    f, vr = start(fmu)
+    x = run(f, vr, 0.0, 20, 1e-2, ["stage1.te", "output.speed"])
+    f.terminate()
+    f.freeInstance()
+    assert np.all(np.isfinite(x)) and x[-1, 1] > 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SCENE.read_text() + '\n[fmu]\noutputs = ["stage3.te"]\n')
+    with pytest.raises(SceneError, match=r"\[fmu\] outputs: 'stage3.te' names no output"):
+        train_fmu.build_train_fmu(bad, tmp_path / "bad.fmu", fmu_path)
+    assert cli_main(["fmu", str(SCENE), "--fmu", str(fmu_path), "--out", str(tmp_path / "cli.fmu")]) == 0
+    assert validate_fmu(str(tmp_path / "cli.fmu")) == []

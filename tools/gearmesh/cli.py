@@ -87,7 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("platforms", add_help=False,
                    help="build the multi-platform FMU (linux64, win64, darwin64) into build-platforms/")
     p_fmu = sub.add_parser("fmu", help="write a scene's FMU listing only what the scene uses "
-                           "(interfaces torsional, planar, full; docs/fmi.md)")
+                           "(interfaces torsional, planar, full; docs/fmi.md); a train scene's: as train-fmu")
     p_fmu.add_argument("scenes", nargs=1, type=pathlib.Path, metavar="SCENE", help="scene file (TOML)")
     p_fmu.add_argument("--interface", choices=("torsional", "planar", "full"),
                        help="default: the scene's [fmu] interface, else torsional unless it is "
@@ -152,6 +152,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _train_fmu(scene: pathlib.Path, out: pathlib.Path | None, fmu: pathlib.Path,
+               binaries: pathlib.Path | None) -> int:
+    from gearmesh import train_fmu
+
+    try:
+        train = train_fmu.load_train(scene)
+        written = train_fmu.build_train_fmu(scene, out or REPO / "output" / f"{train.name}.fmu", fmu,
+                                            binaries_folder=binaries)
+    except (SceneError, OSError, ValueError) as exc:
+        print(f"gearmesh: {exc}", file=sys.stderr)
+        return 2
+    print(f"gearmesh train-fmu: wrote {written}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, rest = parser.parse_known_args(argv)
@@ -163,17 +178,16 @@ def main(argv: list[str] | None = None) -> int:
 
         return platforms.main(rest)
     if args.command == "train-fmu":
-        from gearmesh import train_fmu
+        return _train_fmu(args.train, args.out, args.fmu, args.binaries)
+    if args.command == "fmu":
+        from gearmesh.train_fmu import is_train_scene
 
-        try:
-            train = train_fmu.load_train(args.train)
-            out = train_fmu.build_train_fmu(args.train, args.out or REPO / "output" / f"{train.name}.fmu", args.fmu,
-                                            binaries_folder=args.binaries)
-        except (SceneError, OSError, ValueError) as exc:
-            print(f"gearmesh: {exc}", file=sys.stderr)
-            return 2
-        print(f"gearmesh train-fmu: wrote {out}")
-        return 0
+        if is_train_scene(args.scenes[0]):  # a train scene: its train FMU (gearmesh train-fmu)
+            if args.interface or args.tunable:
+                print("gearmesh: --interface and --tunable are for pair scenes; a train FMU lists its "
+                      "members' variables (and the outputs its [fmu] outputs names)", file=sys.stderr)
+                return 2
+            return _train_fmu(args.scenes[0], args.out, args.fmu, None)
     if args.command == "fmu-docs":
         from gearmesh import fmu_docs
 

@@ -101,6 +101,11 @@ TRAIN_KEYS: dict[str, dict[str, tuple[str, str, str]]] = {
         "duration_s": ("float", "s", "the run's length; default 1"),
         "step_s": ("float", "s", "the run's communication step; default 1e-2"),
     },
+    "fmu": {
+        "outputs": ("list of strings", "", "the outputs the FMU lists, as name patterns (fnmatch: "
+                    "\"sun_planet*.normal_force\", \"carrier.*\", \"energy.*\"); default: every output of every "
+                    "member"),
+    },
     "static": {
         "held_body": ("string", "", "the main job's quasi-static analysis: the body held at each angle of the "
                       "sweep (default: the body of the first port's shaft)"),
@@ -165,6 +170,7 @@ class Train:
     path: pathlib.Path | None = None
     run: dict = field(default_factory=dict)
     static: dict = field(default_factory=dict)
+    outputs: list[str] | None = None  # [fmu] outputs: name patterns of the outputs listed (None: all)
 
     def held_body(self) -> int:
         """The quasi-static analysis's held body: [static] held_body, else the first port's body."""
@@ -289,7 +295,12 @@ def load_train(path: pathlib.Path, lay: Layout | None = None) -> Train:
     points = static.get("points", 240)
     if isinstance(points, bool) or not isinstance(points, int) or not 2 <= points <= 100000:
         raise _fail(path, f"[static] points = {points!r}: allowed: an integer in [2, 100000]")
-    return Train(name, bodies, shafts, meshes, data.get("dynamics", {}), path, run, static)
+    outputs = data.get("fmu", {}).get("outputs")
+    if outputs is not None and (not isinstance(outputs, list) or not outputs or
+                                not all(isinstance(o, str) and o for o in outputs)):
+        raise _fail(path, f"[fmu] outputs = {outputs!r}: allowed: a list of name patterns, e.g. "
+                    "[\"sun_planet*.normal_force\", \"carrier.speed\"]")
+    return Train(name, bodies, shafts, meshes, data.get("dynamics", {}), path, run, static, outputs)
 
 
 def _scalar_start(train: Train) -> dict[int, float]:
@@ -324,6 +335,15 @@ def model_description(train: Train, lay: Layout) -> str:
                     if block == "SHAFT" and f.name == "damping":
                         start = float(member.get("damping_Nms_per_rad", 0.0))
                 rows.append((lay.value(base) + i * stride + f.index, f"{member['name']}.{f.name}", f, start))
+    if train.outputs is not None:  # only the outputs the scene asks for
+        import fnmatch
+
+        for pattern in train.outputs:
+            if not any(f.causality == "output" and fnmatch.fnmatchcase(name, pattern) for _, name, f, _ in rows):
+                raise _fail(train.path, f"[fmu] outputs: {pattern!r} names no output; allowed: patterns of "
+                            "outputs such as sun_planet*.normal_force, carrier.speed, energy.*")
+        rows = [row for row in rows if row[2].causality != "output" or
+                any(fnmatch.fnmatchcase(row[1], pattern) for pattern in train.outputs)]
     units = sorted({f.unit for _, _, f, _ in rows if f.unit})
     lines = ['<?xml version="1.0" encoding="UTF-8"?>',
              f'<fmiModelDescription fmiVersion="2.0" modelName="{escape(train.name)}" '
