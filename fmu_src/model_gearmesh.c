@@ -276,6 +276,7 @@ static void publish_ports(fmu_model* m) {
     m->v.port.angle[i] = s * m->v.ds.phi[i];
     m->v.port.speed[i] = s * m->v.ds.omega[i];
     m->v.port.shaft_torque[i] = s * m->v.ds.shaft_torque[i];
+    m->v.port.shaft_torque_mean[i] = s * m->v.ds.step_aggregates.shaft_torque_mean[i];
   }
 }
 
@@ -327,7 +328,10 @@ static void publish(fmu_model* m, int restart, double time, const gm_result* r) 
            flank_name(r->flank));
   m->log(m->log_context, GM_LOG_SOLVER, "t = %g s: %d iterations, residual %g m", time, r->solver_iterations,
          r->solver_residual);
-  if (!m->v.dynamics) prescribed_state(m);
+  if (!m->v.dynamics) {
+    prescribed_state(m);
+    gm_point_aggregates(r, NULL, &m->v.ds.step_aggregates); /* the step is one evaluation */
+  }
   publish_ports(m);
   m->v.y = *r;
   m->outputs_current = 1;
@@ -445,6 +449,10 @@ static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_valu
     out->ds.omega[i] = seed->k.omega[i];
     out->port.angle[i] = own_sense(m, i) * seed->k.phi[i];
     out->port.speed[i] = own_sense(m, i) * seed->k.omega[i];
+  }
+  if (!m->v.dynamics) { /* the step means are the point values: their derivative (|te|' = sign(te) te') */
+    gm_point_aggregates(&out->y, NULL, &out->ds.step_aggregates);
+    out->ds.step_aggregates.te_rms = (m->v.y.te < 0 ? -1.0 : 1.0) * out->y.te;
   }
   return 0;
 }

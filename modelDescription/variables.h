@@ -29,6 +29,7 @@
 typedef struct gm_fmu_ports {
   double torque[2], shaft_phi[2], shaft_omega[2]; /* inputs */
   double angle[2], speed[2], shaft_torque[2];     /* outputs */
+  double shaft_torque_mean[2];                    /* output: the shaft torque's mean over the last step */
 } gm_fmu_ports;
 
 typedef struct gm_fmu_values {
@@ -272,7 +273,31 @@ typedef enum {
   X(role ".shaft_torque", Real, output, continuous, calculated, "N.m", "", port.shaft_torque[n],                   \
     D_AT_INIT(D_SET | D_DYN | D_PHI(n) | D_OMEGA(n) | D_SHAFT_PHI(n) | D_SHAFT_OMEGA(n)),                         \
     "large-step mode: torque of the " role " shaft on its gear in the gear's own sense (its far end feels minus "  \
-    "this)")
+    "this)")                                                                                                       \
+  X(role ".shaft_torque_mean", Real, output, continuous, calculated, "N.m", "", port.shaft_torque_mean[n],        \
+    D_AT_INIT(D_SET | D_DYN | D_PHI(n) | D_OMEGA(n) | D_SHAFT_PHI(n) | D_SHAFT_OMEGA(n)),                         \
+    "large-step mode: the " role " shaft's torque on its gear in the gear's own sense, mean over the last step")
+
+/* Step means of gear i (gm_step_aggregates): over the last communication step in the large-step
+ * mode (impulse over duration, the integrator's own weights: momentum-consistent), the step's one
+ * evaluation otherwise. */
+#define GM_FMU_GEAR_STEP_MEANS(X, i, n)                                                                            \
+  X("gear" #i ".fx_mean", Real, output, continuous, calculated, "N", "kN", ds.step_aggregates.force_mean[n][0],     \
+    D_CONTACT, "contact force on the gear, x in H, mean over the last step")                                      \
+  X("gear" #i ".fy_mean", Real, output, continuous, calculated, "N", "kN", ds.step_aggregates.force_mean[n][1],     \
+    D_CONTACT, "contact force on the gear, y in H, mean over the last step")                                      \
+  X("gear" #i ".fz_mean", Real, output, continuous, calculated, "N", "kN", ds.step_aggregates.force_mean[n][2],     \
+    D_CONTACT, "contact force on the gear, z in H, mean over the last step")                                      \
+  X("gear" #i ".mx_mean", Real, output, continuous, calculated, "N.m", "", ds.step_aggregates.moment_mean[n][0],    \
+    D_CONTACT, "contact moment about the gear centre, x in H, mean over the last step")                           \
+  X("gear" #i ".my_mean", Real, output, continuous, calculated, "N.m", "", ds.step_aggregates.moment_mean[n][1],    \
+    D_CONTACT, "contact moment about the gear centre, y in H, mean over the last step")                           \
+  X("gear" #i ".mz_mean", Real, output, continuous, calculated, "N.m", "", ds.step_aggregates.moment_mean[n][2],    \
+    D_CONTACT, "contact moment about the gear centre, z in H, mean over the last step (momentum-consistent)")     \
+  X("gear" #i ".shaft_torque_mean", Real, output, continuous, calculated, "N.m", "",                              \
+    ds.step_aggregates.shaft_torque_mean[n],                                                                       \
+    D_AT_INIT(D_SET | D_DYN | D_PHI(n) | D_OMEGA(n) | D_SHAFT_PHI(n) | D_SHAFT_OMEGA(n)),                         \
+    "large-step mode: torque of the shaft on the gear, mean over the last step (its far end's impulse / step)")
 
 /* Outputs of gear i. */
 #define GM_FMU_GEAR_OUTPUTS(X, i, n)                                                                               \
@@ -383,6 +408,16 @@ typedef enum {
     "transmission error as an angle of gear 2")                                                                    \
   X("mesh.normal_force", Real, output, continuous, calculated, "N", "kN", y.normal_force, D_CONTACT,                \
     "sum of the normal slice forces")                                                                              \
+  X("mesh.te_mean", Real, output, continuous, calculated, "m", "um", ds.step_aggregates.te_mean, D_TE,            \
+    "mesh.te, mean over the last step (large-step mode: over its internal steps' stage points; else its value)")    \
+  X("mesh.te_min", Real, output, continuous, calculated, "m", "um", ds.step_aggregates.te_min, D_TE,              \
+    "mesh.te, least over the last step (large-step mode: over its internal steps' stage points)")                  \
+  X("mesh.te_max", Real, output, continuous, calculated, "m", "um", ds.step_aggregates.te_max, D_TE,              \
+    "mesh.te, largest over the last step (large-step mode: over its internal steps' stage points)")                \
+  X("mesh.te_rms", Real, output, continuous, calculated, "m", "um", ds.step_aggregates.te_rms, D_TE,              \
+    "mesh.te, root mean square over the last step")                                                                \
+  X("mesh.normal_force_mean", Real, output, continuous, calculated, "N", "kN", ds.step_aggregates.normal_force_mean, \
+    D_CONTACT, "mesh.normal_force, mean over the last step")                                                        \
   X("mesh.stiffness", Real, output, continuous, calculated, "N/m", "N/um", y.stiffness, D_TE,              \
     "tangent mesh stiffness along the line of action")                                                             \
   X("mesh.pairs_in_contact", Integer, output, discrete, calculated, "", "", y.pairs_in_contact, D_CONTACT,         \
@@ -407,6 +442,8 @@ typedef enum {
   GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, 2, 1)                                                                            \
   GM_FMU_PORT_OUTPUTS(X, "drive", 0)                                                                               \
   GM_FMU_PORT_OUTPUTS(X, "load", 1)                                                                                \
+  GM_FMU_GEAR_STEP_MEANS(X, 1, 0)                                                                                  \
+  GM_FMU_GEAR_STEP_MEANS(X, 2, 1)                                                                                  \
   X("energy.kinetic", Real, output, continuous, calculated, "J", "", ds.kinetic, D_AT_INIT(D_KINETIC),      \
     "large-step mode: kinetic energy of the two gears' spins")                                                     \
   X("energy.elastic", Real, output, continuous, calculated, "J", "", ds.elastic, D_AT_INIT(D_ELASTIC),      \

@@ -249,6 +249,60 @@ void account(double h, const Point& x1, const Point& x2, const Point& x3, gm_dyn
                   (x3.res.elastic_energy - x1.res.elastic_energy);
 }
 
+// The step's aggregates (gm_step_aggregates): sums over the accepted internal steps of h times the
+// method's weights (w, w, d) on the stage points x1, x2, x3 (the weights the spins' update uses, so
+// the impulses balance the momentum), divided by the duration at the end; the TE's extremes over
+// the stage points.
+struct Aggregator {
+  gm_step_aggregates a{};
+  double te2 = 0;
+  void start(const Point& x) {
+    a = gm_step_aggregates{};
+    te2 = 0;
+    a.te_min = a.te_max = x.res.te;
+  }
+  void add(double h, const Point& x1, const Point& x2, const Point& x3) {
+    const double w1 = h * kW, w2 = h * kW, w3 = h * kD;
+    for (int i = 0; i < 2; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        a.force_mean[i][k] += w1 * x1.res.force[i][k] + w2 * x2.res.force[i][k] + w3 * x3.res.force[i][k];
+        a.moment_mean[i][k] += w1 * x1.res.moment[i][k] + w2 * x2.res.moment[i][k] + w3 * x3.res.moment[i][k];
+      }
+      a.shaft_torque_mean[i] += w1 * x1.shaft_torque[i] + w2 * x2.shaft_torque[i] + w3 * x3.shaft_torque[i];
+    }
+    a.normal_force_mean += w1 * x1.res.normal_force + w2 * x2.res.normal_force + w3 * x3.res.normal_force;
+    a.te_mean += w1 * x1.res.te + w2 * x2.res.te + w3 * x3.res.te;
+    te2 += w1 * x1.res.te * x1.res.te + w2 * x2.res.te * x2.res.te + w3 * x3.res.te * x3.res.te;
+    for (const Point* x : {&x2, &x3}) {
+      a.te_min = std::min(a.te_min, x->res.te);
+      a.te_max = std::max(a.te_max, x->res.te);
+    }
+    a.duration += h;
+  }
+  gm_step_aggregates finish() const {
+    gm_step_aggregates out = a;
+    const double inv = out.duration > 0 ? 1.0 / out.duration : 0.0;
+    for (int i = 0; i < 2; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        out.force_mean[i][k] *= inv;
+        out.moment_mean[i][k] *= inv;
+      }
+      out.shaft_torque_mean[i] *= inv;
+    }
+    out.normal_force_mean *= inv;
+    out.te_mean *= inv;
+    out.te_rms = std::sqrt(std::max(0.0, te2 * inv));
+    return out;
+  }
+};
+
+// The aggregates of a state alone (gm_dynamics_start): its values.
+gm_step_aggregates point_aggregates(const Point& x) {
+  gm_step_aggregates a;
+  gm_point_aggregates(&x.res, x.shaft_torque, &a);
+  return a;
+}
+
 void finish_state(const gm_dynamics_params& p, const Point& x, gm_dynamics_state& s) {
   s.kinetic = 0;
   for (int i = 0; i < 2; ++i) {
@@ -304,6 +358,7 @@ gm_status dynamics_start(const gm_model& m, gm_data& d, const gm_dynamics_params
   out.initial_energy = out.kinetic + out.elastic;
   out.residual = 0;
   out.step = std::min(p.max_step, 1e-5);
+  out.step_aggregates = point_aggregates(x);
   s = out;
   res = x.res;
   d.message.clear();
@@ -343,6 +398,8 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   const double jump = x1.elastic - s.elastic;
   (jump > 0 ? s.work_in : s.work_out) += std::fabs(jump);
   s.steps = s.rejected = 0;
+  Aggregator aggregates;
+  aggregates.start(x1);
   double t = 0, h = std::clamp(s.step, p.min_step, p.max_step);
   // The Jacobian (Newton matrix and error filter) is kept over steps and taken anew after
   // kJacobianAge steps, before a rejected step is retried, and after a stage whose first Newton
@@ -384,6 +441,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     const double allowed = event ? kEventFraction : 1.0;
     if (status == GM_OK && fraction <= allowed) {
       account(h_try, x1, x2, x3, s);
+      aggregates.add(h_try, x1, x2, x3);
       t = h_try >= remaining ? duration : t + h_try;
       x1 = x3;
       ++jacobian_age;
@@ -411,6 +469,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   }
   s.step = h;
   finish_state(p, x1, s);
+  s.step_aggregates = aggregates.finish();
   s_io = s;
   res = x1.res;
   d.message.clear();
@@ -418,3 +477,18 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
 }
 
 }  // namespace gm
+
+extern "C" void gm_point_aggregates(const gm_result* r, const double* shaft_torque, gm_step_aggregates* out) {
+  gm_step_aggregates a{};
+  for (int i = 0; i < 2; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      a.force_mean[i][k] = r->force[i][k];
+      a.moment_mean[i][k] = r->moment[i][k];
+    }
+    a.shaft_torque_mean[i] = shaft_torque ? shaft_torque[i] : 0.0;
+  }
+  a.normal_force_mean = r->normal_force;
+  a.te_mean = a.te_min = a.te_max = r->te;
+  a.te_rms = std::fabs(r->te);
+  *out = a;
+}

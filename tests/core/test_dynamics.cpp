@@ -435,3 +435,56 @@ TEST(Dynamics, BadParametersAreNamed) {
 }
 
 }  // namespace
+
+namespace {
+
+// Step aggregates (gm_step_aggregates) of set A at level 4 with friction and damping, driven at
+// 1000 rpm through a shaft against 350 N m, over communication steps of 1e-2 s (about ten mesh
+// periods, tens of internal steps each):
+// * momentum: each gear's spin change is the impulse of its torque, its mean contact moment and
+//   its mean shaft torque, J (omega_end - omega_start) = H (T + mz_mean + shaft_mean), to the
+//   stages' Newton tolerance (the spins' update uses the same weights on the stage points, each
+//   stage solved to 1e-2 of dynamics.tolerance as rim motion: measured within 1e-5 of the
+//   impulse of the largest of them; allowed 1e-4);
+// * the TE's mean and RMS against the same run stepped at 1e-4 s (its communication points
+//   every 0.1 ms, 29 samples per mesh period, trapezoidal mean): within 1 % of the TE's p-p;
+//   min <= mean <= max, RMS >= |mean|, and the extremes span the samples' (within 5 % of p-p).
+TEST(Dynamics, StepAggregatesKeepMomentumAndMatchFineSampling) {
+  Instance coarse(analytical(0.4, 4e5)), fine(analytical(0.4, 4e5));
+  const double load = 350, H = 1e-2;
+  Drive a = start_drive(coarse, 1000, load, 2e4, 20), b = start_drive(fine, 1000, load, 2e4, 20);
+  for (int k = 0; k < 3; ++k) {
+    const gm_dynamics_state s0 = a.s;
+    advance(coarse, a, H);
+    const gm_step_aggregates& g = a.s.step_aggregates;
+    EXPECT_NEAR(g.duration, H, 1e-15);
+    for (int i = 0; i < 2; ++i) {
+      const double impulse = H * (a.in.torque[i] + g.moment_mean[i][2] + g.shaft_torque_mean[i]);
+      const double scale = H * std::max({std::fabs(a.in.torque[i]), std::fabs(g.moment_mean[i][2]),
+                                         std::fabs(g.shaft_torque_mean[i]), 1.0});
+      EXPECT_NEAR(a.dp.inertia[i] * (a.s.omega[i] - s0.omega[i]), impulse, 1e-4 * scale) << "gear " << i + 1;
+    }
+    // the fine run over the same 1e-2 s
+    std::vector<double> te{b.s.step_aggregates.te_mean};  // its state's TE at the start
+    for (int j = 0; j < 100; ++j) te.push_back(advance(fine, b, H / 100).te);
+    double mean = 0, square = 0, lo = te[0], hi = te[0];
+    for (std::size_t j = 0; j + 1 < te.size(); ++j) {
+      mean += 0.5 * (te[j] + te[j + 1]) / 100;
+      square += 0.5 * (te[j] * te[j] + te[j + 1] * te[j + 1]) / 100;
+      lo = std::min(lo, te[j + 1]);
+      hi = std::max(hi, te[j + 1]);
+    }
+    const double pp = hi - lo;
+    ASSERT_GT(pp, 0.1e-6);
+    EXPECT_NEAR(g.te_mean, mean, 0.01 * pp) << "step " << k;
+    EXPECT_NEAR(g.te_rms, std::sqrt(square), 0.01 * pp) << "step " << k;
+    EXPECT_LE(g.te_min, g.te_mean);
+    EXPECT_LE(g.te_mean, g.te_max);
+    EXPECT_GE(g.te_rms, std::fabs(g.te_mean));
+    EXPECT_NEAR(g.te_min, lo, 0.05 * pp);
+    EXPECT_NEAR(g.te_max, hi, 0.05 * pp);
+    EXPECT_GT(g.normal_force_mean, 0.9 * load / coarse.rb(1));  // loaded (friction shares the moment)
+  }
+}
+
+}  // namespace

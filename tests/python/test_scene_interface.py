@@ -70,7 +70,7 @@ def test_torsional_lists_the_spins_and_the_mesh_outputs(set_a_fmus):
     energy = {f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
                                       "damping", "parametric", "residual")}
     assert names(fmu, "output") == set(TORSIONAL_OUTPUTS) | energy | {
-        f"{p}.{x}" for p in ("drive", "load") for x in ("angle", "speed", "shaft_torque")}
+        f"{p}.{x}" for p in ("drive", "load") for x in ("angle", "speed", "shaft_torque", "shaft_torque_mean")}
     parameters = names(fmu, "parameter")
     fixed = load_scene(SET_A).parameters
     assert not parameters & set(fixed), "a parameter the scene sets is listed"
@@ -87,7 +87,8 @@ def test_planar_adds_the_in_plane_motion_and_forces(set_a_fmus):
     t, p = set_a_fmus["torsional"], set_a_fmus["planar"]
     in_plane = {f"gear{i}.{x}" for i in (1, 2) for x in ("ux", "uy", "vx", "vy")}
     assert names(p, "input") == names(t, "input") | in_plane
-    assert names(p, "output") == names(t, "output") | {f"gear{i}.{x}" for i in (1, 2) for x in ("fx", "fy")}
+    assert names(p, "output") == names(t, "output") | {f"gear{i}.{x}" for i in (1, 2)
+                                                       for x in ("fx", "fy", "fx_mean", "fy_mean")}
     assert names(p, "parameter") == names(t, "parameter")
 
 

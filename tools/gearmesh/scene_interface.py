@@ -41,12 +41,17 @@ MODE_INPUTS = {
 ENERGY_OUTPUTS = [f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
                                           "damping", "parametric", "residual")]
 MODE_OUTPUTS = {"prescribed": [], "quasi_static": [],
-                "large_step": [f"{p}.{x}" for p in ("drive", "load") for x in ("angle", "speed", "shaft_torque")]
+                "large_step": [f"{p}.{x}" for p in ("drive", "load")
+                               for x in ("angle", "speed", "shaft_torque", "shaft_torque_mean")]
                 + ENERGY_OUTPUTS}
+# the step means (over a large step: what a 1-10 ms master should record instead of point samples
+# of a kHz mesh signal; docs/guide/fmu.md)
+STEP_MEANS = ["mesh.te_mean", "mesh.te_min", "mesh.te_max", "mesh.te_rms", "mesh.normal_force_mean"]
 TORSIONAL_OUTPUTS = ["gear1.mz", "gear2.mz", "mesh.te", "mesh.te_angle", "mesh.normal_force",
-                     "mesh.flank", "mesh.friction_power", "mesh.damping_power"]
+                     "mesh.flank", "mesh.friction_power", "mesh.damping_power", "gear1.mz_mean",
+                     "gear2.mz_mean", *STEP_MEANS]
 PLANAR_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("ux", "uy", "vx", "vy")]
-PLANAR_OUTPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("fx", "fy")]
+PLANAR_OUTPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("fx", "fy", "fx_mean", "fy_mean")]
 OUT_OF_PLANE_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("uz", "rx", "ry")]  # misalignment
 
 # parameters read at some stiffness levels only (model.stiffness)

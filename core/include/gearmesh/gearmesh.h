@@ -261,6 +261,24 @@ typedef struct gm_dynamics_inputs {
   double shaft_omega[2]; /* its speed, held over the step, rad/s */
 } gm_dynamics_inputs;
 
+/* What happened over the last gm_dynamics_advance, for a master that steps much longer than the
+ * mesh period: the means are impulses over the step's duration, integrated with the method's own
+ * weights over the stage points of every internal step, so that J_i (omega_i(end) - omega_i(start))
+ * = duration (torque_i + mz_mean_i + shaft_torque_mean_i) holds for each gear (momentum); the TE's
+ * extremes are over the stage points. After gm_dynamics_start: the state's values. */
+typedef struct gm_step_aggregates {
+  double duration;              /* s */
+  double force_mean[2][3];      /* mean contact force on gear i, in H, N */
+  double moment_mean[2][3];     /* mean contact moment on gear i about its centre, in H, N m */
+  double shaft_torque_mean[2];  /* mean torque of each shaft on its gear, N m */
+  double normal_force_mean;     /* N */
+  double te_mean, te_rms;       /* m */
+  double te_min, te_max;        /* m, over the stage points */
+} gm_step_aggregates;
+
+/* The aggregates of a step that is one evaluation r (shaft torques: NULL for none): its values. */
+void gm_point_aggregates(const gm_result* r, const double* shaft_torque, gm_step_aggregates* out);
+
 typedef struct gm_dynamics_state {
   double phi[2], omega[2]; /* spin state, rad, rad/s */
   double shaft_torque[2];  /* torque of each shaft on its gear at the state, N m */
@@ -280,6 +298,7 @@ typedef struct gm_dynamics_state {
   double step;             /* internal step to try first, s */
   int steps;               /* internal steps accepted by the last gm_dynamics_advance */
   int rejected;            /* internal steps rejected by it (error, Newton, events) */
+  gm_step_aggregates step_aggregates; /* over the last gm_dynamics_advance */
 } gm_dynamics_state;
 
 /* Defaults: J = 0.02 kg m^2, no shafts, tolerance 1e-8 m, steps 1e-9 ... 1e-3 s. */
