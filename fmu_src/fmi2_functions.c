@@ -52,6 +52,11 @@ typedef struct instance {
   size_t n_states;   /* taken for one (an importer's stale or uninitialised pointer is refused) */
   size_t cap_states;
   char msg[1024]; /* message from the model layer (may hold a path in resources/) */
+  /* the last fmi2DoStep was discarded and nothing has changed since (cleared by a step taken, a
+   * value set to another value, fmi2SetFMUstate, fmi2Reset): its start, length and reason */
+  int discarded;
+  double discarded_tc, discarded_h;
+  char discarded_msg[1024];
 } instance;
 
 /* Every log category enabled (model.h: fewer than 32). */
@@ -103,8 +108,10 @@ static void utf8_escape(const char* text, size_t n, char* out) {
   out[k] = '\0';
 }
 
-static void vlog(const instance* c, fmi2Status status, unsigned category, const char* format, va_list args) {
-  int always = category == MODEL_LOG_ERROR || category == MODEL_LOG_FATAL;
+/* A message goes out if its category is enabled, or always (errors, the reason of a discard). */
+static void vlog_if(const instance* c, fmi2Status status, unsigned category, int always, const char* format,
+                    va_list args) {
+  always = always || category == MODEL_LOG_ERROR || category == MODEL_LOG_FATAL;
   if (!c->logger || !(always || (c->categories >> category & 1u))) return;
   char text[1200];
   vsnprintf(text, sizeof text, format, args);
@@ -114,6 +121,10 @@ static void vlog(const instance* c, fmi2Status status, unsigned category, const 
   utf8_escape(text, n, safe);
   /* through "%s": a '%' in the message or instance name is never read as a conversion */
   c->logger(c->environment, c->name, status, model_log_category_name(category), "%s", safe);
+}
+
+static void vlog(const instance* c, fmi2Status status, unsigned category, const char* format, va_list args) {
+  vlog_if(c, status, category, 0, format, args);
 }
 
 static void log_event(const instance* c, const char* format, ...) {
@@ -142,6 +153,20 @@ static fmi2Status discard(const instance* c, const char* format, ...) {
   va_list args;
   va_start(args, format);
   vlog(c, fmi2Discard, MODEL_LOG_WARNING, format, args);
+  va_end(args);
+  return fmi2Discard;
+}
+
+/* fmi2DoStep refused a step, changing nothing (fmi2Discard). The reason goes out whatever
+ * categories are enabled, as errors do, under logStatusWarning with the message status
+ * fmi2Warning: importers filter their log by that status, and some show a message of status
+ * fmi2Discard only when debugging (libcosim: at its debug level), or get none while logging is
+ * off (Maestro's default), so a master's "step not complete" came without its reason
+ * (docs/guide/masters.md). */
+static fmi2Status discard_step(const instance* c, const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  vlog_if(c, fmi2Warning, MODEL_LOG_WARNING, 1, format, args);
   va_end(args);
   return fmi2Discard;
 }
@@ -333,6 +358,7 @@ fmi2Status fmi2Reset(fmi2Component component) {
   c->mode = Instantiated;
   c->time = 0.0;
   c->stop_defined = 0;
+  c->discarded = 0;
   log_event(c, "fmi2Reset: start values, Instantiated");
   return fmi2OK;
 }
@@ -413,6 +439,15 @@ static fmi2Status set_values(instance* c, const char* function, model_type type,
     }
     if (!copies) return error(c, "%s: out of memory for the strings", function);
   }
+  for (size_t i = 0; i < nvr && c->discarded; i++) /* a discarded step may succeed now */
+    if (type == MODEL_Real) {
+      const double now = model_get_real(c->model, vr[i]), x = ((const fmi2Real*)values)[i];
+      c->discarded = memcmp(&now, &x, sizeof x) == 0;
+    } else if (type == MODEL_String) {
+      c->discarded = strcmp(model_get_string(c->model, vr[i]), ((const fmi2String*)values)[i]) == 0;
+    } else {
+      c->discarded = model_get_int(c->model, vr[i]) == ((const fmi2Integer*)values)[i];
+    }
   for (size_t i = 0; i < nvr; i++) {
     if (type == MODEL_Real) model_set_real(c->model, vr[i], ((const fmi2Real*)values)[i]);
     else if (type == MODEL_String) model_set_string(c->model, vr[i], copies[i]);
@@ -634,6 +669,7 @@ fmi2Status fmi2SetFMUstate(fmi2Component component, fmi2FMUstate FMUstate) {
     return error(c, "fmi2SetFMUstate: %s", c->msg);
   c->time = time;
   c->mode = (fmu_mode)mode;
+  c->discarded = 0;
   return fmi2OK;
 }
 
@@ -765,6 +801,16 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
    * positive, tc is the FMU's time (the end of the last step, or the time of the state set by
    * fmi2SetFMUstate) up to the master's rounding, and the end tc + h is finite and later than
    * the FMU's time. c->time is finite: fmi2SetupExperiment and fmi2SetFMUstate check it. */
+  if (h == 0.0 && c->discarded)
+    /* FMI 2.0 (4.2.2): communicationStepSize must be > 0. A master that retries a discarded step
+     * with the length fmi2LastSuccessfulTime allows (Maestro rolling back every FMU) asks for 0:
+     * a discarded step changes nothing, so that time is the step's start. */
+    return error(c,
+                 "fmi2DoStep: communicationStepSize = 0 s at t = %.17g s; allowed: > 0 s (FMI 2.0). The step from "
+                 "t = %g s to %g s was discarded and changed nothing (fmi2LastSuccessfulTime = %g s, the step's "
+                 "start), so the master's step up to that time is empty: retry a shorter step (or change what the "
+                 "discard names). The discard: %s",
+                 c->time, c->discarded_tc, c->discarded_tc + c->discarded_h, c->time, c->discarded_msg);
   if (!(h > 0.0) || !isfinite(h))
     return error(c, "fmi2DoStep: communicationStepSize = %g s; allowed: finite and > 0 s (at most %g s from t = %.17g s)",
                  h, DBL_MAX - fabs(c->time), c->time);
@@ -784,11 +830,26 @@ fmi2Status fmi2DoStep(fmi2Component component, fmi2Real currentCommunicationPoin
                  h, tc, end);
   if (c->stop_defined && !(end <= c->stop_time + 1e-9 * fmax(1.0, fabs(c->stop_time))))
     return error(c, "fmi2DoStep: step to t = %.17g goes past stopTime = %.17g", end, c->stop_time);
+  /* A master that retries a discarded step unchanged (Maestro's fixed step without rollback:
+   * the same step with the same inputs, for ever) is refused: it would be discarded again. */
+  if (c->discarded && tc == c->discarded_tc && h == c->discarded_h)
+    return error(c,
+                 "fmi2DoStep: the step from t = %g s to %g s was discarded by the last fmi2DoStep and nothing has "
+                 "changed since (no input or parameter set to another value, no fmi2SetFMUstate): it would be "
+                 "discarded again; allowed: a shorter step, other inputs, or fmi2SetFMUstate to roll back. The "
+                 "discard: %s",
+                 tc, end, c->discarded_msg);
   /* inputs are held over the step; the outputs published are those at tc + h */
   const int failed = model_evaluate(c->model, 0, end, h, c->msg, sizeof c->msg);
-  if (failed == 2) /* refused by the model: nothing changed, the instance stays usable, the
-                      master may roll back or retry shorter */
-    return discard(c, "fmi2DoStep: step from t = %g s to %g s discarded: %s", tc, end, c->msg);
+  if (failed == 2) { /* refused by the model: nothing changed, the instance stays usable, the
+                        master may roll back or retry shorter */
+    c->discarded = 1;
+    c->discarded_tc = tc;
+    c->discarded_h = h;
+    snprintf(c->discarded_msg, sizeof c->discarded_msg, "%s", c->msg);
+    return discard_step(c, "fmi2DoStep: step from t = %g s to %g s discarded: %s", tc, end, c->msg);
+  }
+  c->discarded = 0;
   if (failed) {
     c->mode = Error; /* only fmi2SetFMUstate or fmi2Reset recover */
     return error(c, "fmi2DoStep: t = %g s: %s", end, c->msg);
