@@ -3,7 +3,8 @@
 # tools/bootstrap.sh (GM_PLATFORMS=0 leaves it out): installs what is missing, then builds the
 # multi-platform FMU into build-platforms/ (incremental after the first run).
 #   * Debian packages: wine and wine64 (run the win64 binary), llvm-14 (llvm-lipo joins the macOS
-#     slices), unzip, maven and Java 17 (VDMCheck2);
+#     slices), unzip, maven and Java 17 (VDMCheck2; the JDK's compiler runs the FMI4j driver of
+#     tests/python/test_masters.py, which fetches its masters into the cache itself);
 #   * the Zig toolchain comes with the venv (ziglang, tools/requirements.txt);
 #   * fmi-sim (crates.io, built by cargo) and VDMCheck2 (Maven Central, by mvn): into the
 #     git-ignored cache, $GM_CACHE (default .cache/ in the repository), with the downloads.
@@ -44,7 +45,7 @@ gm_install_vdmcheck() {
     unzip -q -o rule-model.jar 'fmi2-rule-model/*' && unzip -q -o vdmcheck2.jar 'fmi2schema/*')
 }
 
-gm_install_debian_packages wine wine64 llvm-14 unzip maven openjdk-17-jre-headless
+gm_install_debian_packages wine wine64 llvm-14 unzip maven openjdk-17-jre-headless openjdk-17-jdk-headless
 gm_install_fmi_sim
 gm_install_vdmcheck
 echo "gearmesh: building the multi-platform FMU (build-platforms/GearMesh.fmu)"

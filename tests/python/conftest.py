@@ -14,7 +14,7 @@ REPO = pathlib.Path(__file__).resolve().parents[2]
 # `tools/run-tests --quick` (pytest -m "not slow"). The rest runs in about half a minute.
 SLOW_MODULES = {"test_stability", "test_main_job", "test_train_fe", "test_reference_fe_smoke",
                 "test_reference_fe3d_smoke", "test_reference_fe3d_lineload_smoke", "test_fe_scenes",
-                "test_batch_tasks", "test_platforms", "test_stability_trains"}
+                "test_batch_tasks", "test_platforms", "test_stability_trains", "test_masters"}
 
 
 def pytest_configure(config):
