@@ -199,8 +199,11 @@ def fmi_sim() -> pathlib.Path:
     """fmi-sim in the cache (tools/bootstrap-platforms.sh builds it; built here if missing)."""
     cache = platforms.cache_dir()
     binary = cache / "cargo" / "bin" / "fmi-sim"
-    version = subprocess.run([binary, "--version"], capture_output=True, text=True).stderr \
-        if binary.exists() else ""
+    version = ""
+    if binary.exists():  # fmi-sim prints its version as an error
+        done = subprocess.run([binary, "--version"], capture_output=True, text=True,
+                              env=dict(os.environ, RUST_BACKTRACE="0"))
+        version = done.stdout + done.stderr
     if f"fmi-sim {FMI_SIM_VERSION}" not in version:
         if shutil.which("cargo") is None:
             pytest.fail(f"fmi-sim {FMI_SIM_VERSION} is not in {binary.parent} and cargo is not on the PATH "
