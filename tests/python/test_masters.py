@@ -61,6 +61,7 @@ LARGE_STEP = {"gear1.shaft_stiffness": ("Real", 2e4), "gear1.shaft_damping": ("R
 TIMES: dict[str, float] = {}  # master -> seconds of its runs (printed by test_summary)
 TABLE: dict[tuple[str, str], float] = {}  # (master, case) -> max |TE - FMPy's| in m
 OTHER: dict[tuple[str, str], tuple[str, float]] = {}  # the other output, its max difference / max |value|
+TE: dict[tuple[str, str], list[float]] = {}  # (master, case) -> its TE at every point
 
 
 def fail_with(what: str, done: subprocess.CompletedProcess) -> None:
@@ -183,6 +184,7 @@ def compare(master: str, results: dict, reference: dict) -> None:
         relative = max(abs(a - b) for a, b in zip(got[other], ref[other])) / scale
         TABLE[(master, name)] = diff
         OTHER[(master, name)] = (other, relative)
+        TE[(master, name)] = got["mesh.te"]
         if not diff <= TE_TOLERANCE:
             problems.append(f"{name}: TE differs from FMPy's by up to {diff * 1e6:.4g} um")
         if other == "gear1.mz" and not relative <= 1e-9:  # prescribed or quasi-static: the same inputs
@@ -315,9 +317,10 @@ def jars() -> pathlib.Path:
     return folder
 
 
-def maestro_command(jars: pathlib.Path) -> list[str]:
-    return ["java", f"-Dlog4j2.configurationFile={MASTERS / 'maestro-log4j2.xml'}", "-jar",
-            str(jars / "maestro-jar-with-dependencies.jar")]
+def maestro_command(jars: pathlib.Path, folder: pathlib.Path) -> list[str]:
+    """Maestro, its log at INFO, its unpacked FMUs in `folder`."""
+    return ["java", f"-Djava.io.tmpdir={folder}", f"-Dlog4j2.configurationFile={MASTERS / 'maestro-log4j2.xml'}",
+            "-jar", str(jars / "maestro-jar-with-dependencies.jar")]
 
 
 def maestro_config(cases: list[dict]) -> tuple[dict, dict]:
@@ -352,7 +355,7 @@ def run_maestro(jars: pathlib.Path, cases: list[dict], folder: pathlib.Path,
     multi_model, simulation = maestro_config(cases)
     (folder / "mm.json").write_text(json.dumps(multi_model, indent=1))
     (folder / "sim.json").write_text(json.dumps(simulation, indent=1))
-    done = subprocess.run(maestro_command(jars) + ["import", "sg1", "mm.json", "sim.json", "-output", "out", "-i", "-nop"],
+    done = subprocess.run(maestro_command(jars, folder) + ["import", "sg1", "mm.json", "sim.json", "-output", "out", "-i", "-nop"],
                           capture_output=True, text=True, timeout=timeout, cwd=folder)
     results = {}
     if done.returncode == 0:
@@ -390,7 +393,8 @@ def run_fmi4j(jars: pathlib.Path, cases: list[dict], folder: pathlib.Path) -> di
         lines += [f"connect {s} {t}" for s, t in c["connections"]] + [f"output {o}" for o in c["outputs"]] + ["end"]
     (folder / "cases.txt").write_text("\n".join(lines) + "\n")
     classpath = ":".join(str(j) for j in sorted(jars.glob("*.jar")) if not j.name.startswith("maestro"))
-    done = subprocess.run(["java", "-cp", classpath, str(MASTERS / "Fmi4jDriver.java"), str(folder / "cases.txt"),
+    done = subprocess.run(["java", f"-Djava.io.tmpdir={folder}", "-cp", classpath, str(MASTERS / "Fmi4jDriver.java"),
+                           str(folder / "cases.txt"),
                            str(folder / "out.txt")], capture_output=True, text=True, timeout=600)
     if done.returncode:
         fail_with("FMI4j (tests/masters/Fmi4jDriver.java)", done)
@@ -501,6 +505,15 @@ def test_libcosim_shows_the_reason_of_a_discard(libcosimpy, fmus, tmp_path):
     assert "Step not complete" in results["discard-0.01"]["error"], results
     log = done.stdout + done.stderr
     assert re.search(r"\[warning\].*\[FMI status=warning, category=logStatusWarning\].*" + REASON, log), log[-3000:]
+
+
+def test_the_masters_agree_with_each_other():
+    """Every pair of masters that ran a case gives its TE within TE_TOLERANCE of each other."""
+    masters = sorted({m for m, _ in TE})
+    assert len(masters) == 4, f"masters that ran: {masters}"
+    worst = max(max(abs(a - b) for a, b in zip(TE[(m, name)], TE[(n, name)]))
+                for m in masters for n in masters if m < n for (k, name) in TE if k == m and (n, name) in TE)
+    assert worst <= TE_TOLERANCE, f"two masters differ by {worst * 1e6:.3g} um"
 
 
 def test_summary():
