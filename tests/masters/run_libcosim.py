@@ -56,7 +56,7 @@ def run(case):
 
 def main():
     cases = json.loads(open(sys.argv[1]).read())
-    log_output_level(CosimLogLevel[cases.get("log_level", "WARNING")] if isinstance(cases, dict) else CosimLogLevel.WARNING)
+    log_output_level(CosimLogLevel[cases.get("log_level", "WARNING")])
     results = {case["name"]: run(case) for case in cases["cases"]}
     with open(sys.argv[2], "w") as f:
         json.dump(results, f)
