@@ -355,7 +355,8 @@ def run_maestro(jars: pathlib.Path, cases: list[dict], folder: pathlib.Path,
     multi_model, simulation = maestro_config(cases)
     (folder / "mm.json").write_text(json.dumps(multi_model, indent=1))
     (folder / "sim.json").write_text(json.dumps(simulation, indent=1))
-    done = subprocess.run(maestro_command(jars, folder) + ["import", "sg1", "mm.json", "sim.json", "-output", "out", "-i", "-nop"],
+    done = subprocess.run(maestro_command(jars, folder)
+                          + ["import", "sg1", "mm.json", "sim.json", "-output", "out", "-i", "-nop"],
                           capture_output=True, text=True, timeout=timeout, cwd=folder)
     results = {}
     if done.returncode == 0:
