@@ -9,7 +9,6 @@ after every step by a last-value observer. OUT.json: {case: {"time": [...], outp
 import json
 import sys
 
-from libcosimpy.CosimEnums import CosimVariableType
 from libcosimpy.CosimExecution import CosimExecution
 from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 from libcosimpy.CosimObserver import CosimObserver
