@@ -33,6 +33,7 @@ struct fmu_model {
   char body_name[NB][NAME_SIZE], shaft_name[NS][NAME_SIZE], mesh_name[NM][NAME_SIZE];
   int fixed[NB];
   int group[NM]; /* planet group of each mesh (1..), 0: none */
+  int sense[NB]; /* each body's own sense of rotation about +z: +1 or -1 */
   gm_train_shaft shaft_def[NS];
   gm_train_mesh mesh_def[NM];
   gm_model_params mesh_params[NM];
@@ -190,10 +191,11 @@ static int read_train(fmu_model* m, char* msg, size_t n) {
       ok = 0;
     } else if (!strcmp(kind, "body") && m->nb < NB) {
       double inertia, angle, extra[5] = {0, 0, 0, 0, 0};
-      int fixed;
-      const int got = sscanf(line, "%*s %*s %lf %d %lf %lf %lf %lf %lf %lf", &inertia, &fixed, &angle, &extra[0],
-                             &extra[1], &extra[2], &extra[3], &extra[4]);
-      ok = (got == 3 || got == 8) && isfinite(angle);
+      int fixed, sense = 1;
+      const int got = sscanf(line, "%*s %*s %lf %d %lf %lf %lf %lf %lf %lf %d", &inertia, &fixed, &angle, &extra[0],
+                             &extra[1], &extra[2], &extra[3], &extra[4], &sense);
+      ok = (got == 3 || got == 8 || got == 9) && isfinite(angle) && (sense == 1 || sense == -1);
+      m->sense[m->nb] = sense;
       snprintf(m->body_name[m->nb], NAME_SIZE, "%s", name);
       m->start.body[m->nb][0] = inertia;
       m->start.body[m->nb][1] = angle; /* the start of <body>.phi */
@@ -302,11 +304,12 @@ static void inputs(const fmu_model* m, double* phi, double* omega, double* torqu
   for (int b = 0; b < m->nb; ++b) {
     phi[b] = m->v.body[b][1];
     omega[b] = m->v.body[b][2];
-    torque[b] = m->v.body[b][3];
+    torque[b] = m->v.body[b][3] + m->sense[b] * m->v.body[b][14]; /* about +z, and in its own sense */
   }
   for (int s = 0; s < m->ns; ++s) {
-    far_phi[s] = m->v.shaft[s][2];
-    far_omega[s] = m->v.shaft[s][3];
+    const int sense = m->sense[m->shaft_def[s].body];
+    far_phi[s] = m->v.shaft[s][2] + sense * m->v.shaft[s][5];
+    far_omega[s] = m->v.shaft[s][3] + sense * m->v.shaft[s][6];
   }
 }
 
@@ -314,8 +317,12 @@ static void publish(fmu_model* m) {
   for (int b = 0; b < m->nb; ++b) {
     gm_train_body_state(m->train, b, &m->v.body[b][4], &m->v.body[b][5], &m->v.body[b][6]);
     gm_train_body_centre(m->train, b, &m->v.body[b][12], &m->v.body[b][13]);
+    m->v.body[b][15] = m->sense[b] * m->v.body[b][5];
   }
-  for (int s = 0; s < m->ns; ++s) gm_train_shaft_torque(m->train, s, &m->v.shaft[s][4]);
+  for (int s = 0; s < m->ns; ++s) {
+    gm_train_shaft_torque(m->train, s, &m->v.shaft[s][4]);
+    m->v.shaft[s][7] = m->sense[m->shaft_def[s].body] * m->v.shaft[s][4];
+  }
   for (int i = 0; i < m->nm; ++i) {
     const gm_result* r = gm_train_mesh_result(m->train, i);
     double* out = m->v.mesh[i];

@@ -51,14 +51,19 @@
   X(10, "pin_error_tangential", Real, parameter, fixed, "m", "a planet's centre off its place along the carrier's turning") \
   X(11, "pin_error_radial", Real, parameter, fixed, "m", "a planet's centre off its place, outwards")       \
   X(12, "x", Real, output, continuous, "m", "centre's displacement along the housing's x (translating bodies)") \
-  X(13, "y", Real, output, continuous, "m", "centre's displacement along the housing's y (translating bodies)")
+  X(13, "y", Real, output, continuous, "m", "centre's displacement along the housing's y (translating bodies)") \
+  X(14, "load_torque", Real, input, continuous, "N.m", "external torque in the body's own sense of rotation (the sense it turns in when the train runs forwards: a drive +, a brake -), held over a step; adds to torque") \
+  X(15, "forward_speed", Real, output, continuous, "rad/s", "spin speed in the body's own sense of rotation (> 0 when the train runs forwards)")
 
 #define TRAIN_SHAFT_FIELDS(X)                                                                                    \
   X(0, "stiffness", Real, parameter, fixed, "N.m/rad", "torsional stiffness")                                  \
   X(1, "damping", Real, parameter, fixed, "N.m.s/rad", "torsional damping")                                    \
   X(2, "far_phi", Real, input, continuous, "rad", "far end's angle at the step start (port shafts)")          \
   X(3, "far_omega", Real, input, continuous, "rad/s", "far end's speed, held over the step (port shafts)")    \
-  X(4, "torque", Real, output, continuous, "N.m", "the shaft's torque on its body (the far end feels minus it)")
+  X(4, "torque", Real, output, continuous, "N.m", "the shaft's torque on its body (the far end feels minus it)") \
+  X(5, "forward_phi", Real, input, continuous, "rad", "far end's angle at the step start in its body's own sense (port shafts; adds to far_phi)") \
+  X(6, "forward_omega", Real, input, continuous, "rad/s", "far end's speed in its body's own sense, held over the step (port shafts; adds to far_omega)") \
+  X(7, "forward_torque", Real, output, continuous, "N.m", "the shaft's torque on its body in the body's own sense")
 
 #define TRAIN_MESH_FIELDS(X)                                                                                     \
   X(0, "te", Real, output, continuous, "m", "transmission error of the mesh's element, whole base pitches taken off")                       \
@@ -74,7 +79,8 @@
 /* Resources of a train FMU (written by tools/gearmesh/train_fmu.py):
  *   resources/train.txt: "gearmesh-train 1", then one line per member, in index order:
  *     body <name> <inertia kg m^2> <fixed 0|1> <initial angle rad, the start of <body>.phi>
- *          [<mass kg> <bearing stiffness N/m> <bearing damping N s/m> <pin error tangential m> <radial m>]
+ *          [<mass kg> <bearing stiffness N/m> <bearing damping N s/m> <pin error tangential m> <radial m>
+ *           [<own sense of rotation: +1 or -1, the sign of its speed when the train runs forwards>]]
  *     shaft <name> <body> <other body or -1: far end> <stiffness> <damping>
  *     mesh <name> <gear1 body> <gear2 body> <carrier body or -1> <orientation rad> [<planet group, 0: none>]
  *   resources/mesh<k>/gearmesh-start-values.txt: the k-th mesh's element parameters (k from 1),

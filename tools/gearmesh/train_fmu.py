@@ -375,6 +375,49 @@ def model_description(train: Train, lay: Layout) -> str:
     return "\n".join(lines)
 
 
+def own_senses(train: Train, scenes: list) -> list[int]:
+    """Each body's own sense of rotation about +z (+1 or -1): the sign of its speed when the body of
+    the first port (else the first free body) turns at +1 and every mesh rolls without TE change,
+    z1 (w1 - wc) + s z2 (w2 - wc) = 0 (s = +1 external, -1 internal; the base radii of a pair are
+    in the ratio of its tooth counts), shafts turning both ends alike, fixed bodies still. +1 for
+    a body the input does not turn (a fixed one)."""
+    import numpy as np
+
+    n = len(train.bodies)
+    rows, rhs = [], []
+    lead = train.held_body()
+    row = np.zeros(n)
+    row[lead] = 1.0
+    rows.append(row)
+    rhs.append(1.0)
+    for i, b in enumerate(train.bodies):
+        if b["_fixed"]:
+            row = np.zeros(n)
+            row[i] = 1.0
+            rows.append(row)
+            rhs.append(0.0)
+    for m, sc in zip(train.meshes, scenes):
+        p = sc.parameters
+        s = -1.0 if p.get("pair.internal") else 1.0
+        z1, z2 = float(p["gear1.teeth"]), float(p["gear2.teeth"])
+        row = np.zeros(n)
+        g1, g2 = m["_gear"]
+        row[g1] += z1
+        row[g2] += s * z2
+        if m["_carrier"] >= 0:
+            row[m["_carrier"]] -= z1 + s * z2
+        rows.append(row)
+        rhs.append(0.0)
+    for sh in train.shafts:
+        if sh["_other"] >= 0:
+            row = np.zeros(n)
+            row[sh["_body"]], row[sh["_other"]] = 1.0, -1.0
+            rows.append(row)
+            rhs.append(0.0)
+    speed = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
+    return [-1 if w < -1e-9 else 1 for w in speed]
+
+
 def planet_groups(train: Train) -> dict[str, list[str]]:
     """The meshes that share a load in parallel: those of one pair scene on one carrier (a planetary
     stage's sun meshes, its ring meshes), by "<scene file> on <carrier>"; each mesh's
@@ -386,12 +429,13 @@ def planet_groups(train: Train) -> dict[str, list[str]]:
     return {k: v for k, v in groups.items() if len(v) > 1}
 
 
-def train_text(train: Train) -> str:
+def train_text(train: Train, senses: list[int] | None = None) -> str:
     group = {n: k for k, members in enumerate(planet_groups(train).values(), start=1) for n in members}
+    senses = senses or [1] * len(train.bodies)
     lines = ["gearmesh-train 1"]
-    for b in train.bodies:
+    for b, sense in zip(train.bodies, senses):
         extra = " ".join(repr(b["_" + BODY_KEYS["_" + f]]) for f in BODY_EXTRA)
-        lines.append(f"body {b['name']} {b['_inertia']!r} {int(b['_fixed'])} {b['_angle']!r} {extra}")
+        lines.append(f"body {b['name']} {b['_inertia']!r} {int(b['_fixed'])} {b['_angle']!r} {extra} {sense}")
     for s in train.shafts:
         lines.append(f"shaft {s['name']} {s['_body']} {s['_other']} {float(s.get('stiffness_Nm_per_rad', 0.0))!r} "
                      f"{float(s.get('damping_Nms_per_rad', 0.0))!r}")
@@ -511,7 +555,7 @@ def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: p
         z.writestr("modelDescription.xml", model_description(train, lay))
         for name, library in libraries.items():
             z.write(library, name)
-        z.writestr(f"resources/{TRAIN_FILE}", train_text(train))
+        z.writestr(f"resources/{TRAIN_FILE}", train_text(train, own_senses(train, scenes)))
         for k, (m, scene) in enumerate(zip(train.meshes, scenes), start=1):
             if scene.parameters.get("model.stiffness") == 5:
                 from gearmesh.compliance import with_databases
