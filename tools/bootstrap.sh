@@ -20,6 +20,7 @@ GM_APT_PACKAGES=(
   libglu1-mesa libgl1 libxrender1 libxcursor1 libxft2 libxinerama1 libgomp1
   calculix-ccx
   clang libclang-rt-14-dev
+  clang-format-19 # tools/check-style: the version .clang-format is written for
 )
 
 # Installs those of the named Debian packages that are missing (tools/bootstrap-platforms.sh too).

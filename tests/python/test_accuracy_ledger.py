@@ -197,8 +197,8 @@ def test_sweep_torque_is_gear1s(fmu_path, tmp_path):
 def test_level1_table_reproduces_level2(fmu_path, tmp_path):
     """Level 1 with the table made from the level-2 curve gives level 2's loaded TE: its mean
     within 0.2 %, each position within 1.5 % (beyond the path's ends, where a loaded tip edge
-    touches, level 1 holds the table's end value and level 2 does not), and level 0 at c_gamma_alpha / eps_alpha gives level 3's mean
-    (both a constant per unit contact line)."""
+    touches, level 1 holds the table's end value and level 2 does not), and level 0 at
+    c_gamma_alpha / eps_alpha gives level 3's mean (both a constant per unit contact line)."""
     scene = load_scene(REPO / "scenarios" / "paper_setA_3U4U.toml")
     iso = accuracy_iso.iso_stiffness(fmu_path, scene.parameters)
     assert np.degrees([iso.roll_start, iso.roll_end]) == pytest.approx([17.65, 28.20], abs=0.01)

@@ -53,13 +53,13 @@ def _smooth_grid(head: bytes, c: float) -> bytes:
     13 face nodes edge to edge, n_c = 2; C_d = 0.15^|d| c s(rho_a) s(rho_b) exp(-|drho|/3 mm)
     exp(-|dz|/3 mm)/(6 mm) (point-load responses, m/N), s^2 = 0.7 + 0.8 u^2 over the grid
     (u = 0..1)."""
-    n_roll, n_face, l = 17, 13, 3e-3
+    n_roll, n_face, decay = 17, 13, 3e-3
     roll = [0.018 + 0.018 * a / (n_roll - 1) for a in range(n_roll)]
     face = [-FACE / 2 + FACE * m / (n_face - 1) for m in range(n_face)]
     s = [math.sqrt(0.7 + 0.8 * ((r - roll[0]) / (roll[-1] - roll[0])) ** 2) for r in roll]
     grid = [(a, m) for a in range(n_roll) for m in range(n_face)]
-    c0 = [c * s[a] * s[b] * math.exp(-abs(roll[a] - roll[b]) / l) * math.exp(-abs(face[m] - face[n]) / l)
-          / (2 * l) for (a, m) in grid for (b, n) in grid]
+    c0 = [c * s[a] * s[b] * math.exp(-abs(roll[a] - roll[b]) / decay) * math.exp(-abs(face[m] - face[n]) / decay)
+          / (2 * decay) for (a, m) in grid for (b, n) in grid]
     out = head + struct.pack("<5I", 1, 1, n_roll, n_face, 2)
     out += struct.pack(f"<{n_roll}d", *roll) + struct.pack(f"<{n_face}d", *face)
     for d in range(-2, 3):

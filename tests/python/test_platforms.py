@@ -353,8 +353,8 @@ def test_darwin64_is_a_universal_dylib_exporting_the_fmi2_functions(binary):
         others = {e for e in exported if not e.startswith("_fmi2")}
         assert exported - others == {"_" + f for f in FMI2}
         assert all(re.match(r"__Z(nw|na|dl|da)", e) for e in others - {"__mh_dylib_header", "___dso_handle"}), others
-        assert [lib.name for lib in macho.libraries if not lib.name.endswith(("GearMesh.dylib", "GearTrain.dylib"))] == \
-            ["/usr/lib/libSystem.B.dylib"]
+        assert [lib.name for lib in macho.libraries
+                if not lib.name.endswith(("GearMesh.dylib", "GearTrain.dylib"))] == ["/usr/lib/libSystem.B.dylib"]
     assert cpus == {lief.MachO.Header.CPU_TYPE.X86_64, lief.MachO.Header.CPU_TYPE.ARM64}
 
 

@@ -108,7 +108,8 @@ def test_a_fixed_mode_narrows_the_interface(tmp_path, fmu_path):
     assert "model.quasi_static" not in parameters and "gear1.inertia" not in parameters
     with GearMeshFMU(out) as f:  # the fixed mode acts: gear 2's spin is solved for the load
         f.step({"gear1.omega": W1, "gear2.omega": -W1, "mesh.load_torque": 200.0})
-        assert f.get(["gear2.mz"])["gear2.mz"] == pytest.approx(-200.0, rel=1e-6)  # the contact on gear 2 balances its load
+        # the contact on gear 2 balances its load
+        assert f.get(["gear2.mz"])["gear2.mz"] == pytest.approx(-200.0, rel=1e-6)
 
 
 def test_a_large_step_scene_lists_its_energy_account(tmp_path, fmu_path):
@@ -127,7 +128,8 @@ def test_a_large_step_scene_lists_its_energy_account(tmp_path, fmu_path):
             f.step({"drive.torque": 100.0, "load.torque": -100.0}, 1e-3)
         e = f.get(account)
     assert e["energy.work_in"] > 0
-    balance = (e["energy.work_in"] - e["energy.work_out"] - (e["energy.kinetic"] + e["energy.elastic"] - e["energy.initial"])
+    balance = (e["energy.work_in"] - e["energy.work_out"]
+               - (e["energy.kinetic"] + e["energy.elastic"] - e["energy.initial"])
                - e["energy.friction"] - e["energy.damping"] - e["energy.parametric"])
     assert balance == pytest.approx(e["energy.residual"], abs=1e-12 + 1e-9 * e["energy.work_in"])
     assert abs(e["energy.residual"]) <= 1e-2 * e["energy.work_in"]

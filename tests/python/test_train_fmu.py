@@ -275,7 +275,8 @@ def test_idler_reverses_and_keeps_the_ratio(fmu_path, tmp_path):
     w, load = 100.0, 150.0
     rows = run_train(fmu, {"input.omega": w, "idler.omega": -w * 19 / 57, "output.omega": w * 19 / 57,
                            "motor.far_omega": w, "output.torque": -load}, 150, 1e-2,
-                     ["input.speed", "idler.speed", "output.speed", "motor.torque", "energy.residual", "energy.work_in"],
+                     ["input.speed", "idler.speed", "output.speed", "motor.torque", "energy.residual",
+                      "energy.work_in"],
                      lambda t: {"motor.far_phi": w * t, "motor.far_omega": w, "output.torque": -load})
     x = np.array(rows)
     last = x[100:]
@@ -445,7 +446,8 @@ def test_meshes_that_cannot_be_built_together_are_named(fmu_path, tmp_path):
                                          r"from the axis of carrier; allowed"):
         train_fmu.build_train_fmu(tmp_path / PLANETARY.name, tmp_path / "p.fmu", fmu_path)
     loop = tmp_path / "loop.toml"
-    loop.write_text((tmp_path / "idler.toml").read_text().replace("../paper_setB_P1P2.toml", "stage1_19_57.toml") + '\n[[mesh]]\nname = "output_input"\n'
+    loop.write_text((tmp_path / "idler.toml").read_text().replace("../paper_setB_P1P2.toml", "stage1_19_57.toml")
+                    + '\n[[mesh]]\nname = "output_input"\n'
                     'scene = "stage1_19_57.toml"\ngear1 = "input"\ngear2 = "output"\norientation_deg = 120.0\n')
     with pytest.raises(SceneError, match=r"output_input: closes a loop of gears meshing on the housing"):
         train_fmu.build_train_fmu(loop, tmp_path / "loop.fmu", fmu_path)

@@ -149,7 +149,7 @@ def _rows(path: pathlib.Path, n_positions: int, parse):
     None results left out; a KeyError or ValueError of a row is a ReferenceError naming file and
     row."""
     with path.open(newline="") as fh:
-        reader = csv.DictReader(l for l in fh if not l.lstrip().startswith("#"))
+        reader = csv.DictReader(text for text in fh if not text.lstrip().startswith("#"))
         for line, row in enumerate(reader, start=2):
             try:
                 value = parse(row) if int(row["n_positions"]) == n_positions else None

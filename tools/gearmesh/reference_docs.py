@@ -187,7 +187,8 @@ def fmu_variables_page(root: ET.Element) -> str:
            "* start: the `start` attribute (parameters: the core's defaults; inputs: 0, the "
            "nominal pose at rest), with its value in the display unit;",
            "* range: `min` and `max`; a round bracket marks a bound the FMU excludes (the "
-           "model's `<VendorAnnotations><Tool name=\"GearMesh\"><Ranges><Range variable=... minExclusive/maxExclusive>`), "
+           "model's `<VendorAnnotations><Tool name=\"GearMesh\"><Ranges><Range variable=... "
+           "minExclusive/maxExclusive>`), "
            "or a missing one; then the same range in the display unit. A parameter outside it is "
            "refused at `fmi2ExitInitializationMode`;",
            "* description: the `description` attribute.",

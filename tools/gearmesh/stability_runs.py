@@ -344,7 +344,8 @@ def _collect(r: Run, res, t, sign: int = 1) -> None:
     # at its internal steps (a quadrature of the sampled torques misses what varies within a
     # communication step: edge contact under a 20 mrad tilt, wedging)
     r.work_in = float(res["energy.initial"][-1]) + float(res["energy.work_in"][-1])
-    r.largest_energy = float(np.max(np.asarray(res["energy.kinetic"], float) + np.asarray(res["energy.elastic"], float)))
+    r.largest_energy = float(np.max(np.asarray(res["energy.kinetic"], float)
+                                    + np.asarray(res["energy.elastic"], float)))
     r.nan_count = sum(int(np.count_nonzero(~np.isfinite(np.asarray(res[k], float)))) for k in OUT)
 
 
