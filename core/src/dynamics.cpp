@@ -425,9 +425,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       return GM_ERR_SOLVER;
     }
     const double remaining = duration - t;
-    double h_try = h;
-    if (h_try >= remaining) h_try = remaining;
-    else if (2 * h_try > remaining) h_try = 0.5 * remaining;  // no sliver at the end
+    const double h_try = step_to_try(h, remaining);
     if (!jacobian_current) {
       if ((status = st.jacobian(x1)) != GM_OK) return status;
       jacobian_current = true;
@@ -442,7 +440,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     if (status == GM_OK && fraction <= allowed) {
       account(h_try, x1, x2, x3, s);
       aggregates.add(h_try, x1, x2, x3);
-      t = h_try >= remaining ? duration : t + h_try;
+      t = h_try == remaining ? duration : t + h_try;
       x1 = x3;
       ++jacobian_age;
       jacobian_current = st.contraction <= kStaleContraction && jacobian_age < kJacobianAge;

@@ -833,9 +833,7 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
       return GM_ERR_SOLVER;
     }
     const double remaining = duration - t;
-    double h_try = h;
-    if (h_try >= remaining) h_try = remaining;
-    else if (2 * h_try > remaining) h_try = 0.5 * remaining;
+    const double h_try = step_to_try(h, remaining);
     if (!jacobian_current) {
       if ((status = st.jacobian(x1, msg)) != GM_OK) return status;
       jacobian_current = true;
@@ -877,7 +875,7 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
         const double da = h_try * (kW * (x1.res[m].damping_power + x2.res[m].damping_power) + kD * x3.res[m].damping_power);
         s.parametric += work - fr - da - (x3.res[m].elastic_energy - x1.res[m].elastic_energy);
       }
-      t = h_try >= remaining ? duration : t + h_try;
+      t = h_try == remaining ? duration : t + h_try;
       x1 = x3;
       ++jacobian_age;
       jacobian_current = st.contraction <= kStaleContraction && jacobian_age < kJacobianAge;

@@ -43,6 +43,16 @@ inline bool contact_changed(const gm_result& a, const gm_result& b) {
   return a.flank != b.flank || (a.pairs_in_contact == 0) != (b.pairs_in_contact == 0);
 }
 
+// The internal step to try with `remaining` of the communication step left: all of it once h
+// reaches it within a master's rounding (1e-9 of h: a 1 ms step counted in nanoseconds, as
+// libcosim counts, is then one internal step and not two halves that change the whole sequence),
+// half of it where h would leave a sliver, else h.
+inline double step_to_try(double h, double remaining) {
+  if (h * (1.0 + 1e-9) >= remaining) return remaining;
+  if (2.0 * h > remaining) return 0.5 * remaining;
+  return h;
+}
+
 // The next step from the error fraction of the last (order 2: local error ~ h^3).
 inline double step_factor(double fraction) {
   if (!(fraction > 0)) return 2.0;
