@@ -63,7 +63,7 @@ import numpy as np
 from tqdm import tqdm
 
 from gearmesh.stability import ENERGY_TOL, UNDAMPED_GAIN, _fmt, _mark, parse_steps
-from gearmesh.train_fmu import Train, build_train_fmu, load_train
+from gearmesh.train_fmu import Train, build_train_fmu, kinematic_speeds, load_train
 
 THROUGHPUT_DRIFT = 1e-5  # of the work passed through: the account's drift an undamped run may show
 
@@ -207,49 +207,11 @@ def _copy_files(data: dict, source: pathlib.Path, folder: pathlib.Path) -> None:
 # ---- the train's kinematics ---------------------------------------------------------------------
 
 def speed_ratios(train: Train, generic_fmu: pathlib.Path) -> np.ndarray:
-    """Each body's speed per unit speed of the port body (rigid teeth and shafts): a mesh on
-    carrier c with z1, z2 teeth keeps z2 (w2 - wc) = -/+ z1 (w1 - wc) (external / internal), a
-    shaft between bodies keeps their speeds equal, a fixed body stands; least squares over the
-    rows (a back-to-back loop has one more row than it needs)."""
+    """Each body's speed per unit speed of the port body (gearmesh.train_fmu.kinematic_speeds)."""
     from gearmesh.scene import load_scene
 
-    n = len(train.bodies)
-    rows, rhs = [], []
-    for m in train.meshes:
-        p = load_scene(m["_scene"], generic_fmu).parameters
-        z1, z2 = p.get("gear1.teeth"), p.get("gear2.teeth")
-        if not z1 or not z2:
-            raise ValueError(f"{m['_scene']}: the tooth counts are needed for the train's ratio")
-        sign = -1.0 if p.get("pair.internal") else 1.0
-        row = np.zeros(n)
-        (g1, g2), c = m["_gear"], m["_carrier"]
-        row[g2] += z2
-        row[g1] += sign * z1
-        if c >= 0:
-            row[c] -= z2 + sign * z1
-        rows.append(row)
-        rhs.append(0.0)
-    for s in train.shafts:
-        if s["_other"] >= 0:
-            row = np.zeros(n)
-            row[s["_body"]], row[s["_other"]] = 1.0, -1.0
-            rows.append(row)
-            rhs.append(0.0)
-    for i, b in enumerate(train.bodies):
-        if b["_fixed"]:
-            row = np.zeros(n)
-            row[i] = 1.0
-            rows.append(row)
-            rhs.append(0.0)
-    row = np.zeros(n)
-    row[port_shaft(train)["_body"]] = 1.0
-    rows.append(row)
-    rhs.append(1.0)
-    a, b = np.array(rows), np.array(rhs)
-    ratio = np.linalg.lstsq(a, b, rcond=None)[0]
-    if np.linalg.matrix_rank(a) < n or not np.allclose(a @ ratio, b, atol=1e-9):
-        raise ValueError(f"{train.path}: the train's kinematics have no single solution")
-    return ratio
+    scenes = [load_scene(m["_scene"], generic_fmu) for m in train.meshes]
+    return kinematic_speeds(train, scenes, port_shaft(train)["_body"], strict=True)
 
 
 def port_shaft(train: Train) -> dict:

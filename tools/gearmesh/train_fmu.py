@@ -375,47 +375,56 @@ def model_description(train: Train, lay: Layout) -> str:
     return "\n".join(lines)
 
 
-def own_senses(train: Train, scenes: list) -> list[int]:
-    """Each body's own sense of rotation about +z (+1 or -1): the sign of its speed when the body of
-    the first port (else the first free body) turns at +1 and every mesh rolls without TE change,
-    z1 (w1 - wc) + s z2 (w2 - wc) = 0 (s = +1 external, -1 internal; the base radii of a pair are
-    in the ratio of its tooth counts), shafts turning both ends alike, fixed bodies still. +1 for
-    a body the input does not turn (a fixed one)."""
+def kinematic_speeds(train: Train, scenes: list, lead: int, strict: bool = False):
+    """Each body's speed per unit speed of body `lead` with rigid teeth and shafts: a mesh on
+    carrier c with z1, z2 teeth keeps z1 (w1 - wc) + s z2 (w2 - wc) = 0 (s = +1 external, -1
+    internal: the base radii of a pair are in the ratio of its tooth counts), a shaft between
+    bodies keeps their speeds equal, a fixed body stands; least squares over the rows (a
+    back-to-back loop has one more row than it needs). strict: a ValueError unless they fix every
+    speed (else a body the lead does not turn gets 0)."""
     import numpy as np
 
     n = len(train.bodies)
     rows, rhs = [], []
-    lead = train.held_body()
-    row = np.zeros(n)
-    row[lead] = 1.0
-    rows.append(row)
-    rhs.append(1.0)
+
+    def add(entries: dict[int, float], value: float = 0.0) -> None:
+        row = np.zeros(n)
+        for i, x in entries.items():
+            row[i] += x
+        rows.append(row)
+        rhs.append(value)
+
+    add({lead: 1.0}, 1.0)
     for i, b in enumerate(train.bodies):
         if b["_fixed"]:
-            row = np.zeros(n)
-            row[i] = 1.0
-            rows.append(row)
-            rhs.append(0.0)
+            add({i: 1.0})
     for m, sc in zip(train.meshes, scenes):
         p = sc.parameters
+        z1, z2 = p.get("gear1.teeth"), p.get("gear2.teeth")
+        if not z1 or not z2:
+            raise ValueError(f"{m['_scene']}: the tooth counts are needed for the train's ratio")
         s = -1.0 if p.get("pair.internal") else 1.0
-        z1, z2 = float(p["gear1.teeth"]), float(p["gear2.teeth"])
-        row = np.zeros(n)
-        g1, g2 = m["_gear"]
-        row[g1] += z1
-        row[g2] += s * z2
-        if m["_carrier"] >= 0:
-            row[m["_carrier"]] -= z1 + s * z2
-        rows.append(row)
-        rhs.append(0.0)
+        (g1, g2), c = m["_gear"], m["_carrier"]
+        row = {g1: float(z1)}
+        row[g2] = row.get(g2, 0.0) + s * z2
+        if c >= 0:
+            row[c] = row.get(c, 0.0) - (z1 + s * z2)
+        add(row)
     for sh in train.shafts:
         if sh["_other"] >= 0:
-            row = np.zeros(n)
-            row[sh["_body"]], row[sh["_other"]] = 1.0, -1.0
-            rows.append(row)
-            rhs.append(0.0)
-    speed = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
-    return [-1 if w < -1e-9 else 1 for w in speed]
+            add({sh["_body"]: 1.0, sh["_other"]: -1.0})
+    a, b = np.array(rows), np.array(rhs)
+    speed = np.linalg.lstsq(a, b, rcond=None)[0]
+    if strict and (np.linalg.matrix_rank(a) < n or not np.allclose(a @ speed, b, atol=1e-9)):
+        raise ValueError(f"{train.path}: the train's kinematics have no single solution")
+    return speed
+
+
+def own_senses(train: Train, scenes: list) -> list[int]:
+    """Each body's own sense of rotation about +z (+1 or -1): the sign of its speed when the body of
+    the first port (else the first free body) turns forwards (kinematic_speeds); +1 for a body
+    the input does not turn (a fixed one)."""
+    return [-1 if w < -1e-9 else 1 for w in kinematic_speeds(train, scenes, train.held_body())]
 
 
 def planet_groups(train: Train) -> dict[str, list[str]]:
