@@ -14,6 +14,7 @@ namespace gm {
 namespace {
 
 using namespace trbdf2;  // the method's constants and step rules (trbdf2.hpp)
+constexpr int kMaxExactNewton = 60;  // StepOptions::replay: Newton to rounding
 
 // A state (spins) with what the equations give there, at time t into the call.
 struct Point {
@@ -35,6 +36,7 @@ struct Stepper {
   const gm_dynamics_inputs& in;
   double a_phi[2][2] = {}, a_omega[2][2] = {};  // d(accel)/d(phi), d(accel)/d(omega) at the step start
   double contraction = 0;  // the largest first Newton contraction of the stages since it was reset
+  bool exact = false;      // Newton until it stops contracting (StepOptions::replay)
 
   double far_angle(int i, double t) const { return in.shaft_phi[i] + in.shaft_omega[i] * t; }
 
@@ -64,8 +66,11 @@ struct Stepper {
     return GM_OK;
   }
 
-  // The exact Jacobian of the accelerations at x (the mesh through gm_directional_derivative).
-  gm_status jacobian(const Point& x) {
+  // The exact Jacobian of the accelerations at x (the mesh through gm_directional_derivative),
+  // kept for the Newton matrix and the error filter.
+  gm_status jacobian(const Point& x) { return jacobian_at(x, a_phi, a_omega); }
+
+  gm_status jacobian_at(const Point& x, double (&a_phi)[2][2], double (&a_omega)[2][2]) {
     gm_kinematics at = pose;
     for (int i = 0; i < 2; ++i) {
       at.phi[i] = x.phi[i];
@@ -95,7 +100,10 @@ struct Stepper {
 
   // Solve (I - hd B) x = r in place, B = hd A_phi + A_omega (the stage Newton matrix). False if
   // singular.
-  bool newton_solve(double hd, double r[2]) const {
+  bool newton_solve(double hd, double r[2]) const { return solve_stage_matrix(hd, a_phi, a_omega, r); }
+
+  static bool solve_stage_matrix(double hd, const double (&a_phi)[2][2], const double (&a_omega)[2][2],
+                                 double r[2]) {
     double n[2][2];
     for (int i = 0; i < 2; ++i)
       for (int j = 0; j < 2; ++j) n[i][j] = (i == j ? 1.0 : 0.0) - hd * (hd * a_phi[i][j] + a_omega[i][j]);
@@ -115,7 +123,7 @@ struct Stepper {
                   double omega[2], Point& out) {
     const double* rb = m.layout.base_radius;
     double previous = INFINITY;
-    for (int it = 0; it < kMaxNewton; ++it) {
+    for (int it = 0; it < (exact ? kMaxExactNewton : kMaxNewton); ++it) {
       double phi[2] = {r_phi[0] + hd * omega[0], r_phi[1] + hd * omega[1]};
       // a trial state out of detection's range fails the stage like a diverging Newton: the
       // step is retried shorter (the held inputs were checked at the step's start)
@@ -127,6 +135,18 @@ struct Stepper {
       }
       if (!std::isfinite(size)) break;
       if (it == 1) contraction = std::max(contraction, size / previous);
+      if (exact) {  // on until the residual stops shrinking (rounding)
+        if (it > 1 && (size == 0 || size > 0.5 * previous))
+          return size <= kNewtonFraction * p.tolerance ? GM_OK : GM_ERR_SOLVER;
+        if (it + 1 == kMaxExactNewton) break;
+        previous = size;
+        // Newton's own: the Jacobian at the iterate (where tanh(v / v0) turns, the step start's
+        // differs by orders of magnitude and a kept one stalls short of rounding)
+        if (jacobian(out) != GM_OK || !newton_solve(hd, g)) break;
+        omega[0] -= g[0];
+        omega[1] -= g[1];
+        continue;
+      }
       if (it > 0 && size <= kNewtonFraction * p.tolerance) {
         if (it > 2) contraction = INFINITY;  // slow: the Jacobian is taken anew for the next step
         return GM_OK;
@@ -220,10 +240,94 @@ struct Stepper {
   }
 };
 
+// The step's sensitivity (gm_step_sensitivity), carried over the accepted internal steps. With
+// S = (P, W) = d(phi, omega)/d(column) and the accelerations' derivative along a column at stage
+// k, da_k = A_phi,k P_k + A_omega,k W_k + a_u(t_k) (A at the stage point itself, not the Newton
+// matrix's kept one), the stage equations of TrBdf2 differentiate to
+//   stage 2: (I - hd (hd A_phi,2 + A_omega,2)) W_2 = W_1 + hd da_1 + hd A_phi,2 (P_1 + hd W_1) + hd a_u(t_2),
+//            P_2 = P_1 + hd (W_1 + W_2);
+//   stage 3: (I - hd (hd A_phi,3 + A_omega,3)) W_3 = W_1 + hw (da_1 + da_2) + hd A_phi,3 (P_1 + hw (W_1 + W_2))
+//            + hd a_u(t_3),  P_3 = P_1 + hw (W_1 + W_2) + hd W_3,
+// hd = d h, hw = w h: one 2x2 solve per stage and column. a_u: the inputs' direct part,
+// d(accel_i) = (dT_i + k_i (dshaft_phi_i + t dshaft_omega_i) + c_i dshaft_omega_i) / J_i.
+struct Sensitivity {
+  double P[2][GM_SENS_COLUMNS] = {}, W[2][GM_SENS_COLUMNS] = {};
+  double a1_phi[2][2] = {}, a1_omega[2][2] = {};  // the Jacobian at the current point
+
+  gm_status start(Stepper& st, const Point& x1) {
+    for (int i = 0; i < 2; ++i) {
+      P[i][GM_SENS_PHI1 + i] = 1.0;
+      W[i][GM_SENS_OMEGA1 + i] = 1.0;
+    }
+    return st.jacobian_at(x1, a1_phi, a1_omega);
+  }
+
+  // d(accel_i)/d(column c) from the inputs directly, at time t into the call
+  static double direct(const gm_dynamics_params& p, int i, int c, double t) {
+    if (c == GM_SENS_TORQUE1 + i) return 1.0 / p.inertia[i];
+    if (c == GM_SENS_SHAFT_PHI1 + i) return p.shaft_stiffness[i] / p.inertia[i];
+    if (c == GM_SENS_SHAFT_OMEGA1 + i) return (p.shaft_stiffness[i] * t + p.shaft_damping[i]) / p.inertia[i];
+    return 0.0;
+  }
+
+  // Over an accepted step of h at t through the stage points x2, x3.
+  gm_status advance(Stepper& st, double t, double h, const Point& x2, const Point& x3) {
+    double a2_phi[2][2], a2_omega[2][2], a3_phi[2][2], a3_omega[2][2];
+    gm_status status = st.jacobian_at(x2, a2_phi, a2_omega);
+    if (status == GM_OK) status = st.jacobian_at(x3, a3_phi, a3_omega);
+    if (status != GM_OK) return status;
+    const double hd = h * kD, hw = h * kW, t2 = t + kGamma * h, t3 = t + h;
+    const gm_dynamics_params& p = st.p;
+    for (int c = 0; c < GM_SENS_COLUMNS; ++c) {
+      double p1[2], w1[2], da1[2], p2[2], w2[2], da2[2], r[2];
+      for (int i = 0; i < 2; ++i) {
+        p1[i] = P[i][c];
+        w1[i] = W[i][c];
+      }
+      for (int i = 0; i < 2; ++i)
+        da1[i] = a1_phi[i][0] * p1[0] + a1_phi[i][1] * p1[1] + a1_omega[i][0] * w1[0] + a1_omega[i][1] * w1[1] +
+                 direct(p, i, c, t);
+      for (int i = 0; i < 2; ++i)
+        r[i] = w1[i] + hd * da1[i] +
+               hd * (a2_phi[i][0] * (p1[0] + hd * w1[0]) + a2_phi[i][1] * (p1[1] + hd * w1[1])) +
+               hd * direct(p, i, c, t2);
+      if (!Stepper::solve_stage_matrix(hd, a2_phi, a2_omega, r)) return GM_ERR_SOLVER;
+      for (int i = 0; i < 2; ++i) {
+        w2[i] = r[i];
+        p2[i] = p1[i] + hd * (w1[i] + w2[i]);
+      }
+      for (int i = 0; i < 2; ++i)
+        da2[i] = a2_phi[i][0] * p2[0] + a2_phi[i][1] * p2[1] + a2_omega[i][0] * w2[0] + a2_omega[i][1] * w2[1] +
+                 direct(p, i, c, t2);
+      double base[2];  // P_1 + hw (W_1 + W_2)
+      for (int i = 0; i < 2; ++i) base[i] = p1[i] + hw * (w1[i] + w2[i]);
+      for (int i = 0; i < 2; ++i)
+        r[i] = w1[i] + hw * (da1[i] + da2[i]) + hd * (a3_phi[i][0] * base[0] + a3_phi[i][1] * base[1]) +
+               hd * direct(p, i, c, t3);
+      if (!Stepper::solve_stage_matrix(hd, a3_phi, a3_omega, r)) return GM_ERR_SOLVER;
+      for (int i = 0; i < 2; ++i) {
+        W[i][c] = r[i];
+        P[i][c] = base[i] + hd * r[i];
+      }
+    }
+    std::copy(&a3_phi[0][0], &a3_phi[0][0] + 4, &a1_phi[0][0]);
+    std::copy(&a3_omega[0][0], &a3_omega[0][0] + 4, &a1_omega[0][0]);
+    return GM_OK;
+  }
+
+  void write(gm_step_sensitivity& out) const {
+    for (int i = 0; i < 2; ++i)
+      for (int c = 0; c < GM_SENS_COLUMNS; ++c) {
+        out.phi[i][c] = P[i][c];
+        out.omega[i][c] = W[i][c];
+      }
+  }
+};
+
 // The energy account of an accepted step of h over x1, x2, x3: the powers integrated with the
 // method's own weights (w, w, d).
 void account(double h, const Point& x1, const Point& x2, const Point& x3, gm_dynamics_state& s) {
-  const auto integral = [&](double Point::*power) {
+  const auto integral = [&](double Point::* power) {
     return h * (kW * (x1.*power + x2.*power) + kD * x3.*power);
   };
   s.work_in += integral(&Point::power_in);
@@ -367,7 +471,7 @@ gm_status dynamics_start(const gm_model& m, gm_data& d, const gm_dynamics_params
 
 gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_params& p,
                            const gm_kinematics& pose, const gm_dynamics_inputs& in, double duration,
-                           gm_dynamics_state& s_io, gm_result& res) {
+                           gm_dynamics_state& s_io, gm_result& res, const StepOptions& options) {
   if ((d.message = check_dynamics(m, p)).size()) return GM_ERR_PARAMETER;
   if (!(duration > 0 && std::isfinite(duration))) {
     d.message = "large-step dynamics: step of " + number(duration) + " s; allowed: finite and > 0";
@@ -390,9 +494,14 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   }
   gm_dynamics_state s = s_io;
   Stepper st{m, d, p, pose, in};
+  st.exact = options.replay != nullptr;
   Point x1, x2, x3;
   gm_status status = st.evaluate_at(0.0, s.phi, s.omega, x1);
   if (status != GM_OK) return status;
+  Sensitivity sensitivity;
+  if (options.sensitivity && (status = sensitivity.start(st, x1)) != GM_OK) return status;
+  if (options.taken) options.taken->clear();
+  std::size_t replayed = 0;  // internal steps of options.replay taken
   // Inputs that jumped between steps (a far end set elsewhere than where this FMU moved it, a
   // new pose) changed the stored elastic energy without motion of the spins: their work.
   const double jump = x1.elastic - s.elastic;
@@ -425,7 +534,15 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       return GM_ERR_SOLVER;
     }
     const double remaining = duration - t;
-    const double h_try = step_to_try(h, remaining);
+    double h_try = step_to_try(h, remaining);
+    if (options.replay) {
+      if (replayed == options.replay->size()) {
+        d.message = "large-step dynamics: the replayed internal steps end before the step's duration";
+        return GM_ERR_ARGUMENT;
+      }
+      h_try = replayed + 1 == options.replay->size() ? remaining : (*options.replay)[replayed];
+      jacobian_current = false;  // a Newton from the stage's own Jacobian: it converges to rounding
+    }
     if (!jacobian_current) {
       if ((status = st.jacobian(x1)) != GM_OK) return status;
       jacobian_current = true;
@@ -437,7 +554,10 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     if (status == GM_ERR_INPUT) return status;
     const bool event = status == GM_OK && contact_changed(x1.res, x3.res);
     const double allowed = event ? kEventFraction : 1.0;
-    if (status == GM_OK && fraction <= allowed) {
+    if (status == GM_OK && (fraction <= allowed || options.replay)) {
+      if (options.sensitivity && (status = sensitivity.advance(st, t, h_try, x2, x3)) != GM_OK) return status;
+      if (options.taken) options.taken->push_back(h_try);
+      ++replayed;
       account(h_try, x1, x2, x3, s);
       aggregates.add(h_try, x1, x2, x3);
       t = h_try == remaining ? duration : t + h_try;
@@ -450,6 +570,10 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       after_rejection = false;
       continue;
     }
+    if (options.replay) {
+      d.message = "large-step dynamics: a replayed internal step did not converge";
+      return GM_ERR_SOLVER;
+    }
     ++s.rejected;
     after_rejection = true;
     jacobian_current = jacobian_current && jacobian_age == 0;
@@ -459,7 +583,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       d.message = "large-step dynamics: the internal step fell below dynamics.min_step = " + number(p.min_step) +
                   " s at " + number(t) + " s into a step of " + number(duration) + " s (" +
                   (newton_failed ? "Newton did not converge: " + (d.message.empty() ? std::string("no contraction")
-                                                                                  : d.message)
+                                                                                    : d.message)
                                  : "local error " + number(fraction) + " x dynamics.tolerance") +
                   "); retry with a shorter communication step or a larger dynamics.tolerance";
       return GM_ERR_SOLVER;
@@ -468,6 +592,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   s.step = h;
   finish_state(p, x1, s);
   s.step_aggregates = aggregates.finish();
+  if (options.sensitivity) sensitivity.write(*options.sensitivity);
   s_io = s;
   res = x1.res;
   d.message.clear();

@@ -22,6 +22,8 @@
 // changes are shortened until the change is resolved.
 #pragma once
 
+#include <vector>
+
 #include "model.hpp"
 
 namespace gm {
@@ -32,8 +34,19 @@ gm_status dynamics_start(const gm_model& m, gm_data& d, const gm_dynamics_params
                          const gm_kinematics& pose, const gm_dynamics_inputs& in,
                          gm_dynamics_state& s, gm_result& res);
 
+// What an advance does beyond the plain step: the step's sensitivity (gm_step_sensitivity), and
+// for tests of its exactness, the internal steps it took and a replay of given steps.
+struct StepOptions {
+  gm_step_sensitivity* sensitivity = nullptr;  // written on GM_OK
+  std::vector<double>* taken = nullptr;        // the accepted internal steps' sizes, s
+  // Take exactly these internal steps (they must sum to the duration), accepted whatever their
+  // error, each stage's Newton run until it stops contracting: the step as a smooth function
+  // of its inputs, for central differences against the sensitivity.
+  const std::vector<double>* replay = nullptr;
+};
+
 gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_params& p,
                            const gm_kinematics& pose, const gm_dynamics_inputs& in, double duration,
-                           gm_dynamics_state& s, gm_result& res);
+                           gm_dynamics_state& s, gm_result& res, const StepOptions& options = {});
 
 }  // namespace gm

@@ -323,6 +323,40 @@ gm_status gm_dynamics_advance(const gm_model* m, gm_data* d, const gm_dynamics_p
                               const gm_kinematics* pose, const gm_dynamics_inputs* in, double duration,
                               gm_dynamics_state* s, gm_result* res);
 
+/* The sensitivities of one gm_dynamics_advance's end state to what the step started from: the
+ * spins at its start and the inputs held over it (columns GM_SENS_*). Exact for the integrator's
+ * own steps: the derivative of the TR-BDF2 stage equations as solved (each stage taken as
+ * converged), along the internal step sizes the step chose (held, as internal numerical
+ * differentiation holds them). For a master that couples implicitly, with the outputs' partials
+ * at the communication point (gm_directional_derivative at the end state) by the chain rule; the
+ * shaft's torque at the end is k (shaft_phi + shaft_omega duration - phi) + c (shaft_omega - omega). */
+/* the columns: the spin state at the start, then gm_dynamics_inputs' torque, shaft_phi, shaft_omega */
+enum {
+  GM_SENS_PHI1,
+  GM_SENS_PHI2,
+  GM_SENS_OMEGA1,
+  GM_SENS_OMEGA2,
+  GM_SENS_TORQUE1,
+  GM_SENS_TORQUE2,
+  GM_SENS_SHAFT_PHI1,
+  GM_SENS_SHAFT_PHI2,
+  GM_SENS_SHAFT_OMEGA1,
+  GM_SENS_SHAFT_OMEGA2,
+  GM_SENS_COLUMNS
+};
+typedef struct gm_step_sensitivity {
+  double phi[2][GM_SENS_COLUMNS];   /* d phi_i(end) / d column, rad per column unit */
+  double omega[2][GM_SENS_COLUMNS]; /* d omega_i(end) / d column, rad/s per column unit */
+} gm_step_sensitivity;
+
+/* gm_dynamics_advance, and the step's sensitivity into *sens (NULL: none, the same as
+ * gm_dynamics_advance). The sensitivity costs two Jacobians of the mesh (two to four
+ * gm_directional_derivative each) per accepted internal step. sens is written on GM_OK only. */
+gm_status gm_dynamics_advance_sensitivity(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
+                                          const gm_kinematics* pose, const gm_dynamics_inputs* in,
+                                          double duration, gm_dynamics_state* s, gm_result* res,
+                                          gm_step_sensitivity* sens);
+
 /* Last error message of d ("" if none). */
 const char* gm_data_message(const gm_data* d);
 
