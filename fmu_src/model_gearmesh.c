@@ -29,6 +29,11 @@ struct fmu_model {
   int unloaded_points;  /* large-step: communication points in a row with both gears loaded and no contact */
   double unloaded_since; /* the time of the first of them, s */
   int warned_unloaded;  /* the warning that the mesh carries nothing was given */
+  /* dynamics.step_sensitivities: the last fmi2DoStep's sensitivity, its duration (s); valid once
+   * a step made it, forgotten by a restart, a state set and new parameters */
+  gm_step_sensitivity sens;
+  double sens_step;
+  int sens_valid;
   fmu_log_fn log;
   void* log_context;
 };
@@ -67,6 +72,7 @@ const char* model_log_category_name(unsigned category) {
 }
 
 static int set_start_values(fmu_model* m) {
+  m->sens_valid = 0;
   values_free_strings(&m->v);
   int failed = values_copy(&m->v, &m->start);
   m->params_changed = 1;
@@ -204,6 +210,7 @@ static int create_core(const fmu_model* m, const gm_model_params* p, gm_model** 
 
 static void install_core(fmu_model* m, gm_model* core, gm_data* data) {
   drop_core(m);
+  m->sens_valid = 0;
   m->core = core;
   m->data = data;
   m->v.g = *gm_model_geometry(core);
@@ -342,8 +349,18 @@ static void publish(fmu_model* m, int restart, double time, const gm_result* r) 
 static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r) {
   if (!m->v.dynamics) return gm_evaluate(m->core, m->data, &m->v.k, r);
   const gm_dynamics_inputs in = dynamics_inputs(m);
-  if (restart) return gm_dynamics_start(m->core, m->data, &m->v.dp, &m->v.k, &in, &m->v.ds, r);
-  return gm_dynamics_advance(m->core, m->data, &m->v.dp, &m->v.k, &in, step, &m->v.ds, r);
+  if (restart) {
+    m->sens_valid = 0;
+    return gm_dynamics_start(m->core, m->data, &m->v.dp, &m->v.k, &in, &m->v.ds, r);
+  }
+  if (!m->v.step_sensitivities) return gm_dynamics_advance(m->core, m->data, &m->v.dp, &m->v.k, &in, step, &m->v.ds, r);
+  const gm_status status =
+      gm_dynamics_advance_sensitivity(m->core, m->data, &m->v.dp, &m->v.k, &in, step, &m->v.ds, r, &m->sens);
+  if (status == GM_OK) { /* a failed step changed nothing: the last one's stays */
+    m->sens_valid = 1;
+    m->sens_step = step;
+  }
+  return status;
 }
 
 /* 1 (msg set) if the step's TE jumps by half a base pitch or more from the last accepted
@@ -457,6 +474,96 @@ static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_valu
   return 0;
 }
 
+/* 1 if vr's field lies in the member [offset, offset + size) of gm_fmu_values. */
+static int in_member(unsigned vr, size_t offset, size_t size) {
+  return gm_fmu_variables[vr].offset >= offset && gm_fmu_variables[vr].offset < offset + size;
+}
+#define IN_MEMBER(vr, member) in_member(vr, offsetof(gm_fmu_values, member), sizeof(((gm_fmu_values*)0)->member))
+
+/* dynamics.step_sensitivities: a known is an input held over the step (the core's columns). */
+static int step_known(unsigned vr) {
+  return IN_MEMBER(vr, di) || IN_MEMBER(vr, port.torque) || IN_MEMBER(vr, port.shaft_phi) ||
+         IN_MEMBER(vr, port.shaft_omega);
+}
+
+/* ... and an unknown a value at the step's end that follows from its spins and inputs. */
+static int step_unknown(unsigned vr) {
+  return IN_MEMBER(vr, y) || IN_MEMBER(vr, ds.phi) || IN_MEMBER(vr, ds.omega) || IN_MEMBER(vr, ds.shaft_torque) ||
+         IN_MEMBER(vr, port.angle) || IN_MEMBER(vr, port.speed) || IN_MEMBER(vr, port.shaft_torque);
+}
+
+/* The last step's derivative along the inputs in seed, into out: the spins' from the core's step
+ * sensitivity (gm_dynamics_advance_sensitivity), the contact's at the end state by the chain rule
+ * through gm_directional_derivative, the shafts' from their law at the step's end. */
+static int step_derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_values* out, char* msg, size_t n) {
+  if (model_build(m, msg, n) || load_scratch(m, msg, n)) return 1;
+  gm_dynamics_inputs du = seed->di;
+  for (int i = 0; i < 2; i++) {
+    const double s = own_sense(m, i);
+    du.torque[i] += s * seed->port.torque[i];
+    du.shaft_phi[i] += s * seed->port.shaft_phi[i];
+    du.shaft_omega[i] += s * seed->port.shaft_omega[i];
+  }
+  gm_kinematics at = m->v.k, along;
+  memset(&along, 0, sizeof along);
+  for (int i = 0; i < 2; i++) {
+    at.phi[i] = m->v.ds.phi[i];
+    at.omega[i] = m->v.ds.omega[i];
+    for (int j = 0; j < 2; j++) {
+      along.phi[i] += m->sens.phi[i][GM_SENS_TORQUE1 + j] * du.torque[j] +
+                      m->sens.phi[i][GM_SENS_SHAFT_PHI1 + j] * du.shaft_phi[j] +
+                      m->sens.phi[i][GM_SENS_SHAFT_OMEGA1 + j] * du.shaft_omega[j];
+      along.omega[i] += m->sens.omega[i][GM_SENS_TORQUE1 + j] * du.torque[j] +
+                        m->sens.omega[i][GM_SENS_SHAFT_PHI1 + j] * du.shaft_phi[j] +
+                        m->sens.omega[i][GM_SENS_SHAFT_OMEGA1 + j] * du.shaft_omega[j];
+    }
+  }
+  if (gm_directional_derivative(m->core, m->scratch, &at, &along, &out->y) != GM_OK) {
+    snprintf(msg, n, "%s", gm_data_message(m->scratch));
+    return 1;
+  }
+  for (int i = 0; i < 2; i++) {
+    const double s = own_sense(m, i);
+    out->ds.phi[i] = along.phi[i];
+    out->ds.omega[i] = along.omega[i];
+    out->ds.shaft_torque[i] =
+        m->v.dp.shaft_stiffness[i] * (du.shaft_phi[i] + du.shaft_omega[i] * m->sens_step - along.phi[i]) +
+        m->v.dp.shaft_damping[i] * (du.shaft_omega[i] - along.omega[i]);
+    out->port.angle[i] = s * along.phi[i];
+    out->port.speed[i] = s * along.omega[i];
+    out->port.shaft_torque[i] = s * out->ds.shaft_torque[i];
+  }
+  return 0;
+}
+
+/* The variables dynamics.step_sensitivities cannot take: 1 with msg naming the first. */
+static int step_refused(const fmu_model* m, const unsigned known[], size_t n_known, const unsigned unknown[],
+                        size_t n_unknown, char* msg, size_t n) {
+  static const char* const prefix = "dynamics.step_sensitivities = true";
+  if (!m->sens_valid)
+    return snprintf(msg, n,
+                    "%s: no step to differentiate (the sensitivities are those of the last fmi2DoStep; "
+                    "initialization, fmi2SetFMUstate and a new parameter value forget them)",
+                    prefix),
+           1;
+  for (size_t i = 0; i < n_known; i++)
+    if (!step_known(known[i]))
+      return snprintf(msg, n,
+                      "%s: known %s is not held over the step; allowed knowns: gear<i>.torque, .shaft_phi, "
+                      ".shaft_omega, drive./load.torque, .shaft_phi, .shaft_omega",
+                      prefix, gm_fmu_variables[known[i]].name),
+             1;
+  for (size_t i = 0; i < n_unknown; i++)
+    if (!step_unknown(unknown[i]))
+      return snprintf(msg, n,
+                      "%s: unknown %s has no step sensitivity (the energy account, the step means and dynamics.* "
+                      "are not differentiated); allowed unknowns: the contact outputs, gear<i>.angle, .speed, "
+                      ".shaft_torque, drive./load.angle, .speed, .shaft_torque",
+                      prefix, gm_fmu_variables[unknown[i]].name),
+             1;
+  return 0;
+}
+
 int model_directional_derivative(fmu_model* m, const unsigned known[], const double dv_known[], size_t n_known,
                                  const unsigned unknown[], double dv_unknown[], size_t n_unknown, char* msg,
                                  size_t n) {
@@ -469,7 +576,9 @@ int model_directional_derivative(fmu_model* m, const unsigned known[], const dou
     x += dv_known[i];
     memcpy(field(&seed, known[i]), &x, sizeof x);
   }
-  if (derivative_along(m, &seed, &out, msg, n)) return 1;
+  const int over_step = m->v.dynamics && m->v.step_sensitivities;
+  if (over_step && step_refused(m, known, n_known, unknown, n_unknown, msg, n)) return 1;
+  if (over_step ? step_derivative_along(m, &seed, &out, msg, n) : derivative_along(m, &seed, &out, msg, n)) return 1;
   for (size_t i = 0; i < n_unknown; i++) memcpy(&dv_unknown[i], field(&out, unknown[i]), sizeof(double));
   return 0;
 }
@@ -553,6 +662,7 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   }
   values_free_strings(&m->v);
   m->v = *v; /* m takes over v's strings */
+  m->sens_valid = 0;
   m->outputs_current = (flags & OUTPUTS_CURRENT) && (flags & CORE_BUILT);
   m->evaluated = tail != 0;
   if (tail) m->k_eval = k_eval;

@@ -36,6 +36,7 @@ typedef struct gm_fmu_values {
   gm_model_params p;     /* parameters */
   int dynamics;          /* parameter model.dynamics: 0 prescribed motion, 1 large-step */
   gm_dynamics_params dp; /* parameters of the large-step dynamics */
+  int step_sensitivities; /* parameter dynamics.step_sensitivities */
   gm_pair_geometry g;    /* calculated parameters, from the core model */
   gm_kinematics k;       /* inputs, held over a step */
   gm_dynamics_inputs di; /* inputs of the large-step dynamics, held over a step */
@@ -376,6 +377,9 @@ typedef enum {
     "large-step mode: longest internal step")                                                                     \
   X("dynamics.min_step", Real, parameter, fixed, exact, "s", "", dp.min_step, D_DYN,                \
     "large-step mode: shortest internal step before fmi2DoStep returns fmi2Discard (<= dynamics.max_step)")      \
+  X("dynamics.step_sensitivities", Boolean, parameter, fixed, exact, "", "", step_sensitivities, D_DYN,            \
+    "large-step mode: fmi2GetDirectionalDerivative gives the last step's sensitivities, d(value at its end) / "    \
+    "d(gear<i>.torque, .shaft_phi, .shaft_omega held over it), instead of the partials at the point")              \
   X("geometry.backlash", Real, calculatedParameter, fixed, calculated, "m", "um", g.j_bt, D_GEO,                   \
     "transverse backlash along the line of action j_bt")                                                           \
   X("geometry.circumferential_backlash", Real, calculatedParameter, fixed, calculated, "m", "um", g.j_wt,          \
