@@ -3,6 +3,7 @@ separate processes on 127.0.0.1; every result compared bit for bit with a plain 
 same cases in this process (batch.run_in_process, no Dask)."""
 from __future__ import annotations
 
+import contextlib
 import csv
 import filecmp
 import json
@@ -13,9 +14,13 @@ import subprocess
 import sys
 import threading
 import time
+import uuid
 
+import cloudpickle
 import numpy as np
 import pytest
+from distributed import Client
+from distributed.diagnostics.plugin import SchedulerPlugin
 
 from gearmesh import batch, batch_tasks, cluster, compliance
 from gearmesh.scene import load_scene
@@ -54,8 +59,6 @@ def _start(tmp: pathlib.Path, env: dict) -> tuple[str, list[subprocess.Popen]]:
                                        "--no-nanny", "--no-dashboard", "--host", "127.0.0.1",
                                        "--name", f"w{i}", "--local-directory", str(tmp / f"w{i}")],
                                       stdout=log, stderr=log, env=env))
-    from distributed import Client
-
     with Client(address, timeout=30) as client:
         client.wait_for_workers(2, timeout=60)
     return address, procs
@@ -68,6 +71,52 @@ def _stop(procs):
             p.kill()
     for p in procs:
         p.wait()
+
+
+def _worker(client, name: str) -> str:
+    """The address of the worker started as `name` (w0, w1)."""
+    return next(a for a, w in client.scheduler_info()["workers"].items() if w["name"] == name)
+
+
+def _held(client, worker: str) -> list[str]:
+    """The case tasks the scheduler has given `worker` and not yet had back (Client.processing)."""
+    return [str(k) for k in client.processing([worker]).get(worker, []) if str(k).startswith("case-")]
+
+
+class CaseRuns(SchedulerPlugin):
+    """On the scheduler (a scheduler plugin, Dask's public interface): each time a case task
+    leaves `processing`, where to, as an event of its own topic (Client.get_events): "memory" a
+    result, "erred" failed for good, anything else a run that ended without a result (failed and
+    retried, or its worker gone)."""
+
+    def __init__(self):
+        self.name = self.topic = f"gearmesh-test-case-runs-{uuid.uuid4().hex}"
+
+    async def start(self, scheduler):
+        self.scheduler = scheduler
+
+    def transition(self, key, start, finish, *args, **kwargs):
+        if start == "processing" and str(key).startswith("case-"):
+            self.scheduler.log_event(self.topic, (str(key), finish))
+
+
+@contextlib.contextmanager
+def _case_runs(client):
+    """[(case task key, where it went from processing)] of the batches run inside, in order;
+    filled on leaving the block."""
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the scheduler cannot import us
+    plugin = CaseRuns()
+    client.register_plugin(plugin)
+    runs = []
+    try:
+        yield runs
+    finally:
+        runs += [tuple(msg) for _, msg in client.get_events(plugin.topic)]
+        client.unregister_scheduler_plugin(plugin.name)
+
+
+def _ends(runs, key) -> list[str]:
+    return [to for k, to in runs if k == key]
 
 
 @pytest.fixture(scope="module")
@@ -133,43 +182,56 @@ def test_a_failing_case_is_reported_while_the_others_finish(dask_cluster, cases,
                                                            tmp_path):
     address, *_ = dask_cluster
     bad = batch.Case(cases[0].scene, 100.0, (("model.friction_coefficient", -1.0),))
-    result = batch.run_batch([*cases[:2], bad], fmu_path, tmp_path, scheduler=address)
+    with Client(address) as client, _case_runs(client) as runs:
+        result = batch.run_batch([*cases[:2], bad], fmu_path, tmp_path, scheduler=address)
     assert list(result.errors) == [batch_tasks.label(bad)]
     assert "model.friction_coefficient" in result.errors[batch_tasks.label(bad)]
     assert result.ran == 2 and len(result.summary_rows) == 2
     assert "friction_coefficient=-1" in (tmp_path / "batch_errors.csv").read_text()
-    # the scheduler's log: the failed case was run twice (one retry), the others once
-    from distributed import Client
-
-    def starts(dask_scheduler):
-        return [(t[0], t[2]) for t in dask_scheduler.transition_log]
-
-    with Client(address) as client:
-        log = client.run_on_scheduler(starts)
-    erred = {k for k, to in log if to == "erred" and str(k).startswith("case-")}
-    assert len(erred) == 1
-    assert sum(1 for k, to in log if k in erred and to == "processing") == 2
+    # the scheduler's record: the failed case was run twice (one retry), the others once
+    erred = [k for k, to in runs if to == "erred"]
+    assert len(erred) == 1, runs
+    ends = _ends(runs, erred[0])
+    assert len(ends) == 2 and ends[0] not in ("memory", "erred") and ends[1] == "erred", runs
+    others = {k for k, _ in runs} - set(erred)
+    assert len(others) == 2 and all(_ends(runs, k) == ["memory"] for k in others), runs
 
 
 def test_resume_after_an_interrupt_skips_the_finished_cases(dask_cluster, cases, serial,
                                                            fmu_path, tmp_path):
-    address, *_ = dask_cluster
+    """The batch command killed (SIGKILL) mid-batch, then run again. Mid-batch by construction,
+    not by timing: worker 1 is stopped (SIGSTOP) before the first run, so the cases the scheduler
+    gives it cannot finish; the kill comes once a first result is kept and worker 1 holds a case.
+    With a shared folder (--shared): uploaded files could sit on the stopped worker."""
+    address, procs, _ = dask_cluster
+    shared = tmp_path / "shared"
+    shared.mkdir()
     command = [sys.executable, "-m", "gearmesh", "batch", str(SCENES / "paper_setB_P1P2.toml"),
                "--torques", "100", "200", "300", "350",
                "--vary", "model.friction_coefficient=0.3,0.4",
-               "--fmu", str(fmu_path), "--out", str(tmp_path), "--scheduler", address]
-    proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.monotonic() + 120
-        while not list((tmp_path / "cases").glob("*.json")) and time.monotonic() < deadline:
-            assert proc.poll() is None, "the batch ended before any result was kept"
-            time.sleep(0.02)
-        proc.send_signal(signal.SIGKILL)  # the hardest interrupt: no clean-up at all
-    finally:
-        proc.wait()
+               "--fmu", str(fmu_path), "--out", str(tmp_path), "--scheduler", address,
+               "--shared", str(shared)]
+    with Client(address) as client:
+        w1 = _worker(client, "w1")
+        procs[2].send_signal(signal.SIGSTOP)
+        try:
+            proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            try:
+                deadline = time.monotonic() + 120
+                while not (list((tmp_path / "cases").glob("*.json")) and (held := _held(client, w1))):
+                    assert proc.poll() is None, "the batch ended before any result was kept"
+                    assert time.monotonic() < deadline, "no result kept, or worker 1 given no case"
+                    time.sleep(0.02)
+                proc.send_signal(signal.SIGKILL)  # the hardest interrupt: no clean-up at all
+            finally:
+                proc.kill()
+                proc.wait()
+        finally:
+            procs[2].send_signal(signal.SIGCONT)
+    assert proc.returncode == -signal.SIGKILL
     kept = len(list((tmp_path / "cases").glob("*.json")))
-    assert 1 <= kept < len(cases), "the interrupt did not come mid-batch"
-    result = batch.run_batch(cases, fmu_path, tmp_path, scheduler=address)
+    assert 1 <= kept <= len(cases) - len(held)  # worker 1's cases were not finished
+    result = batch.run_batch(cases, fmu_path, tmp_path, scheduler=address, shared=shared)
     assert (result.skipped, result.ran, result.errors) == (kept, len(cases) - kept, {})
     _same_as_serial(tmp_path, serial, len(cases))
 
@@ -188,10 +250,6 @@ def test_fe_databases_build_once_per_content_hash(dask_cluster, fake_tool, monke
     address, *_ = dask_cluster
     # set A's gears are equal: one database for both, also across two copies of the scene
     scenes = [load_scene(SCENES / "fe" / "paper_setA_3U4U_fe.toml") for _ in range(2)]
-    from distributed import Client
-
-    import cloudpickle
-
     cloudpickle.register_pickle_by_value(sys.modules[__name__])
     with Client(address) as client:
         client.run(_set_worker_env, compliance.TOOL_ENV, str(tool))
@@ -243,29 +301,40 @@ def test_level_5_builds_its_database_on_a_worker_and_matches_a_serial_run(
 
 
 def test_a_worker_killed_mid_batch_still_yields_every_result(cases, serial, fmu_path, tmp_path):
+    """Worker 0 is killed while it runs a case: Client.call_stack shows a case executing there
+    (and one on worker 1, which so holds the uploaded files too), the worker is stopped at once
+    (SIGSTOP: what it holds can no longer finish), the cases it holds are read
+    (Client.processing), and it is killed. The scheduler's record (CaseRuns) must show a case it
+    held ending without a result, then computed again; every result is there."""
     address, procs = _start(tmp_path, dict(os.environ))
+    held = []
     try:
-        killed = []
-
-        def kill_on_first_result():
+        with Client(address) as client, _case_runs(client) as runs:
+            w0, w1 = _worker(client, "w0"), _worker(client, "w1")
+            outcome = {}
+            thread = threading.Thread(target=lambda: outcome.update(result=batch.run_batch(
+                cases, fmu_path, tmp_path / "out", scheduler=address)))
+            thread.start()
             deadline = time.monotonic() + 120
-            while time.monotonic() < deadline:
-                done = list((tmp_path / "out" / "cases").glob("*.json"))
-                if done:
+            while thread.is_alive() and time.monotonic() < deadline:
+                stacks = client.call_stack()
+                if all(any(str(k).startswith("case-") for k in stacks.get(w, {})) for w in (w0, w1)):
+                    procs[1].send_signal(signal.SIGSTOP)
+                    held = _held(client, w0)
                     procs[1].send_signal(signal.SIGKILL)
-                    killed.append(len(done))
-                    return
-                time.sleep(0.01)
-
-        watcher = threading.Thread(target=kill_on_first_result)
-        watcher.start()
-        result = batch.run_batch(cases, fmu_path, tmp_path / "out", scheduler=address)
-        watcher.join()
+                    break
+                time.sleep(0.005)
+            thread.join()
     finally:
         _stop(procs)
-    assert killed and killed[0] < len(cases), "the worker was not killed mid-batch"
+    assert held, "worker 0 was not killed while it ran a case"
     assert procs[1].returncode == -signal.SIGKILL
+    lost = [k for k in held if _ends(runs, k)[0] != "memory"]
+    assert lost, f"every case worker 0 held had finished before it was killed: {runs}"
+    assert all(_ends(runs, k)[-1] == "memory" for k in held), runs
+    result = outcome["result"]
     assert result.errors == {} and result.ran == len(cases)
+    assert len(list((tmp_path / "out" / "cases").glob("*.json"))) == len(cases)
     _same_as_serial(tmp_path / "out", serial, len(cases))
 
 
