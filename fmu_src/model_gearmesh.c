@@ -100,6 +100,7 @@ fmu_model* model_new(fmu_log_fn log, void* log_context) {
   memset(&defaults, 0, sizeof defaults); /* inputs: nominal pose, at rest */
   gm_default_params(&defaults.p);        /* parameters: the core's defaults, as in modelDescription.xml */
   gm_dynamics_default_params(&defaults.dp);
+  defaults.mesh_damping_ratio = GM_MESH_DAMPING_RATIO;
   /* the instance owns its strings, also the start values of String parameters */
   if (values_copy(&m->start, &defaults) || set_start_values(m)) {
     model_free(m);
@@ -191,13 +192,22 @@ void model_set_string(fmu_model* m, unsigned vr, char* owned) {
   mark_changed(m, vr);
 }
 
-/* What a file that is not a regular file is, for messages. */
-/* A new core model and data for parameters p; nothing changes in m on failure. */
-static int create_core(const fmu_model* m, const gm_model_params* p, gm_model** core, gm_data** data, char* msg,
-                       size_t n) {
+/* The contact damping dynamics.mesh_damping_ratio adds in the large-step mode (0 elsewhere). */
+static gm_status mesh_damping(const gm_fmu_values* v, double* damping, char* msg, size_t n) {
+  *damping = 0;
+  if (!v->dynamics || v->mesh_damping_ratio == 0) return GM_OK;
+  return gm_mesh_damping_for_ratio(&v->p, v->dp.inertia, v->mesh_damping_ratio, damping, msg, n);
+}
+
+/* A new core model and data for the parameters in v (with the large-step mode's mesh damping);
+ * nothing changes in m on failure. */
+static int create_core(const fmu_model* m, const gm_fmu_values* v, gm_model** core, gm_data** data, double* added,
+                       char* msg, size_t n) {
   gm_model_params q;
   char* paths[CORE_PARAMS_FILES];
-  gm_status s = core_params(m->resources, p, &q, paths, msg, n) ? GM_ERR_PARAMETER : gm_model_create(&q, core, msg, n);
+  gm_status s = core_params(m->resources, &v->p, &q, paths, msg, n) ? GM_ERR_PARAMETER : mesh_damping(v, added, msg, n);
+  q.damping += *added;
+  if (s == GM_OK) s = gm_model_create(&q, core, msg, n);
   for (int k = 0; k < CORE_PARAMS_FILES; k++) free(paths[k]);
   if (s != GM_OK) return 1;
   if (gm_data_create(*core, data) != GM_OK) {
@@ -208,12 +218,14 @@ static int create_core(const fmu_model* m, const gm_model_params* p, gm_model** 
   return 0;
 }
 
-static void install_core(fmu_model* m, gm_model* core, gm_data* data) {
+/* core and data, built with the mesh damping `added`, become m's. */
+static void install_core(fmu_model* m, gm_model* core, gm_data* data, double added) {
   drop_core(m);
   m->sens_valid = 0;
   m->core = core;
   m->data = data;
   m->v.g = *gm_model_geometry(core);
+  m->v.mesh_damping = added;
   m->params_changed = 0;
 }
 
@@ -236,13 +248,14 @@ int model_build(fmu_model* m, char* msg, size_t n) {
   if (m->core && !m->params_changed) return 0;
   gm_model* core;
   gm_data* data;
-  if (check_ranges(m, msg, n) || create_core(m, &m->v.p, &core, &data, msg, n)) return 1;
+  double added;
+  if (check_ranges(m, msg, n) || create_core(m, &m->v, &core, &data, &added, msg, n)) return 1;
   if (m->v.dynamics && gm_dynamics_check(core, &m->v.dp, msg, n) != GM_OK) {
     gm_data_free(data);
     gm_model_free(core);
     return 1;
   }
-  install_core(m, core, data);
+  install_core(m, core, data, added);
   m->outputs_current = 0;
   return 0;
 }
@@ -645,7 +658,8 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
     gm_model* core = m->core;
     gm_data* data = m->data;
     int fresh = !core || m->params_changed || !values_equal(v, &m->v, GM_FMU_parameter);
-    if (fresh && create_core(m, &v->p, &core, &data, msg, n)) return 1;
+    double added = m->v.mesh_damping;
+    if (fresh && create_core(m, v, &core, &data, &added, msg, n)) return 1;
     if (gm_data_state_load(core, data, buf, (size_t)blob) != GM_OK) {
       snprintf(msg, n, "FMU state: %s", gm_data_message(data));
       if (fresh) {
@@ -654,8 +668,9 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
       }
       return 1;
     }
-    if (fresh) install_core(m, core, data);
+    if (fresh) install_core(m, core, data, added);
     v->g = m->v.g;
+    v->mesh_damping = m->v.mesh_damping;
     m->params_changed = 0;
   } else { /* taken before the core was built: build lazily, as after setting parameters */
     m->params_changed = 1;

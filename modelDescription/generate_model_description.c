@@ -203,6 +203,7 @@ int main(int argc, char** argv) {
   memset(&start, 0, sizeof start); /* inputs start at the nominal pose, at rest */
   gm_default_params(&start.p);
   gm_dynamics_default_params(&start.dp);
+  start.mesh_damping_ratio = GM_MESH_DAMPING_RATIO;
   for (size_t i = 0; i < N_VARIABLES; i++) check_row(&gm_fmu_variables[i], i);
   check_ranges();
   if (failures) return 1;

@@ -37,6 +37,8 @@ typedef struct gm_fmu_values {
   int dynamics;          /* parameter model.dynamics: 0 prescribed motion, 1 large-step */
   gm_dynamics_params dp; /* parameters of the large-step dynamics */
   int step_sensitivities; /* parameter dynamics.step_sensitivities */
+  double mesh_damping_ratio; /* parameter dynamics.mesh_damping_ratio */
+  double mesh_damping;    /* calculated parameter dynamics.mesh_damping: what the ratio adds to model.damping */
   gm_pair_geometry g;    /* calculated parameters, from the core model */
   gm_kinematics k;       /* inputs, held over a step */
   gm_dynamics_inputs di; /* inputs of the large-step dynamics, held over a step */
@@ -80,7 +82,9 @@ enum {
   /* the contact at prescribed spins (plain), at the solved TE (quasi-static) or at the spin state
    * and the current pose (large-step; gear<i>.phi/.omega set the state at initialization) */
   D_TE = D_GEO | D_SET | D_PHI1 | D_PHI1 << 1 | D_POSE | D_RATE | D_OMEGA1 | D_OMEGA1 << 1 | D_LOAD,
-  D_CONTACT = D_TE | D_AXIAL_RATE, /* damping acts on the forces after the solve */
+  /* damping acts on the forces after the solve; in the large-step mode the inertias and
+   * dynamics.mesh_damping_ratio set part of it (dynamics.mesh_damping) */
+  D_CONTACT = D_TE | D_AXIAL_RATE | D_DYN,
   /* large-step energies at initialization (elsewhere the account of the steps, or 0) */
   D_KINETIC = D_SET | D_DYN | D_OMEGA1 | D_OMEGA1 << 1,
   D_ELASTIC = D_GEO | D_SET | D_DYN | D_PHI1 | D_PHI1 << 1 | D_POSE | D_SHAFT_PHI1 | D_SHAFT_PHI1 << 1
@@ -377,6 +381,11 @@ typedef enum {
     "large-step mode: longest internal step")                                                                     \
   X("dynamics.min_step", Real, parameter, fixed, exact, "s", "", dp.min_step, D_DYN,                \
     "large-step mode: shortest internal step before fmi2DoStep returns fmi2Discard (<= dynamics.max_step)")      \
+  X("dynamics.mesh_damping_ratio", Real, parameter, fixed, exact, "", "", mesh_damping_ratio, D_DYN,                \
+    "large-step mode: damping ratio of the mesh mode at ISO 6336-1's mean mesh stiffness and the gears' "          \
+    "inertias; adds dynamics.mesh_damping to model.damping (0 = model.damping alone)")                            \
+  X("dynamics.mesh_damping", Real, calculatedParameter, fixed, calculated, "N.s/m2", "", mesh_damping,            \
+    D_GEO | D_SET | D_DYN, "large-step mode: the contact damping dynamics.mesh_damping_ratio adds to model.damping") \
   X("dynamics.step_sensitivities", Boolean, parameter, fixed, exact, "", "", step_sensitivities, D_DYN,            \
     "large-step mode: fmi2GetDirectionalDerivative gives the last step's sensitivities, d(value at its end) / "    \
     "d(gear<i>.torque, .shaft_phi, .shaft_omega held over it), instead of the partials at the point")              \

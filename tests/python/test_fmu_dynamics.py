@@ -245,15 +245,20 @@ def test_step_sensitivities_are_the_derivative_of_whole_steps(fmu_path):
     0.1 to 10 off), and the tolerance is 1e-12 m so that the stages' Newton (stopped at 1e-2 of
     it) leaves no noise in the differences. The moves stay below the contact's kinks (a slice
     entering contact): with 1 N m on a torque the difference is 1e-2 off in gear1.mz, with
-    0.01 N m 5e-6. Each within 1e-5 relative (measured: 4.9e-6 at worst, gear1.mz). Refused,
+    0.01 N m 5e-6. Undamped (dynamics.mesh_damping_ratio = 0): the damping's clamp where a slice
+    unloads is another kink within 1e-3 N m here (the core's test covers the damped step's
+    derivative). Each within 1e-5 relative (measured: 4.4e-7 for the spins and shafts, 4.9e-6
+    for the contact, gear1.mz). Refused,
     naming the variable: an unknown without a step derivative (the energy account), a known not
     held over the step (a pose input), and any derivative before the first step or after a
     state set."""
     start = {**start_values(fmu_path, 0.0), "dynamics.step_sensitivities": True, "dynamics.tolerance": 1e-12,
-             "dynamics.min_step": 2.5e-6, "dynamics.max_step": 2.5e-6, "gear2.shaft_stiffness": 2e3,
+             "dynamics.min_step": 2.5e-6, "dynamics.max_step": 2.5e-6,
+             "dynamics.mesh_damping_ratio": 0.0, "gear2.shaft_stiffness": 2e3,
              "gear2.shaft_damping": 1.0}
     knowns = {"gear1.torque": 1e-2, "load.torque": 1e-2, "gear1.shaft_phi": 1e-7, "gear1.shaft_omega": 1e-5,
               "gear2.shaft_phi": 1e-7, "drive.shaft_omega": 1e-5}
+    contact = {"mesh.te", "mesh.normal_force", "gear1.mz", "gear2.fx"}
     unknowns = ["gear1.angle", "gear2.angle", "gear1.speed", "gear2.speed", "gear1.shaft_torque",
                 "load.shaft_torque", "drive.angle", "mesh.te", "mesh.normal_force", "gear1.mz", "gear2.fx"]
     with GearMeshFMU(fmu_path, start) as f:
@@ -268,7 +273,7 @@ def test_step_sensitivities_are_the_derivative_of_whole_steps(fmu_path):
         f.step({}, 1e-3)
         derivative = {k: dict(zip(unknowns, f.fmu.getDirectionalDerivative(ref(unknowns), ref([k]), [1.0])))
                       for k in knowns}
-        worst = 0.0
+        worst = {True: 0.0, False: 0.0}  # contact outputs, the rest
         for known, h in knowns.items():
             x = f.get([known])[known]
             ends = []
@@ -283,9 +288,10 @@ def test_step_sensitivities_are_the_derivative_of_whole_steps(fmu_path):
             for n in unknowns:
                 fd = (ends[0][n] - ends[1][n]) / (2 * h)
                 d = derivative[known][n]
-                worst = max(worst, abs(d - fd) / max(abs(fd), 1e-300) if abs(fd) > 1e-9 * max(1, abs(d)) else 0)
+                worst[n in contact] = max(worst[n in contact], abs(d - fd) / abs(fd))
                 assert d == pytest.approx(fd, rel=1e-5, abs=1e-12), (known, n)
-        print(f"step sensitivities against whole-step differences: worst relative {worst:.1e}")
+        print(f"step sensitivities against whole-step differences: worst relative {worst[False]:.1e} "
+              f"(spins, shafts), {worst[True]:.1e} (contact)")
         f.fmu.setFMUstate(state)
         f.time = t0
         with pytest.raises(FMICallException):  # a state set forgets the last step

@@ -60,7 +60,8 @@ LEVEL_PARAMETERS = {"model.user_stiffness": {0}, "model.stiffness_table": {1},
                     "gear1.compliance": {5}, "gear2.compliance": {5}}
 # parameters of the large-step mode only
 LARGE_STEP_PARAMETERS = {f"gear{i}.{x}" for i in GEARS for x in ("inertia", "shaft_stiffness", "shaft_damping")} \
-    | {"dynamics.tolerance", "dynamics.max_step", "dynamics.min_step", "dynamics.step_sensitivities"}
+    | {"dynamics.tolerance", "dynamics.max_step", "dynamics.min_step", "dynamics.step_sensitivities",
+       "dynamics.mesh_damping_ratio"}
 
 
 class InterfaceError(ValueError):

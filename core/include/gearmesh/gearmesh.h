@@ -357,6 +357,18 @@ gm_status gm_dynamics_advance_sensitivity(const gm_model* m, gm_data* d, const g
                                           double duration, gm_dynamics_state* s, gm_result* res,
                                           gm_step_sensitivity* sens);
 
+/* Mesh damping by its damping ratio (docs/dynamics.md, "Mesh damping"). The FMU's large-step mode
+ * adds to model.damping what dynamics.mesh_damping_ratio (default GM_MESH_DAMPING_RATIO) gives;
+ * a C API caller builds its model with that damping the same way. */
+#define GM_MESH_DAMPING_RATIO 0.05
+/* *damping: the contact damping (model.damping, N s/m^2) that gives the mesh mode of the pair p
+ * with gear inertias inertia[2] (kg m^2) the damping ratio `ratio`, on the element's own mean mesh
+ * stiffness and contact over a base pitch at ISO 6336-1's reference line load (100 N/mm). Builds
+ * a probe model of p (at level 5 it reads the databases). 0 for ratio 0. Errors: a parameter out
+ * of range (GM_ERR_PARAMETER, msg names it), or what gm_model_create says of p. */
+gm_status gm_mesh_damping_for_ratio(const gm_model_params* p, const double inertia[2], double ratio,
+                                    double* damping, char* msg, size_t msg_size);
+
 /* Last error message of d ("" if none). */
 const char* gm_data_message(const gm_data* d);
 
