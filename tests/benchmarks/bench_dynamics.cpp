@@ -30,8 +30,12 @@ struct Setup {
   gm_dynamics_state s{};
 };
 
-// Level 5's synthetic databases (tests/core/fe_synthetic.hpp), written once per process.
+// Level 5's synthetic databases (tests/core/fe_synthetic.hpp), written once per process (again
+// when the roll nodes change: the roll-nodes sweep).
 std::string fe_path[2];
+int fe_roll_nodes = gm_test::SmoothDbShape{}.n_roll;
+int fe_written_roll_nodes = 0;
+double tolerance = 0;  // dynamics.tolerance, m (0: the default)
 
 // Set A at `level` (4, or 5 with the synthetic databases and 2 coupled teeth), 10 slices.
 gm_model_params params(double mu, int level = 4) {
@@ -45,11 +49,16 @@ gm_model_params params(double mu, int level = 4) {
     p.coupled_teeth = 2;
     for (int g = 0; g < 2; ++g) {
       std::string msg;
-      if (fe_path[g].empty())
-        fe_path[g] = gm_test::write_smooth_db(p, g, "bench_dynamics_gear" + std::to_string(g + 1) + ".gcdb", msg);
+      if (fe_path[g].empty() || fe_written_roll_nodes != fe_roll_nodes) {
+        gm_test::SmoothDbShape shape;
+        shape.n_roll = fe_roll_nodes;
+        fe_path[g] = gm_test::write_smooth_db(p, g, "bench_dynamics_gear" + std::to_string(g + 1) + ".gcdb", msg,
+                                              shape);
+      }
       if (fe_path[g].empty()) std::printf("gear%d database: %s\n", g + 1, msg.c_str());
       p.compliance[g] = fe_path[g].c_str();
     }
+    fe_written_roll_nodes = fe_roll_nodes;
   }
   return p;
 }
@@ -79,6 +88,7 @@ bool make(Setup& u, double mu, double rpm, int level) {
   gm_data_free(qd);
   gm_model_free(qm);
   gm_dynamics_default_params(&u.dp);
+  if (tolerance > 0) u.dp.tolerance = tolerance;
   u.dp.shaft_stiffness[0] = k;
   u.dp.shaft_damping[0] = 100;
   u.pose.phi[1] = r0.te / rb2;
@@ -197,7 +207,33 @@ void undamped(int level, double rpm) {
 
 }  // namespace
 
-int main() {
+// bench_dynamics tolerance: the level-4 rows at 1 ms, mu 0, 1000 and 3000 rpm, over
+// dynamics.tolerance (internal steps go as tolerance^(-1/3): a second-order method).
+// bench_dynamics roll-nodes: level 5 at 1 ms, mu 0, 1000 and 3000 rpm over the synthetic
+// databases' roll nodes (the compliance is linear between them: a kink at each node).
+int sweep(const std::string& what) {
+  if (what == "tolerance") {
+    for (double tol : {1e-9, 1e-8, 3e-8, 1e-7, 3e-7, 1e-6}) {
+      tolerance = tol;
+      std::printf("dynamics.tolerance %g m\n", tol);
+      for (double rpm : {1000.0, 3000.0}) run(0.0, rpm, 1e-3);
+    }
+    return 0;
+  }
+  if (what == "roll-nodes") {
+    for (int n : {9, 17, 33, 65}) {
+      fe_roll_nodes = n;
+      std::printf("synthetic databases with %d roll nodes\n", n);
+      for (double rpm : {1000.0, 3000.0}) run(0.0, rpm, 1e-3, GM_STIFFNESS_FE);
+    }
+    return 0;
+  }
+  std::printf("usage: bench_dynamics [tolerance | roll-nodes]\n");
+  return 2;
+}
+
+int main(int argc, char** argv) {
+  if (argc > 1) return sweep(argv[1]);
   std::printf("undamped free gears, set A, 10 slices, +150 N m on each, teeth touching at the start, H 1 ms, 1 s\n");
   for (int level : {0, 4})
     for (double rpm : {10.0, 1000.0}) undamped(level, rpm);

@@ -79,12 +79,13 @@ inline gm::ComplianceDb smooth_db(const gm_model_params& p, int gear, const Smoo
   return db;
 }
 
-// Gear `gear`'s smooth_db with the default shape, written to the temporary directory as
+// Gear `gear`'s smooth_db (default shape unless given), written to the temporary directory as
 // `name` (benchmarks: level 5 without compliance_tool). The path; "" and msg on failure.
-inline std::string write_smooth_db(const gm_model_params& p, int gear, const std::string& name, std::string& msg) {
+inline std::string write_smooth_db(const gm_model_params& p, int gear, const std::string& name, std::string& msg,
+                                   const SmoothDbShape& shape = SmoothDbShape{}) {
   gm_model_params q = p;
   q.compliance[0] = q.compliance[1] = nullptr;
-  const gm::ComplianceDb db = smooth_db(q, gear, SmoothDbShape{}, msg);
+  const gm::ComplianceDb db = smooth_db(q, gear, shape, msg);
   const std::string path = (std::filesystem::temp_directory_path() / name).string();
   if (!msg.empty() || gm::write_compliance_db(path.c_str(), db, msg) != GM_OK) return "";
   return path;
