@@ -27,6 +27,17 @@ def test_full_preset_has_each_variant_with_databases_only():
     assert not [s for s in accuracy_settings.settings("quick", (0, 2), ("mesh-fine",)) if s.fe]
 
 
+def test_level5_preset_is_the_scenes_own_level5_at_every_torque():
+    """The FE level's ledger: level 5 at 10 slices and the coupled teeth that have databases (the
+    scene's own, accuracy.level5_databases), no variants, every reference torque."""
+    assert accuracy_settings.settings("level5", (2,), ("mesh-fine",)) == [Setting(5, 10, 2)]
+    assert accuracy_settings.settings("level5") == []  # no databases: nothing at level 5
+    assert accuracy_settings.torques("level5", [150.0, 50.0, 350.0]) == [50.0, 150.0, 350.0]
+    assert accuracy_settings.torques("quick", [150.0, 50.0, 350.0]) == [50.0, 350.0]
+    with pytest.raises(ValueError, match="allowed: quick, level5, full"):
+        accuracy_settings.settings("fast")
+
+
 def test_variant_keys_go_over_the_scenes_fe():
     helical = load_scene(HELICAL)
     assert helical.fe.get("profile_elements") == 6  # the scene's own [fe]

@@ -43,15 +43,22 @@ class Planned:
 
 
 def level5_databases(scene: Scene, generic_fmu: pathlib.Path, notes: list[str],
-                     build: bool, progress: bool) -> dict[tuple, dict[int, pathlib.Path]]:
-    """(coupled teeth, FE variant or None) -> both gears' cached databases: every coupled-teeth
-    value at the scene's [fe], and every FE variant at the scene's coupled teeth. build: make
-    what is missing first (compliance_tool through gearmesh.compliance; a database for 3
-    coupled teeth serves 0-3)."""
+                     build: bool, progress: bool,
+                     preset: str = "full") -> dict[tuple, dict[int, pathlib.Path]]:
+    """(coupled teeth, FE variant or None) -> both gears' cached databases: full: every
+    coupled-teeth value at the scene's [fe], and every FE variant at the scene's coupled teeth;
+    level5: the scene's coupled teeth at its [fe]. build: make what is missing first
+    (compliance_tool through gearmesh.compliance; full builds for 3 coupled teeth, which serves
+    0-3; level5 for the scene's own, so that its numbers do not depend on what else is cached)."""
     own = accuracy_settings.scene_coupled(scene)
-    wanted = [(c, None) for c in accuracy_settings.COUPLED]
-    wanted += [(own, v) for v in accuracy_settings.FE_VARIANTS]
-    if build:
+    if preset == "level5":
+        wanted = [(own, None)]
+    else:
+        wanted = [(c, None) for c in accuracy_settings.COUPLED]
+        wanted += [(own, v) for v in accuracy_settings.FE_VARIANTS]
+    if build and preset == "level5":
+        compliance.build_databases(accuracy_settings.level5_scene(scene, own), progress=progress)
+    elif build:
         for fe in (None, *accuracy_settings.FE_VARIANTS):
             coupled = max(accuracy_settings.COUPLED) if fe is None else own
             compliance.build_databases(accuracy_settings.level5_scene(scene, coupled, fe),
@@ -89,7 +96,8 @@ def scene_fmu(scene: Scene, generic_fmu: pathlib.Path, folder: pathlib.Path, pre
                      f"N/(mm µm) (L0(c_ga)) or c' (L0(c')), level 1 with the level-2 curve "
                      f"({table.name}; c' = {iso.c_prime / 1e9:.4g} N/(mm µm), eps_alpha = "
                      f"{iso.contact_ratio:.4g})")
-    dbs = level5_databases(scene, generic_fmu, notes, build, progress) if preset == "full" else {}
+    dbs = (level5_databases(scene, generic_fmu, notes, build, progress, preset)
+           if preset in ("full", "level5") else {})
     for paths in dbs.values():
         for path in paths.values():
             resources[f"accuracy_{path.stem[:16]}.gcdb"] = path
@@ -171,7 +179,7 @@ def run(scenes: list[Scene], generic_fmu: pathlib.Path, out: pathlib.Path,
         reference_dir: pathlib.Path | None, preset: str, repeats: int = 2,
         progress: bool = True, build: bool = False) -> tuple[list[dict], list[str]]:
     """The tidy rows (accuracy_report.COLUMNS) of every scene with a reference (2-D, 3-D or
-    both), and the notes. build: make level 5's missing databases first (full preset)."""
+    both), and the notes. build: make level 5's missing databases first (full, level5)."""
     notes: list[str] = []
     rows: list[dict] = []
     base = round_trip(generic_fmu)

@@ -118,14 +118,15 @@ def build_parser() -> argparse.ArgumentParser:
     p_acc.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu")
     p_acc.add_argument("--tolerance", default="5%", help="error allowed for the cheapest "
                        "setting, e.g. 5%% or 0.05; (0, 100%%] (default 5%%)")
-    p_acc.add_argument("--settings", default="full", choices=("quick", "full"),
+    p_acc.add_argument("--settings", default="full", choices=("quick", "level5", "full"),
                        help="quick: levels 2-4 at 10 slices, the lowest and highest reference "
-                       "torque (the CI ledger); full: levels 0-5 x slices 1/3/10/20/40 x coupled teeth 0-3, "
-                       "level 5's FE variants (mesh coarse/fine, flank grid loaded at 70/50 %%), every "
-                       "reference torque (default)")
-    p_acc.add_argument("--build-databases", action="store_true", help="full: build level 5's "
-                       "missing compliance databases first (cached; about 11 s and 1 GiB per gear "
-                       "at the default mesh, 1 min and 5.2 GiB for mesh-fine)")
+                       "torque (a CI ledger); level5: level 5 at 10 slices and the scene's coupled "
+                       "teeth and mesh, every reference torque (a CI ledger); full: levels 0-5 x "
+                       "slices 1/3/10/20/40 x coupled teeth 0-3, level 5's FE variants (mesh "
+                       "coarse/fine, flank grid loaded at 70/50 %%), every reference torque (default)")
+    p_acc.add_argument("--build-databases", action="store_true", help="full, level5: build level "
+                       "5's missing compliance databases first (cached; about 11 s and 1 GiB per "
+                       "gear at the default mesh, 1 min and 5.2 GiB for mesh-fine)")
     p_acc.add_argument("--reference", type=pathlib.Path, help="folder of the "
                        "<scene>.reference_fe.summary.csv (2-D) and <scene>.reference_fe3d.summary.csv "
                        "(3-D) files (default: reference/ next to each scene)")
