@@ -55,7 +55,11 @@ TEST(Evaluate, ForceIsStiffnessTimesWidthTimesApproach) {
 
 // With a profile slope on gear 1 the two pairs of a double contact have different approaches
 // Delta - g_j (level 0: F_j = k b (Delta - g_j)): the larger one's share from the pairs'
-// forces, which the normal force and the single-pair line loads give independently.
+// forces, which the normal force and the single-pair line loads give. And from the slope's
+// definition alone: the slope f_Halpha is the gap at the tip minus the gap at the start of
+// active profile, linear in the roll distance over gear 1's active profile L = rho_a - rho_sap;
+// the two contacts lie a base pitch apart on it, so their gaps differ by f_Halpha p_bt / L and
+// the forces by k b f_Halpha p_bt / L: the larger share is 1/2 + k b f_Halpha p_bt / (2 L F).
 TEST(Evaluate, LoadShareOfUnequalPairs) {
   gm_model_params p = paper();
   p.gear[0].flank[0].profile_slope = 3e-6;
@@ -65,6 +69,11 @@ TEST(Evaluate, LoadShareOfUnequalPairs) {
   ASSERT_EQ(r.pairs_in_contact, 2);
   const double larger = r.max_line_load * p.gear[0].face_width;  // one slice = one pair
   EXPECT_NEAR(r.max_load_share, larger / r.normal_force, 1e-12);
+  const gm_gear_geometry& g1 = in.geo().gear[0];
+  const double rho_sap = std::sqrt(0.25 * g1.d_sap * g1.d_sap - in.rb(0) * in.rb(0));
+  const double gap_difference = p.gear[0].flank[0].profile_slope * in.geo().p_bt / (g1.rho_a - rho_sap);
+  const double kb = p.user_stiffness * p.gear[0].face_width;
+  EXPECT_NEAR(r.max_load_share, 0.5 + kb * gap_difference / (2 * r.normal_force), 1e-9);  // measured: 2e-17
   EXPECT_GT(r.max_load_share, 0.5 + 1e-3);
   EXPECT_LT(r.max_load_share, 1.0);
 }
