@@ -31,12 +31,13 @@ _REFERENCE_TITLE = {"2d": "2-D band [plane stress, plane strain], whole gears",
                     "3d": "3-D sectors (ripple scored; the mean is biased low by the sectors)"}
 
 
-def write_csv(path: pathlib.Path, rows: list[dict], first_line: str = "") -> pathlib.Path:
+def write_csv(path: pathlib.Path, rows: list[dict], first_line: str = "",
+              columns: list[str] = COLUMNS) -> pathlib.Path:
     """`first_line`: a comment (starting with '#') written before the header, if given."""
     with pathlib.Path(path).open("w", newline="") as fh:
         if first_line:
             fh.write(first_line + "\n")
-        writer = csv.DictWriter(fh, COLUMNS)
+        writer = csv.DictWriter(fh, columns)
         writer.writeheader()
         for row in rows:
             writer.writerow({k: (f"{v:.9g}" if isinstance(v, float) else v)
