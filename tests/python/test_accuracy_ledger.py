@@ -1,4 +1,4 @@
-"""The accuracy ledger (docs/validation.md, "The accuracy ledger"): `gearmesh accuracy --settings
+"""The accuracy ledger (docs/validation.md, "The accuracy ledgers (CI)"): `gearmesh accuracy --settings
 quick` recomputed against the committed ledger, failing when a signed error leaves its band (the
 committed error +- 0.1 percentage point); the regeneration that needs a reason for a move of more
 than 1 point; and the pieces of `gearmesh accuracy` (band error, reference reader, ISO inputs of

@@ -1,4 +1,4 @@
-"""Level 5's accuracy ledger (docs/validation.md, "The accuracy ledger"): `gearmesh accuracy
+"""Level 5's accuracy ledger (docs/validation.md, "The accuracy ledgers (CI)"): `gearmesh accuracy
 --settings level5` on the scenes with CalculiX references (sets A and B, set A lead-crowned, the
 helical pair) recomputed against scenarios/reference/ledger_level5.csv, each signed error inside
 its band (test_accuracy_ledger.py: the bands and the regeneration). Slow: the compliance

@@ -1,7 +1,7 @@
 """The accuracy ledgers: accuracy.csv files of `gearmesh accuracy` kept in the repository, whose
 first line records how each was made (the scenes, the reference folder and the preset,
 repository-relative), with a `reason` column. CI recomputes them and fails when a signed error
-leaves its band: the committed error +- MARGIN (docs/validation.md, "The accuracy ledger").
+leaves its band: the committed error +- MARGIN (docs/validation.md, "The accuracy ledgers (CI)").
 
 Regenerating (`python -m gearmesh.accuracy_ledger LEDGER [--reason TEXT]`) recomputes the ledger
 and refuses to write it when an error moves by more than NEEDS_REASON unless a reason is given;

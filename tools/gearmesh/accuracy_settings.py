@@ -15,7 +15,7 @@ from gearmesh.scene import Scene
 
 SLICES = (1, 3, 10, 20, 40)
 COUPLED = (0, 1, 2, 3)
-# quick: the CI ledger (docs/validation.md): levels 2, 3, 4 at 10 slices, the reference's lowest
+# quick: a CI ledger (docs/validation.md): levels 2, 3, 4 at 10 slices, the reference's lowest
 # and highest torque, and level 4 without its tooth coupling (L4 s10 c0) beside it
 QUICK_LEVELS = (2, 3, 4)
 QUICK_SLICES = (10,)
