@@ -33,6 +33,9 @@ typedef struct model_variable_info {
 
 /* The variable with value reference vr, or NULL if there is none. */
 const model_variable_info* model_variable(unsigned vr);
+/* How many there are: value references 0 .. count - 1 (the FMI 3.0 layer's independent variable
+ * `time` takes the next). */
+unsigned model_variable_count(void);
 
 /* ---- logging ---------------------------------------------------------------------------- */
 

@@ -53,6 +53,10 @@ const model_variable_info* model_variable(unsigned vr) {
   return vr < GM_FMU_VARIABLE_COUNT ? &variable_info[vr] : NULL;
 }
 
+unsigned model_variable_count(void) {
+  return (unsigned)GM_FMU_VARIABLE_COUNT;
+}
+
 static const char* const log_category_names[] = {
 #define L(id, name, description) name,
     GM_FMU_LOG_CATEGORIES(L)

@@ -100,6 +100,10 @@ const model_variable_info* model_variable(unsigned vr) {
   return vr < TABLE_SIZE && table[vr].name ? &table[vr] : NULL;
 }
 
+unsigned model_variable_count(void) {
+  return TABLE_SIZE;
+}
+
 static const char* const log_names[] = {"logEvents", "logStatusWarning", "logStatusError", "logStatusFatal", "logAll"};
 unsigned model_log_category_count(void) { return 5; }
 const char* model_log_category_name(unsigned category) { return log_names[category]; }

@@ -5,9 +5,12 @@
  * defined) so that a bad row fails the build instead of producing an FMU that importers reject.
  *
  * Usage: generate_model_description <output.xml> [<source file>...]
+ *        generate_model_description --fmi3 <output.xml>
  * The source files (names inside the FMU's sources/, fmu_src/CMakeLists.txt) are listed in the
- * CoSimulation element's <SourceFiles>. GM_FMU_GUID and GM_FMU_VERSION come from the header that
- * modelDescription/CMakeLists.txt generates (variables.h includes it).
+ * CoSimulation element's <SourceFiles>. With --fmi3 the same variables as FMI 3.0 (the FMI 3.0
+ * layer, fmu_src/fmi3_functions.c): the same value references, plus the independent variable
+ * `time` after them (value reference: the number of variables). GM_FMU_GUID and GM_FMU_VERSION
+ * come from the header that modelDescription/CMakeLists.txt generates (variables.h includes it).
  */
 #include <math.h>
 #include <stdio.h>
@@ -194,9 +197,203 @@ static void put_unknown(FILE* f, size_t index, int initialization) {
   fputs("\"/>\n", f);
 }
 
+static void put_type_definitions(FILE* f);
+
+/* The units, log categories and default experiment: the same elements in FMI 2.0 and 3.0 (3.0:
+ * with the type definitions that carry the variables' units). */
+static void put_common(FILE* f, int fmi3) {
+  fputs("  <UnitDefinitions>\n", f);
+#define D(unit, name, factor)                                                                  \
+  if (strcmp(unit, current) == 0) {                                                            \
+    fputs("      <DisplayUnit name=\"", f);                                                    \
+    put_escaped(f, name);                                                                      \
+    fputs("\" factor=\"", f);                                                                  \
+    put_real(f, factor);                                                                       \
+    fputs("\"/>\n", f);                                                                        \
+  }
+  for (size_t u = 0; u < sizeof units / sizeof units[0]; u++) {
+    const char* current = units[u];
+    fputs("    <Unit name=\"", f);
+    put_escaped(f, current);
+    fputs("\">\n      <BaseUnit", f);
+    static const char* const base[] = {"kg", "m", "s", "rad"};
+    for (int b = 0; b < 4; b++)
+      if (exponents[u][b]) fprintf(f, " %s=\"%d\"", base[b], exponents[u][b]);
+    fputs("/>\n", f);
+    GM_FMU_DISPLAY_UNITS(D)
+    fputs("    </Unit>\n", f);
+  }
+#undef D
+  fputs("  </UnitDefinitions>\n", f);
+  if (fmi3) put_type_definitions(f);
+
+  fputs("  <LogCategories>\n", f);
+#define L(id, name, description) \
+  fputs("    <Category name=\"" name "\" description=\"", f); \
+  put_escaped(f, description);                                \
+  fputs("\"/>\n", f);
+  GM_FMU_LOG_CATEGORIES(L)
+#undef L
+  fputs("  </LogCategories>\n", f);
+
+  /* 10 mesh periods at about 1000 rpm, 100 steps per mesh period for the default 57 teeth. */
+  fputs("  <DefaultExperiment startTime=\"0\" stopTime=\"0.01\" stepSize=\"1e-05\"/>\n", f);
+}
+
+/* FMI 3.0: the type's element name. */
+static const char* fmi3_type(gm_fmu_type type) {
+  switch (type) {
+    case GM_FMU_Real: return "Float64";
+    case GM_FMU_Integer: return "Int32";
+    case GM_FMU_Boolean: return "Boolean";
+    default: return "String";
+  }
+}
+
+/* FMI 3.0 <Output>/<InitialUnknown> of variable `index` with its knowns (value references). */
+static void put_unknown3(FILE* f, const char* element, size_t index, int initialization) {
+  const gm_fmu_variable* u = &gm_fmu_variables[index];
+  size_t count = 0;
+  for (size_t j = 0; j < N_VARIABLES; j++) count += depends(u, &gm_fmu_variables[j], initialization) != 0;
+  fprintf(f, "    <%s valueReference=\"%zu\"", element, index);
+  if (count) {
+    fputs(" dependencies=\"", f);
+    size_t k = 0;
+    for (size_t j = 0; j < N_VARIABLES; j++)
+      if (depends(u, &gm_fmu_variables[j], initialization)) fprintf(f, "%s%zu", k++ ? " " : "", j);
+    fputs("\" dependenciesKind=\"", f);
+    for (size_t i = 0; i < count; i++) fputs(i ? " dependent" : "dependent", f);
+    fputc('"', f);
+  } else {
+    fputs(" dependencies=\"\" dependenciesKind=\"\"", f);
+  }
+  fputs("/>\n", f);
+}
+
+/* FMI 3.0: the unit (and display unit) of a Float64 variable through a Float64Type of
+ * <TypeDefinitions>, named for them ("m", "m in um"), which the variable names as declaredType:
+ * FMI 3.0 allows unit and displayUnit on the variable too, but fmi-sim (fmi-schema 0.8) reads
+ * them only there. */
+static void put_type_name(FILE* f, const gm_fmu_variable* v) {
+  put_escaped(f, v->unit);
+  if (v->display_unit[0]) {
+    fputs(" in ", f);
+    put_escaped(f, v->display_unit);
+  }
+}
+
+static void put_type_definitions(FILE* f) {
+  fputs("  <TypeDefinitions>\n", f);
+  for (size_t i = 0; i < N_VARIABLES; i++) {
+    const gm_fmu_variable* v = &gm_fmu_variables[i];
+    if (!v->unit[0]) continue;
+    int seen = 0; /* once per (unit, display unit) */
+    for (size_t j = 0; j < i && !seen; j++)
+      seen = strcmp(gm_fmu_variables[j].unit, v->unit) == 0 &&
+             strcmp(gm_fmu_variables[j].display_unit, v->display_unit) == 0;
+    if (seen) continue;
+    fputs("    <Float64Type name=\"", f);
+    put_type_name(f, v);
+    fputs("\" unit=\"", f);
+    put_escaped(f, v->unit);
+    fputc('"', f);
+    if (v->display_unit[0]) {
+      fputs(" displayUnit=\"", f);
+      put_escaped(f, v->display_unit);
+      fputc('"', f);
+    }
+    fputs("/>\n", f);
+  }
+  fputs("    <Float64Type name=\"s\" unit=\"s\"/>\n  </TypeDefinitions>\n", f);
+}
+
+/* modelDescription.xml for FMI 3.0 (co-simulation only): the same variables, start values,
+ * ranges, units, categories and dependencies as FMI 2.0's. */
+static int write_fmi3(const char* path, const gm_fmu_values* start) {
+  FILE* f = fopen(path, "w");
+  if (!f) {
+    perror(path);
+    return 1;
+  }
+  fprintf(f,
+          "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+          "<fmiModelDescription fmiVersion=\"3.0\" modelName=\"GearMesh\" instantiationToken=\"%s\" version=\"%s\"\n"
+          "  description=\"Gear-mesh contact element: hybrid FE/analytical reduced-order tooth contact\"\n"
+          "  generationTool=\"GearMesh generate_model_description\" variableNamingConvention=\"structured\">\n",
+          GM_FMU_GUID, GM_FMU_VERSION);
+  fputs("  <CoSimulation modelIdentifier=\"GearMesh\" needsExecutionTool=\"false\"\n"
+        "    canBeInstantiatedOnlyOncePerProcess=\"false\" canGetAndSetFMUState=\"true\"\n"
+        "    canSerializeFMUState=\"true\" providesDirectionalDerivatives=\"true\"\n"
+        "    providesAdjointDerivatives=\"true\" canHandleVariableCommunicationStepSize=\"true\"\n"
+        "    maxOutputDerivativeOrder=\"0\" providesIntermediateUpdate=\"false\" hasEventMode=\"false\"/>\n",
+        f);
+  put_common(f, 1);
+  fputs("  <ModelVariables>\n", f);
+  for (size_t i = 0; i < N_VARIABLES; i++) {
+    const gm_fmu_variable* v = &gm_fmu_variables[i];
+    const gm_param_range* r = gm_param_range_find(v->name);
+    fprintf(f, "    <%s name=\"", fmi3_type(v->type));
+    put_escaped(f, v->name);
+    fprintf(f, "\" valueReference=\"%zu\" description=\"", i);
+    put_escaped(f, v->description);
+    put_escaped(f, open_note(r));
+    fprintf(f, "\"\n      causality=\"%s\" variability=\"%s\"", v->causality_name, v->variability);
+    if (v->causality != GM_FMU_input) fprintf(f, " initial=\"%s\"", v->initial);
+    if (v->unit[0]) {
+      fputs(" declaredType=\"", f);
+      put_type_name(f, v);
+      fputc('"', f);
+    }
+    if (r) {
+      put_bound(f, "min", r->lo, v->type);
+      put_bound(f, "max", r->hi, v->type);
+    }
+    const int with_start = strcmp(v->initial, "exact") == 0;
+    if (v->type == GM_FMU_String) { /* FMI 3.0: a String's start is a <Start> element */
+      if (with_start) {
+        const char* text;
+        memcpy(&text, (const char*)start + v->offset, sizeof text);
+        fputs(">\n      <Start value=\"", f);
+        put_escaped(f, text ? text : "");
+        fputs("\"/>\n    </String>\n", f);
+      } else {
+        fputs("/>\n", f);
+      }
+      continue;
+    }
+    if (with_start) put_start(f, v, start);
+    fputs("/>\n", f);
+  }
+  /* the independent variable FMI 3.0 asks for, after the table (model.h: model_variable_count) */
+  fprintf(f, "    <Float64 name=\"time\" valueReference=\"%zu\" causality=\"independent\" variability=\"continuous\"\n"
+             "      declaredType=\"s\" description=\"simulation time\"/>\n",
+          (size_t)N_VARIABLES);
+  fputs("  </ModelVariables>\n  <ModelStructure>\n", f);
+  for (size_t i = 0; i < N_VARIABLES; i++)
+    if (gm_fmu_variables[i].causality == GM_FMU_output) put_unknown3(f, "Output", i, 0);
+  for (size_t i = 0; i < N_VARIABLES; i++) {
+    const gm_fmu_variable* v = &gm_fmu_variables[i];
+    if (v->causality == GM_FMU_calculatedParameter ||
+        (v->causality == GM_FMU_output && strcmp(v->initial, "exact") != 0))
+      put_unknown3(f, "InitialUnknown", i, 1);
+  }
+  fputs("  </ModelStructure>\n", f);
+  /* the open range bounds are in the descriptions only ("(min exclusive)"): fmi-sim's reader takes
+   * no elements inside an <Annotation>, where FMI 2.0's VendorAnnotations carry them */
+  fputs("</fmiModelDescription>\n", f);
+  if (ferror(f) | fclose(f) || failures) {
+    fprintf(stderr, "generate_model_description: writing %s failed\n", path);
+    remove(path);
+    return 1;
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
-  if (argc < 2) {
-    fprintf(stderr, "usage: %s <modelDescription.xml> [<source file>...]\n", argv[0]);
+  const int fmi3 = argc == 3 && strcmp(argv[1], "--fmi3") == 0;
+  if (argc < 2 || (argv[1][0] == '-' && !fmi3)) {
+    fprintf(stderr, "usage: %s <modelDescription.xml> [<source file>...]\n       %s --fmi3 <modelDescription.xml>\n",
+            argv[0], argv[0]);
     return 2;
   }
   gm_fmu_values start;
@@ -207,6 +404,7 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < N_VARIABLES; i++) check_row(&gm_fmu_variables[i], i);
   check_ranges();
   if (failures) return 1;
+  if (fmi3) return write_fmi3(argv[2], &start);
 
   FILE* f = fopen(argv[1], "w");
   if (!f) {
@@ -237,41 +435,7 @@ int main(int argc, char** argv) {
     fputs("/>\n", f);
   }
 
-  fputs("  <UnitDefinitions>\n", f);
-#define D(unit, name, factor)                                                                  \
-  if (strcmp(unit, current) == 0) {                                                            \
-    fputs("      <DisplayUnit name=\"", f);                                                    \
-    put_escaped(f, name);                                                                      \
-    fputs("\" factor=\"", f);                                                                  \
-    put_real(f, factor);                                                                       \
-    fputs("\"/>\n", f);                                                                        \
-  }
-  for (size_t u = 0; u < sizeof units / sizeof units[0]; u++) {
-    const char* current = units[u];
-    fputs("    <Unit name=\"", f);
-    put_escaped(f, current);
-    fputs("\">\n      <BaseUnit", f);
-    static const char* const base[] = {"kg", "m", "s", "rad"};
-    for (int b = 0; b < 4; b++)
-      if (exponents[u][b]) fprintf(f, " %s=\"%d\"", base[b], exponents[u][b]);
-    fputs("/>\n", f);
-    GM_FMU_DISPLAY_UNITS(D)
-    fputs("    </Unit>\n", f);
-  }
-#undef D
-  fputs("  </UnitDefinitions>\n", f);
-
-  fputs("  <LogCategories>\n", f);
-#define L(id, name, description) \
-  fputs("    <Category name=\"" name "\" description=\"", f); \
-  put_escaped(f, description);                                \
-  fputs("\"/>\n", f);
-  GM_FMU_LOG_CATEGORIES(L)
-#undef L
-  fputs("  </LogCategories>\n", f);
-
-  /* 10 mesh periods at about 1000 rpm, 100 steps per mesh period for the default 57 teeth. */
-  fputs("  <DefaultExperiment startTime=\"0\" stopTime=\"0.01\" stepSize=\"1e-05\"/>\n", f);
+  put_common(f, 0);
 
   put_open_annotations(f);
   fputs("  <ModelVariables>\n", f);
