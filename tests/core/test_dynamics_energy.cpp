@@ -118,8 +118,8 @@ Balance run(double mu, double ratio, double H, double duration) {
 // the centre velocities). So the account's friction + damping must be
 //   mesh_in - spin_elastic - centre_work,
 // none of which the account computes; and, the mesh being conservative, energy.parametric must
-// be the centre work (docs/dynamics.md, "Interface choices"). Also: the account's friction and
-// damping against gm_evaluate's powers integrated by the test (trapezoidal), its net work
+// be the centre work (docs/dynamics.md, "Interface choices and their limits"). Also: the
+// account's friction and damping against gm_evaluate's powers integrated by the test (trapezoidal), its net work
 // against the torques' and the poses' jumps, and a small residual. Each within 5e-3 of the
 // case's losses (4.14, 0.297, 4.45 J), the net work to rounding. Measured: the losses within
 // 2.3e-3 (damping alone; 3e-5 and 7e-5 with friction), the powers 1.4e-3, the parametric work
