@@ -6,6 +6,8 @@
 #include <type_traits>
 #include <limits>
 
+#include "model.hpp"
+
 namespace gm {
 namespace {
 
@@ -46,11 +48,16 @@ bool same_law(const SliceLaw& a, const SliceLaw& b) {
   return std::memcmp(&a, &b, sizeof(SliceLaw)) == 0;
 }
 
-ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, double tol,
-                           int max_iterations, double* force, double* stiffness, bool warm) {
+ForceSolve solve_separable(const SeparableProblem& p, const SeparableAnswer& a) {
+  const SliceLaw* laws = p.laws;
+  const double* approach = p.approach;
+  double* force = a.force;
+  double* stiffness = a.stiffness;
+  const int n = p.n;
+  const double tol = p.tol;
   ForceSolve out;
   for (int i = 0; i < n; ++i) {
-    const double start = warm ? force[i] : 0.0;
+    const double start = p.warm ? force[i] : 0.0;
     force[i] = 0;
     stiffness[i] = 0;
     if (approach[i] <= 0) continue;
@@ -61,7 +68,7 @@ ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, 
       continue;
     }
     double r = 0;
-    force[i] = solve_slice(laws[i], approach[i], start, tol, max_iterations, out.iterations, r,
+    force[i] = solve_slice(laws[i], approach[i], start, tol, p.max_iterations, out.iterations, r,
                            stiffness[i]);
     out.residual = std::max(out.residual, r);
   }
@@ -75,18 +82,25 @@ namespace {
 // solve_separable_total over accessors base(i) (the approach at lambda = 0) and gain(i).
 // warm: the first separable solve starts from force[]; chain: every later one from the last.
 template <class Base, class Gain>
-ForceSolve total_solve(const SliceLaw* laws, const Base& base, const Gain& gain,
-                       const double* balance, int n, double load, double lambda_start, double tol,
-                       int max_iterations, bool warm, bool chain, double* approach, double* force,
-                       double* stiffness) {
+ForceSolve total_solve(const SeparableProblem& p, const Base& base, const Gain& gain, bool chain,
+                       const SeparableAnswer& a) {
+  const double* balance = p.balance;
+  const int n = p.n;
+  const double load = p.load;
+  double* approach = a.approach;
+  double* force = a.force;
+  double* stiffness = a.stiffness;
+  bool warm = p.warm;
+  SeparableProblem plain = p;  // the separable solve at each lambda: approach[] there
+  plain.approach = approach;
   ForceSolve out;
   // h(lambda) = sum b_i F_i(Delta_i + w_i lambda) - load is nondecreasing while b_i w_i >= 0
   // (friction never reverses a slice's moment); Newton with a bracket, bisection where Newton
   // leaves it.
   const auto h = [&](double lambda, double& slope) {
     for (int i = 0; i < n; ++i) approach[i] = base(i) + gain(i) * lambda;
-    const ForceSolve s =
-        solve_separable(laws, approach, n, tol, max_iterations, force, stiffness, warm);
+    plain.warm = warm;
+    const ForceSolve s = solve_separable(plain, a);
     warm = chain;
     out.iterations += s.iterations;
     out.residual = std::max(out.residual, s.residual);
@@ -110,7 +124,7 @@ ForceSolve total_solve(const SliceLaw* laws, const Base& base, const Gain& gain,
     return std::isfinite(best) ? lambda + direction * best * (1 + 1e-12) + direction * 1e-15
                                : kInf;
   };
-  double lambda = lambda_start;
+  double lambda = p.lambda_start;
   if (load == 0) {
     // No load: inside the backlash any TE balances it; report where the flanks a positive load
     // would close first touch (the unloaded TE). A wedged mesh has no such free position: the
@@ -131,7 +145,7 @@ ForceSolve total_solve(const SliceLaw* laws, const Base& base, const Gain& gain,
     const double value = h(lambda, slope);
     if (std::fabs(value) <= load_tol) {
       out.lambda = lambda;
-      out.converged = out.residual <= tol;
+      out.converged = out.residual <= p.tol;
       return out;
     }
     if (value < 0) lo = lambda; else hi = lambda;
@@ -161,23 +175,29 @@ ForceSolve total_solve(const SliceLaw* laws, const Base& base, const Gain& gain,
 
 }  // namespace
 
-ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slices,
-                                 const double* balance, int n, double load, double lambda_start,
-                                 double tol, int max_iterations, double* approach, double* force,
-                                 double* stiffness) {
-  return total_solve(
-      laws, [slices](int i) { return slices[i].approach; },
-      [slices](int i) { return slices[i].te_gain; }, balance, n, load, lambda_start, tol,
-      max_iterations, false, false, approach, force, stiffness);
+ForceSolve solve_separable_total(const SeparableProblem& p, const SeparableAnswer& a) {
+  const double* base = p.approach;
+  const double* gain = p.gain;
+  return total_solve(p, [base](int i) { return base[i]; }, [gain](int i) { return gain[i]; }, true, a);
 }
 
-ForceSolve solve_separable_total(const SliceLaw* laws, const double* base, const double* gain,
-                                 const double* balance, int n, double load, double lambda_start,
-                                 double tol, int max_iterations, bool warm, double* approach,
-                                 double* force, double* stiffness) {
+ForceSolve solve_separable(const gm_model& m, gm_data& d, const ForceProblem& fp) {
+  SeparableProblem p;
+  p.laws = d.laws.data();
+  p.approach = d.approach.data();
+  p.n = fp.n;
+  p.tol = m.params.solver_tolerance;
+  p.max_iterations = m.params.solver_max_iterations;
+  const SeparableAnswer a{d.forces.data(), d.slice_stiffness.data(), d.approach.data()};
+  if (!fp.quasi) return solve_separable(p, a);
+  // the balance over the candidates' own approaches and TE gains
+  const ContactSlice* slices = d.slices.data();
+  p.balance = d.balance.data();
+  p.load = fp.load;
+  p.lambda_start = fp.lambda_start;
   return total_solve(
-      laws, [base](int i) { return base[i]; }, [gain](int i) { return gain[i]; }, balance, n,
-      load, lambda_start, tol, max_iterations, warm, true, approach, force, stiffness);
+      p, [slices](int i) { return slices[i].approach; }, [slices](int i) { return slices[i].te_gain; },
+      false, a);
 }
 
 }  // namespace gm

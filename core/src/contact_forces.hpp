@@ -8,6 +8,8 @@
 // problem of the FE level goes to NlcpSolver (nlcp.hpp).
 #pragma once
 
+#include <limits>
+
 #include "detection.hpp"
 #include "gearmesh/internal/hertz.hpp"
 
@@ -32,30 +34,61 @@ struct ForceSolve {
 // Whether two slices have the same law (bit for bit): repeated slices are solved once.
 bool same_law(const SliceLaw& a, const SliceLaw& b);
 
-// Plain solve: forces F (N) and tangent stiffnesses k = dF/dDelta (N/m) of n slices. warm:
-// force[] holds on entry a start for each slice (used where > 0; the scalar Newton converges
-// from any start, docs/physics.md §6), as the coupled solve's outer iterations have it.
-ForceSolve solve_separable(const SliceLaw* laws, const double* approach, int n, double tol,
-                           int max_iterations, double* force, double* stiffness,
-                           bool warm = false);
+// One force solve over the n prepared candidates of gm_data (d.slices, d.laws; quasi-static also
+// d.balance): the problem each force stage takes beside the model and the data,
+// stage(const gm_model&, gm_data&, const ForceProblem&) (pipeline.hpp). The stages write
+// d.forces and d.slice_stiffness (N, N/m; 0 on open candidates) and leave d.approach holding
+// the approaches they solved at (quasi-static: moved by the solved rigid approach lambda).
+struct ForceProblem {
+  const gm_kinematics* pose = nullptr;  // the pose detected at (level 5: its axial displacements)
+  int n = 0;                            // candidates (a pass sets it from its detection)
+  bool all = false;    // every candidate has its law and is solved (the quasi-static setting)
+  bool quasi = false;  // solve the load balance sum_i b_i F_i = load for the rigid approach lambda
+  double load = 0;     // quasi: the TE coordinate's force, N
+  double lambda_start = 0;  // quasi: warm start of lambda, m (levels 0-4; level 5 keeps its own)
+  // quasi: a solved |lambda| above this (m) is followed by another pass (evaluate.cpp), which
+  // replaces this pass's slice stiffness (level 5 then skips it)
+  double next_pass_above = std::numeric_limits<double>::infinity();
+};
 
-// Quasi-static: find lambda with sum_i b_i F_i(Delta_i + w_i lambda) = load (N), with w_i the
-// slices' te_gain (how the TE coordinate moves each approach) and b_i the balance weights (the
-// moment of a unit slice force about gear 2's axis as a force along the TE coordinate; b = w
-// without friction, by virtual work). lambda_start is the warm start. A zero load gives the
-// lambda at which the first flank that a positive load would close touches. approach: scratch
-// of n, left holding Delta_i + w_i lambda.
-ForceSolve solve_separable_total(const SliceLaw* laws, const ContactSlice* slices,
-                                 const double* balance, int n, double load, double lambda_start,
-                                 double tol, int max_iterations, double* approach, double* force,
-                                 double* stiffness);
+// A separable solve over n slices in the caller's arrays (the candidates, or the distinct slices
+// of the coupled solve, coupled_forces.hpp). Plain (solve_separable): the forces at the
+// approaches Delta_i = approach[i]. Total (solve_separable_total, quasi-static): lambda with
+// sum_i balance[i] F_i(approach[i] + gain[i] lambda) = load, gain[i] the slices' te_gain w_i
+// (how the TE coordinate moves each approach) and balance[i] b_i (the moment of a unit slice
+// force about gear 2's axis as a force along the TE coordinate; b = w without friction, by
+// virtual work). A zero load gives the lambda at which the first flank that a positive load
+// would close touches.
+struct SeparableProblem {
+  const SliceLaw* laws = nullptr;
+  const double* approach = nullptr;  // plain: Delta_i; total: Delta_i at lambda = 0, m
+  const double* gain = nullptr;      // total: w_i, -
+  const double* balance = nullptr;   // total: b_i, -
+  int n = 0;
+  double load = 0;          // total: N
+  double lambda_start = 0;  // total: warm start of lambda, m
+  double tol = 0;           // m
+  int max_iterations = 0;
+  // force[] holds on entry a start for each slice (used where > 0; the scalar Newton converges
+  // from any start, docs/physics.md §6), as the coupled solve's outer iterations have it; total:
+  // for its first separable solve (the later ones always start from the last)
+  bool warm = false;
+};
 
-// The same over arrays: base[i] the approach at lambda = 0, gain[i] the te_gain. warm: as
-// solve_separable's, for the first of its separable solves (the later ones always start from
-// the last).
-ForceSolve solve_separable_total(const SliceLaw* laws, const double* base, const double* gain,
-                                 const double* balance, int n, double load, double lambda_start,
-                                 double tol, int max_iterations, bool warm, double* approach,
-                                 double* force, double* stiffness);
+// Where a separable solve writes, n entries each: forces F (N), tangent stiffnesses
+// k = dF/dDelta (N/m); total: the approaches Delta_i + w_i lambda (scratch), m.
+struct SeparableAnswer {
+  double* force = nullptr;
+  double* stiffness = nullptr;
+  double* approach = nullptr;
+};
+
+ForceSolve solve_separable(const SeparableProblem& p, const SeparableAnswer& out);
+ForceSolve solve_separable_total(const SeparableProblem& p, const SeparableAnswer& out);
+
+// The force stage of levels 0-4 without tooth coupling over d's candidates. Plain: the forces at
+// d.approach. Quasi-static: the balance over the candidates' approaches and TE gains (d.slices)
+// and d.balance, d.approach left holding Delta_i + w_i lambda.
+ForceSolve solve_separable(const gm_model& m, gm_data& d, const ForceProblem& p);
 
 }  // namespace gm

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "model.hpp"
+
 namespace gm {
 namespace {
 
@@ -51,13 +53,25 @@ int pair_of(W& w, int& pairs, const ContactSlice& s) {
   return pairs++;
 }
 
+// A coupled solve over the candidates of one flank (flank = +-1) or of both (0).
+struct FlankProblem : ForceProblem {
+  int flank = 0;
+};
+
 // The solved candidates as distinct slices (w.rep, and the per-slice arrays), and the pairs.
 // Returns the number of distinct slices, or -1 when there are more pairs than the workspace
 // holds. Plain mode: a slice handed in open stays open (no law is built for it; the coupling
-// only opens slices further): not part of the solve. flank != 0: that flank's candidates alone.
-int gather(const ToothCoupling& coupling, const SliceLaw* laws, const ContactSlice* slices,
-           const double* balance, const double* approach, int n, bool quasi, int flank, W& w,
-           int& pairs) {
+// only opens slices further): not part of the solve. p.flank != 0: that flank's candidates alone.
+int gather(const gm_model& model, gm_data& d, const FlankProblem& p, int& pairs) {
+  const ToothCoupling& coupling = model.coupling;
+  const SliceLaw* laws = d.laws.data();
+  const ContactSlice* slices = d.slices.data();
+  const double* balance = d.balance.data();
+  const double* approach = d.approach.data();
+  const int n = p.n;
+  const bool quasi = p.quasi;
+  const int flank = p.flank;
+  W& w = d.coupled;
   int nu = 0, last = -1;  // last: the distinct slice of the previous candidate
   pairs = 0;
   for (int i = 0; i < n; ++i) {
@@ -288,15 +302,22 @@ void CoupledWorkspace::reserve(int capacity) {
 
 namespace {
 
-// solve_coupled over the candidates of one flank (flank = +-1) or of both (0).
-CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* laws,
-                                const ContactSlice* slices, const double* balance, int n,
-                                bool quasi, double load, double lambda_start, double tol,
-                                int max_iterations, int flank, double* approach, double* force,
-                                double* stiffness, CoupledWorkspace& w) {
+// solve_coupled over the candidates of p.flank.
+CoupledSolveResult solve_flanks(const gm_model& model, gm_data& d, const FlankProblem& p) {
+  const ToothCoupling& coupling = model.coupling;
+  const ContactSlice* slices = d.slices.data();
+  const int n = p.n;
+  const bool quasi = p.quasi;
+  const double load = p.load;
+  const double tol = model.params.solver_tolerance;
+  const int max_iterations = model.params.solver_max_iterations;
+  double* approach = d.approach.data();
+  double* force = d.forces.data();
+  double* stiffness = d.slice_stiffness.data();
+  CoupledWorkspace& w = d.coupled;
   CoupledSolveResult out;
   int pairs = 0;
-  const int nu = gather(coupling, laws, slices, balance, approach, n, quasi, flank, w, pairs);
+  const int nu = gather(model, d, p, pairs);
   if (nu < 0) {
     out.fallback = true;
     out.solve.converged = false;
@@ -319,7 +340,7 @@ CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* l
   double* e = w.a.data();
   std::fill(m, m + r, 0.0);
   std::fill(v, v + r, 0.0);
-  double lambda = lambda_start;
+  double lambda = p.lambda_start;
   bool warm = false;  // the first separable solve is the uncoupled one, from scratch
   bool settled = false;  // the last separable solve converged
 
@@ -333,17 +354,27 @@ CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* l
         w.force[u] = std::max(0.0, w.force[u] + w.stiffness[u] * (next - shifted[u]));
       shifted[u] = next;
     }
+    SeparableProblem sp;
+    sp.laws = w.laws.data();
+    sp.approach = shifted;
+    sp.n = nu;
+    sp.tol = tol_inner;
+    sp.max_iterations = max_iterations;
+    sp.warm = warm;
+    const SeparableAnswer sa{w.force.data(), w.stiffness.data(), w.approach.data()};
     ForceSolve s;
     if (quasi) {
-      s = solve_separable_total(w.laws.data(), shifted, w.gain.data(), w.balance_sum.data(), nu,
-                                load, lambda, tol_inner, max_iterations, warm, w.approach.data(),
-                                w.force.data(), w.stiffness.data());
+      sp.gain = w.gain.data();
+      sp.balance = w.balance_sum.data();
+      sp.load = load;
+      sp.lambda_start = lambda;
+      s = solve_separable_total(sp, sa);
       lambda = s.lambda;
     } else {
       // the first (uncoupled) solve only roughly: two Newton steps from the upper bound give the
       // first outer step its tangents; the later solves converge it
-      s = solve_separable(w.laws.data(), shifted, nu, tol_inner, warm ? max_iterations : 2,
-                          w.force.data(), w.stiffness.data(), warm);
+      if (!warm) sp.max_iterations = 2;
+      s = solve_separable(sp, sa);
     }
     settled = s.converged;
     if (!quasi && !warm) s.converged = true;  // rough on purpose
@@ -411,25 +442,24 @@ CoupledSolveResult solve_flanks(const ToothCoupling& coupling, const SliceLaw* l
 
 }  // namespace
 
-CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* laws,
-                                 const ContactSlice* slices, const double* balance, int n,
-                                 bool quasi, double load, double lambda_start, double tol,
-                                 int max_iterations, double* approach, double* force,
-                                 double* stiffness, CoupledWorkspace& w) {
+CoupledSolveResult solve_coupled(const gm_model& m, gm_data& d, const ForceProblem& p) {
   // Quasi-static under load: the flank the load closes alone (positive loads flank A; the flanks
   // never couple), as long as the other stays open at the solved rigid approach; else both.
-  const int closing = quasi && load != 0 ? (load > 0 ? 1 : -1) : 0;
-  if (closing != 0) {
-    const CoupledSolveResult one =
-        solve_flanks(coupling, laws, slices, balance, n, quasi, load, lambda_start, tol,
-                     max_iterations, closing, approach, force, stiffness, w);
+  FlankProblem fp;
+  static_cast<ForceProblem&>(fp) = p;
+  fp.flank = p.quasi && p.load != 0 ? (p.load > 0 ? 1 : -1) : 0;
+  if (fp.flank != 0) {
+    const int closing = fp.flank;
+    const CoupledSolveResult one = solve_flanks(m, d, fp);
+    const ContactSlice* slices = d.slices.data();
+    const double* approach = d.approach.data();
     bool open = true;
-    for (int i = 0; i < n && open && one.solve.converged; ++i)
+    for (int i = 0; i < p.n && open && one.solve.converged; ++i)
       open = slices[i].flank == closing || !(approach[i] > 0);
     if (one.fallback || (one.solve.converged && open)) return one;
   }
-  return solve_flanks(coupling, laws, slices, balance, n, quasi, load, lambda_start, tol,
-                      max_iterations, 0, approach, force, stiffness, w);
+  fp.flank = 0;
+  return solve_flanks(m, d, fp);
 }
 
 }  // namespace gm

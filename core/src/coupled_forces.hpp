@@ -66,13 +66,11 @@ struct CoupledSolveResult {
   bool fallback = false;  // not solved here: use the dense coupled solver
 };
 
-// Plain (quasi false): forces for approach[0..n) (left as they are). Quasi-static: the rigid
-// approach lambda (out.solve.lambda, warm start lambda_start) with sum_i b_i F_i = load;
-// approach[i] is left holding Delta_i + w_i lambda. slices: the candidates (read only).
-CoupledSolveResult solve_coupled(const ToothCoupling& coupling, const SliceLaw* laws,
-                                 const ContactSlice* slices, const double* balance, int n,
-                                 bool quasi, double load, double lambda_start, double tol,
-                                 int max_iterations, double* approach, double* force,
-                                 double* stiffness, CoupledWorkspace& w);
+// The force stage of level 4 with tooth coupling over d's candidates (ForceProblem,
+// contact_forces.hpp), in the model's coupling and d.coupled. Plain: forces for d.approach (left
+// as it is). Quasi-static: the rigid approach lambda (out.solve.lambda, warm start
+// p.lambda_start) with sum_i b_i F_i = load (b: d.balance); d.approach is left holding
+// Delta_i + w_i lambda. d.slices are read only.
+CoupledSolveResult solve_coupled(const gm_model& m, gm_data& d, const ForceProblem& p);
 
 }  // namespace gm

@@ -70,10 +70,9 @@ gm_status separable_dual_forces(const gm_model& m, gm_data& d, int n) {
     }
     d.approach[i] = slices[i].approach.v;
   }
-  const ForceSolve fs = solve_separable(d.laws.data(), d.approach.data(), n,
-                                        m.params.solver_tolerance,
-                                        m.params.solver_max_iterations, d.forces.data(),
-                                        d.slice_stiffness.data());
+  ForceProblem p;
+  p.n = n;
+  const ForceSolve fs = solve_separable(m, d, p);
   if (!fs.converged) {
     d.message = fs.message;
     return GM_ERR_SOLVER;
@@ -219,14 +218,18 @@ gm_status fe_dual_solve(gm_data& d, int na) {
 gm_status fe_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int n,
                          bool all) {
   const gm_kinematics kv = values_of(kin);
-  const int nv = prepare_slices(m, kv, d.slices.data(), d.laws.data(), all, d.message);
+  const int nv = prepare_slices(m, d, kv, all);
   if (nv < 0) return GM_ERR_INPUT;
   if (!same_candidates(d, nv, n)) {
     d.message = "level 5 (FE): the derivative's detection found other candidates than the "
                 "evaluation's (internal error)";
     return GM_ERR_SOLVER;
   }
-  const ForceSolve fs = solve_forces(m, d, kv, n, PassMode{all, false, 0.0});
+  ForceProblem p;
+  p.pose = &kv;
+  p.n = n;
+  p.all = all;
+  const ForceSolve fs = solve_forces(m, d, p);
   if (!fs.converged) {
     d.message = fs.message;
     return GM_ERR_SOLVER;
@@ -244,7 +247,7 @@ gm_status fe_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>&
 
 gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
                     DualPass& out) {
-  const int n = prepare_slices(m, kin, d.dual_slices.data(), d.dual_laws.data(), all, d.message);
+  const int n = prepare_slices(m, d, kin, all);
   if (n < 0) return GM_ERR_INPUT;
   ContactSliceT<Dual>* slices = d.dual_slices.data();
   if (coupled_solve(m)) {

@@ -19,11 +19,13 @@ namespace {
 // Plain mode: one pass at the pose as given.
 gm_status plain_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int& n,
                       gm_result& r) {
-  ForceSolve fs;
-  const gm_status st = solve_pass(m, d, kin, PassMode{}, n, fs);
-  if (st != GM_OK) return st;
-  r.solver_iterations = fs.iterations;
-  r.solver_residual = fs.residual;
+  ForceProblem problem;
+  problem.pose = &kin;
+  const PassResult pr = solve_pass(m, d, problem);
+  n = pr.n;
+  if (pr.status != GM_OK) return pr.status;
+  r.solver_iterations = pr.solve.iterations;
+  r.solver_residual = pr.solve.residual;
   return GM_OK;
 }
 
@@ -38,19 +40,22 @@ gm_status quasi_static_solve(const gm_model& m, gm_data& d, double phi1_in, doub
   const MeshLayout& L = m.layout;
   const bool fe = coupled_solve(m);
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
-  PassMode mode{true, true, kin.load_torque / rb2};  // load: the TE coordinate's force, N
+  ForceProblem problem;
+  problem.pose = &kin;  // gear 2's spin set before each pass
+  problem.all = problem.quasi = true;
+  problem.load = kin.load_torque / rb2;  // the TE coordinate's force, N
   const double settled = std::max(m.params.solver_tolerance, 1e-12 * L.base_pitch);  // m
   te = fe ? predicted_te(d, phi1_in, kin.load_torque) : d.te_estimate;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
     kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + phi2_offset;
-    mode.next_pass_above = pass + 1 < kMaxPasses ? settled : std::numeric_limits<double>::infinity();
-    ForceSolve fs;
-    const gm_status st = solve_pass(m, d, kin, mode, n, fs);  // detection redone every pass
-    if (st != GM_OK) return st;
-    r.solver_iterations += fs.iterations;
-    r.solver_residual = fs.residual;
-    te += fs.lambda;
-    if (std::fabs(fs.lambda) <= settled) break;
+    problem.next_pass_above = pass + 1 < kMaxPasses ? settled : std::numeric_limits<double>::infinity();
+    const PassResult pr = solve_pass(m, d, problem);  // detection redone every pass
+    n = pr.n;
+    if (pr.status != GM_OK) return pr.status;
+    r.solver_iterations += pr.solve.iterations;
+    r.solver_residual = pr.solve.residual;
+    te += pr.solve.lambda;
+    if (std::fabs(pr.solve.lambda) <= settled) break;
   }
   kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + phi2_offset;
   d.te_estimate = te;

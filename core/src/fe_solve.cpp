@@ -97,9 +97,13 @@ void fe_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na) 
     for (int a = 0; a < na; ++a) {
       const int i = d.fe_index[a];
       const double delta = std::max(d.fe_delta[a], 0.0);
-      const ForceSolve one = solve_separable(&d.laws[i], &delta, 1, m.params.solver_tolerance,
-                                             m.params.solver_max_iterations,
-                                             d.fe_force.data() + a, d.fe_work.data() + a);
+      SeparableProblem sp;
+      sp.laws = &d.laws[i];
+      sp.approach = &delta;
+      sp.n = 1;
+      sp.tol = m.params.solver_tolerance;
+      sp.max_iterations = m.params.solver_max_iterations;
+      const ForceSolve one = solve_separable(sp, SeparableAnswer{d.fe_force.data() + a, d.fe_work.data() + a});
       if (!one.converged) d.fe_force[a] = 0;
     }
   } else if (!same) {
@@ -248,8 +252,11 @@ void fe_store(gm_data& d, int na, bool tangent) {
 
 }  // namespace
 
-ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool all,
-                    bool quasi, double load, double next_pass_above) {
+ForceSolve fe_solve(const gm_model& m, gm_data& d, const ForceProblem& p) {
+  const gm_kinematics& kin = *p.pose;
+  const int n = p.n;
+  const bool all = p.all, quasi = p.quasi;
+  const double load = p.load;
   ForceSolve out;
   const ContactSlice* S = d.slices.data();
   int na = fe_select(d, n, all);
@@ -303,7 +310,7 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int
                                                  "converge; raise solver.max_iterations";
     return out;
   }
-  fe_store(d, na, !(quasi && std::fabs(out.lambda) > next_pass_above));
+  fe_store(d, na, !(quasi && std::fabs(out.lambda) > p.next_pass_above));
   return out;
 }
 

@@ -3,21 +3,18 @@
 // predicts its first pass.
 #pragma once
 
-#include <limits>
-
 #include "model.hpp"
 
 namespace gm {
 
-// The coupled solve of level 5 over the candidates (all: every candidate, the quasi-static
-// setting; else those with Delta > 0). Plain (quasi false): forces for the approaches
-// d.approach. Quasi-static: the rigid approach lambda along te_gain with sum_i b_i F_i = load
-// (b: d.balance), added to d.approach. Writes d.forces and d.slice_stiffness for all n
-// candidates (0 where not loaded). next_pass_above: a quasi-static |lambda| above it is followed
-// by another pass (evaluate.cpp), so this answer's slice stiffness is not computed (left 0).
-ForceSolve fe_solve(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n, bool all,
-                    bool quasi, double load,
-                    double next_pass_above = std::numeric_limits<double>::infinity());
+// The force stage of the coupled solve (level 5, and level 4's dense one) over d's candidates
+// (ForceProblem, contact_forces.hpp; p.all: every candidate, the quasi-static setting, else those
+// with Delta > 0). Plain: forces for the approaches d.approach. Quasi-static: the rigid approach
+// lambda along te_gain with sum_i b_i F_i = load (b: d.balance), added to d.approach. Writes
+// d.forces and d.slice_stiffness for all n candidates (0 where not loaded); a quasi-static
+// |lambda| above p.next_pass_above is followed by another pass (evaluate.cpp), so this answer's
+// slice stiffness is not computed (left 0). p.pose: the pose detected at.
+ForceSolve fe_solve(const gm_model& m, gm_data& d, const ForceProblem& p);
 
 // Level 5 quasi-static: the TE to detect at first (extrapolated from the last three solves).
 double predicted_te(gm_data& d, double phi, double load_torque);

@@ -205,10 +205,14 @@ void compare_with_dense(gm_model_params p, const char* what) {
     k.phi[1] = (12e-6 - I.rb(0) * k.phi[0]) / I.rb(1);
     k.r[1][0] = p.gear[0].flank[0].tip_relief > 0 ? 1e-4 : 0.0;  // tilted case
     k.load_torque = 300;
-    const gm::PassMode mode{p.quasi_static != 0, p.quasi_static != 0, 300 / I.rb(1)};
-    int n = 0;
-    gm::ForceSolve fs;
-    ASSERT_EQ(gm::solve_pass(m, d, k, mode, n, fs), GM_OK) << d.message;
+    gm::ForceProblem problem;
+    problem.pose = &k;
+    problem.all = problem.quasi = p.quasi_static != 0;
+    problem.load = 300 / I.rb(1);
+    const gm::PassResult pass = gm::solve_pass(m, d, problem);
+    ASSERT_EQ(pass.status, GM_OK) << d.message;
+    const int n = pass.n;
+    const gm::ForceSolve& fs = pass.solve;
     const std::vector<double> F(d.forces.begin(), d.forces.begin() + n),
         K(d.slice_stiffness.begin(), d.slice_stiffness.begin() + n);
     const double lambda = fs.lambda;
@@ -221,7 +225,8 @@ void compare_with_dense(gm_model_params p, const char* what) {
     multi += loaded_pairs > 1;
     // the dense solve on the same prepared candidates
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
-    const gm::ForceSolve dense = gm::fe_solve(m, d, k, n, mode.all, mode.quasi, mode.load);
+    problem.n = n;
+    const gm::ForceSolve dense = gm::fe_solve(m, d, problem);
     ASSERT_TRUE(dense.converged) << dense.message;
     double fmax = 0;
     for (int i = 0; i < n; ++i) fmax = std::max(fmax, F[i]);
@@ -230,7 +235,7 @@ void compare_with_dense(gm_model_params p, const char* what) {
       if (F[i] > 0) worst_k = std::max(worst_k, std::fabs(K[i] - d.slice_stiffness[i]) /
                                                     std::fabs(d.slice_stiffness[i]));
     }
-    if (mode.quasi) worst_l = std::max(worst_l, std::fabs(lambda - dense.lambda));
+    if (problem.quasi) worst_l = std::max(worst_l, std::fabs(lambda - dense.lambda));
   }
   std::printf("%s: low-rank - dense: forces %.2g of the largest, slice stiffness %.2g, "
               "rigid approach %.2g m; %d of 30 poses with several loaded pairs\n",
