@@ -259,7 +259,7 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
   }
   out = DualPass{};
   if (all) {
-    balance_weights(m, slices, kin, n, d.dual_balance.data());
+    balance_weights(m, d, kin, n);
     double closest = std::numeric_limits<double>::infinity();
     for (int i = 0; i < n; ++i) {
       out.balance += d.dual_balance[i] * d.dual_forces[i];
@@ -273,8 +273,8 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
       }
     }
   }
-  const Dual energy = elastic_energy(slices, d.dual_laws.data(), d.dual_forces.data(), n);
-  resultants(m, slices, d.dual_forces.data(), d.dual_stiffness.data(), kin, n, out.r);
+  const Dual energy = elastic_energy<Dual>(d, n);
+  resultants(m, d, kin, n, out.r);
   out.r.elastic_energy = energy;
   return GM_OK;
 }

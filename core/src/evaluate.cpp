@@ -70,9 +70,9 @@ void store_resultants(const gm_model& m, gm_data& d, const gm_kinematics& kin, i
                       gm_result& r) {
   ResultT<double> rt;
   r.elastic_energy = std::isnan(d.fe_energy)
-                         ? elastic_energy(d.slices.data(), d.laws.data(), d.forces.data(), n)
+                         ? elastic_energy<double>(d, n)
                          : d.fe_energy;
-  resultants(m, d.slices.data(), d.forces.data(), d.slice_stiffness.data(), kin, n, rt);
+  resultants(m, d, kin, n, rt);
   for (int i = 0; i < 2; ++i) {
     for (int a = 0; a < 3; ++a) {
       r.force[i][a] = rt.force[i][a];

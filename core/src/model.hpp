@@ -6,6 +6,8 @@
 
 #include <limits>
 #include <memory>
+#include <type_traits>
+#include <utility>
 
 #include <Eigen/Core>
 
@@ -80,6 +82,32 @@ struct gm_data {
 };
 
 namespace gm {
+
+// The per-candidate arrays of d that a pass over scalar type T fills and its stages read:
+// d.slices, d.laws, d.forces, d.slice_stiffness and d.balance in double, the dual_ ones over dual
+// numbers (the directional derivative's passes). candidates<T>(d).
+template <class T>
+struct Candidates {
+  ContactSliceT<T>* slices;
+  SliceLawT<T>* laws;
+  T* forces;      // normal slice forces, N
+  T* stiffness;   // tangent stiffness of each slice, N/m
+  T* balance;     // quasi-static load-balance weights, -
+};
+template <class T>
+Candidates<T> candidates(gm_data& d);
+// The scalar type of kinematics K: double (gm_kinematics) or Dual (KinematicsT<Dual>).
+template <class K>
+using ScalarOf = std::decay_t<decltype(std::declval<const K&>().phi[0])>;
+template <>
+inline Candidates<double> candidates<double>(gm_data& d) {
+  return {d.slices.data(), d.laws.data(), d.forces.data(), d.slice_stiffness.data(), d.balance.data()};
+}
+template <>
+inline Candidates<Dual> candidates<Dual>(gm_data& d) {
+  return {d.dual_slices.data(), d.dual_laws.data(), d.dual_forces.data(), d.dual_stiffness.data(),
+          d.dual_balance.data()};
+}
 
 // The FE level's narrow view of the model (fe_compliance.hpp).
 inline FeView fe_view(const gm_model& m) {

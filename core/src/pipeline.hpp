@@ -20,27 +20,13 @@
 
 namespace gm {
 
-// The candidate arrays of d that a pass fills: d.slices and d.laws in double, d.dual_slices and
-// d.dual_laws over dual numbers (the directional derivative's pass).
-template <class T>
-struct CandidateArrays {
-  ContactSliceT<T>* slices;
-  SliceLawT<T>* laws;
-};
-inline CandidateArrays<double> candidate_arrays(gm_data& d, const gm_kinematics&) {
-  return {d.slices.data(), d.laws.data()};
-}
-inline CandidateArrays<Dual> candidate_arrays(gm_data& d, const KinematicsT<Dual>&) {
-  return {d.dual_slices.data(), d.dual_laws.data()};
-}
-
 // Detection, TE excitation, repeated slices merged (levels 0-4, slice_merge.hpp) and slice laws
-// at pose kin into d's candidate arrays of kin's number type: the number of candidates (without
-// `all`, those that can carry load), or -1 with d.message set when the pose is outside the
-// detection range.
+// at pose kin into d's candidates of kin's scalar type (candidates<T>(d), model.hpp): the number of
+// candidates (without `all`, those that can carry load), or -1 with d.message set when the pose
+// is outside the detection range.
 template <class K>
 int prepare_slices(const gm_model& m, gm_data& d, const K& kin, bool all) {
-  const auto c = candidate_arrays(d, kin);
+  const Candidates<ScalarOf<K>> c = candidates<ScalarOf<K>>(d);
   // without `all` only the slices that can carry load: those closer than the TE excitation opens
   const double emit_above = all ? -kEmitAll : te_excitation_gap(m, val(kin.phi[0]));
   // levels 0-4: repeated slices merged (slice_merge.hpp), an aligned spur pair's by detection
@@ -94,7 +80,7 @@ inline PassResult solve_pass(const gm_model& m, gm_data& d, const ForceProblem& 
   }
   ForceProblem p = pass;
   p.n = out.n;
-  if (p.quasi) balance_weights(m, d.slices.data(), kin, p.n, d.balance.data());
+  if (p.quasi) balance_weights(m, d, kin, p.n);
   out.solve = solve_forces(m, d, p);
   if (!out.solve.converged) {
     d.message = out.solve.message;

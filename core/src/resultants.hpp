@@ -43,8 +43,13 @@ inline bool same_local_law(const LocalLaw& a, const LocalLaw& b) {
 // U = F.Delta - Psi(F) = sum_i [F_i (Delta_i + f_i(F_i))/2 - P_i(F_i)]: one formula for every
 // level that needs no C. It holds along the solution, so the same formula over dual numbers (with
 // the implicit derivative of F) is U's exact derivative. Forces before damping.
+// d: the first n candidates of candidates<T>(d).
 template <class T>
-T elastic_energy(const ContactSliceT<T>* slices, const SliceLawT<T>* laws, const T* forces, int n) {
+T elastic_energy(gm_data& d, int n) {
+  const Candidates<T> c = candidates<T>(d);
+  const ContactSliceT<T>* slices = c.slices;
+  const SliceLawT<T>* laws = c.laws;
+  const T* forces = c.forces;
   T u = 0, last = 0;
   for (int i = 0; i < n; ++i) {
     const T& F = forces[i];
@@ -65,11 +70,15 @@ T elastic_energy(const ContactSliceT<T>* slices, const SliceLawT<T>* laws, const
   return u;
 }
 
-// Forces, moments and the other outputs from solved slice forces.
+// Forces, moments and the other outputs from the solved forces of d's first n candidates
+// (candidates<T>(d); the damped forces are written back) at pose kin.
 template <class T, class K>
-void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
-                const T* slice_stiffness, const K& kin, int n, ResultT<T>& r) {
+void resultants(const gm_model& m, gm_data& d, const K& kin, int n, ResultT<T>& r) {
   GM_AD_USING;
+  const Candidates<T> cd = candidates<T>(d);
+  const ContactSliceT<T>* slices = cd.slices;
+  T* forces = cd.forces;
+  const T* slice_stiffness = cd.stiffness;
   using std::fmax;
   using V3 = Eigen::Matrix<T, 3, 1>;
   const MeshLayout& L = m.layout;
@@ -126,11 +135,15 @@ void resultants(const gm_model& m, const ContactSliceT<T>* slices, T* forces,
 }
 
 // Load-balance weights of the quasi-static solve: the moment of a slice's unit normal force
-// (with its friction) about gear 2's axis, as a force along the TE coordinate (docs/physics.md §6).
-template <class T, class K>
-void balance_weights(const gm_model& m, const ContactSliceT<T>* slices, const K& kin, int n,
-                     T* balance) {
+// (with its friction) about gear 2's axis, as a force along the TE coordinate (docs/physics.md §6),
+// of d's first n candidates over kin's scalar type T (candidates<T>(d).balance).
+template <class K>
+void balance_weights(const gm_model& m, gm_data& d, const K& kin, int n) {
   GM_AD_USING;
+  using T = ScalarOf<K>;
+  const Candidates<T> cd = candidates<T>(d);
+  const ContactSliceT<T>* slices = cd.slices;
+  T* balance = cd.balance;
   using V3 = Eigen::Matrix<T, 3, 1>;
   const MeshLayout& L = m.layout;
   const V3 c2(L.center_distance + kin.u[1][0], kin.u[1][1], kin.u[1][2]);
