@@ -1,9 +1,10 @@
 /* Generic FMI 3.0 co-simulation layer: every fmi3* function, mapped onto the shared instance
  * (fmi_instance.h) and model.h, as fmi2_functions.c maps FMI 2.0's. What FMI 3.0 adds and this
- * FMU does not offer (event mode, clocks, model exchange, scheduled execution, intermediate
- * update, the integer and binary types it has no variables of) is refused with an error naming
- * the function; the modelDescription.xml of --fmi3 declares the same (hasEventMode="false",
- * providesIntermediateUpdate="false").
+ * FMU does not offer (event mode, clocks, model exchange, scheduled execution, the integer and
+ * binary types it has no variables of) is refused with an error naming the function; the
+ * modelDescription.xml of --fmi3 declares the same (hasEventMode="false"). Intermediate update:
+ * with a callback given at instantiation, the large-step mode calls it after each internal step
+ * with the contact, spins and shaft torques readable at that time (intermediateUpdate="true").
  *
  * The variables are the FMI 2.0 table's, with the same value references: Real as Float64,
  * Integer as Int32, Boolean and String as themselves; plus the independent variable `time` at
@@ -44,7 +45,36 @@ static void fmi3_log(void* environment, const char* name, fmi_status status, con
 typedef struct instance {
   fmi_instance* shared;
   logger_box box;
+  fmi3IntermediateUpdateCallback intermediate_update; /* NULL: none */
+  fmi3InstanceEnvironment environment;
+  int in_intermediate; /* inside the callback: only intermediate variables may be read */
 } instance;
+
+/* After each internal step of a step (model_set_intermediate): the importer reads the
+ * intermediate variables at that time; it may neither set variables nor return early
+ * (providesIntermediateUpdate="true", canReturnEarlyAfterIntermediateUpdate not declared). */
+static void intermediate(void* context, double time) {
+  instance* outer = context;
+  fmi3Boolean early = fmi3False;
+  fmi3Float64 early_time = time;
+  outer->in_intermediate = 1;
+  outer->intermediate_update(outer->environment, time, fmi3False, fmi3True, fmi3True, fmi3False, &early, &early_time);
+  outer->in_intermediate = 0;
+}
+
+/* Inside an intermediate update only the intermediate variables may be read. */
+static int not_intermediate(const instance* outer, const char* function, const fmi3ValueReference vr[], size_t n) {
+  if (!outer->in_intermediate) return 0;
+  for (size_t i = 0; i < n && vr; i++)
+    if (!model_variable_intermediate(vr[i])) {
+      fmi_error(outer->shared,
+                "%s: value reference %u read during an intermediate update; allowed there: the outputs with "
+                "intermediateUpdate=\"true\"",
+                function, (unsigned)vr[i]);
+      return 1;
+    }
+  return 0;
+}
 
 #define CHECK_MODE(allowed)                                                   \
   instance* outer = (instance*)component;                                    \
@@ -95,7 +125,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                                          fmi3InstanceEnvironment instanceEnvironment,
                                          fmi3LogMessageCallback logMessage,
                                          fmi3IntermediateUpdateCallback intermediateUpdate) {
-  (void)visible, (void)earlyReturnAllowed, (void)requiredIntermediateVariables, (void)intermediateUpdate;
+  (void)visible, (void)earlyReturnAllowed;
   instance* outer = calloc(1, sizeof *outer);
   logger_box box = {logMessage, instanceEnvironment};
   fmi_instance probe = {.api = &api,
@@ -117,9 +147,16 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     refusal = text;
   } else if (eventModeUsed)
     refusal = "eventModeUsed = true: this FMU has no event mode (hasEventMode=\"false\")";
-  else if (nRequiredIntermediateVariables)
-    refusal = "requiredIntermediateVariables given: this FMU provides no intermediate update "
-              "(providesIntermediateUpdate=\"false\")";
+  else if (nRequiredIntermediateVariables && !requiredIntermediateVariables)
+    refusal = "requiredIntermediateVariables is NULL with nRequiredIntermediateVariables > 0";
+  for (size_t i = 0; !refusal && i < nRequiredIntermediateVariables; i++)
+    if (!model_variable_intermediate(requiredIntermediateVariables[i])) {
+      snprintf(text, sizeof text,
+               "requiredIntermediateVariables[%zu] = %u has no intermediate values; allowed: the outputs with "
+               "intermediateUpdate=\"true\" (the contact, the spins and the shaft torques)",
+               i, (unsigned)requiredIntermediateVariables[i]);
+      refusal = text;
+    }
   if (refusal) {
     fmi_error(&probe, "fmi3InstantiateCoSimulation: %s", refusal);
     free(outer);
@@ -130,6 +167,11 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
   if (!outer->shared) {
     free(outer);
     return NULL;
+  }
+  if (intermediateUpdate) {
+    outer->intermediate_update = intermediateUpdate;
+    outer->environment = instanceEnvironment;
+    model_set_intermediate(outer->shared->model, intermediate, outer);
   }
   return outer;
 }
@@ -215,6 +257,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance component, const fmi3ValueReference value
                           size_t nValueReferences, fmi3Float64 values[], size_t nValues) {
   CHECK_MODE(FMI_MASK_GET_VALUES);
   if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (not_intermediate(outer, __func__, valueReferences, nValueReferences)) return fmi3Error;
   /* the independent variable: the instance's time (read alone or among the others) */
   const unsigned t = time_vr();
   for (size_t i = 0; i < nValueReferences && valueReferences && values; i++) {
@@ -237,6 +280,7 @@ fmi3Status fmi3GetInt32(fmi3Instance component, const fmi3ValueReference valueRe
                         fmi3Int32 values[], size_t nValues) {
   CHECK_MODE(FMI_MASK_GET_VALUES);
   if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (not_intermediate(outer, __func__, valueReferences, nValueReferences)) return fmi3Error;
   return (fmi3Status)fmi_get_values(c, __func__, MODEL_Integer, valueReferences, nValueReferences, values, 1);
 }
 
@@ -244,6 +288,7 @@ fmi3Status fmi3GetBoolean(fmi3Instance component, const fmi3ValueReference value
                           size_t nValueReferences, fmi3Boolean values[], size_t nValues) {
   CHECK_MODE(FMI_MASK_GET_VALUES);
   if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (not_intermediate(outer, __func__, valueReferences, nValueReferences)) return fmi3Error;
   return (fmi3Status)fmi_get_values(c, __func__, MODEL_Boolean, valueReferences, nValueReferences, values,
                                     sizeof(fmi3Boolean));
 }
@@ -252,6 +297,7 @@ fmi3Status fmi3GetString(fmi3Instance component, const fmi3ValueReference valueR
                          size_t nValueReferences, fmi3String values[], size_t nValues) {
   CHECK_MODE(FMI_MASK_GET_VALUES);
   if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (not_intermediate(outer, __func__, valueReferences, nValueReferences)) return fmi3Error;
   return (fmi3Status)fmi_get_values(c, __func__, MODEL_String, valueReferences, nValueReferences, (void*)values, 1);
 }
 

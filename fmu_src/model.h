@@ -36,6 +36,8 @@ const model_variable_info* model_variable(unsigned vr);
 /* How many there are: value references 0 .. count - 1 (the FMI 3.0 layer's independent variable
  * `time` takes the next). */
 unsigned model_variable_count(void);
+/* 1 if vr may be read during an intermediate result (model_set_intermediate). */
+int model_variable_intermediate(unsigned vr);
 
 /* ---- logging ---------------------------------------------------------------------------- */
 
@@ -97,6 +99,12 @@ int model_outputs_current(const fmu_model* m);
 int model_directional_derivative(fmu_model* m, const unsigned known[], const double dv_known[], size_t n_known,
                                  const unsigned unknown[], double dv_unknown[], size_t n_unknown, char* msg,
                                  size_t msg_size);
+/* Results inside a step: fn(context, time) after each internal step of a model_evaluate that
+ * integrates (GearMesh's large-step mode), the outputs flagged for intermediate access then those
+ * at that time (read through the getters during fn); the step's end outputs follow when
+ * model_evaluate returns, and a step that fails takes them back. NULL: none (the default). */
+typedef void (*model_intermediate_fn)(void* context, double time);
+void model_set_intermediate(fmu_model* m, model_intermediate_fn fn, void* context);
 /* Warnings about the model built from the parameters ("" if none or not built). */
 const char* model_warnings(const fmu_model* m);
 

@@ -34,6 +34,10 @@ struct fmu_model {
   gm_step_sensitivity sens;
   double sens_step;
   int sens_valid;
+  /* model_set_intermediate's hook, and the time the step in progress started and ends at, s */
+  model_intermediate_fn intermediate;
+  void* intermediate_context;
+  double step_start, step_end;
   fmu_log_fn log;
   void* log_context;
 };
@@ -55,6 +59,10 @@ const model_variable_info* model_variable(unsigned vr) {
 
 unsigned model_variable_count(void) {
   return (unsigned)GM_FMU_VARIABLE_COUNT;
+}
+
+int model_variable_intermediate(unsigned vr) {
+  return vr < GM_FMU_VARIABLE_COUNT && gm_fmu_follows_spins(&gm_fmu_variables[vr]);
 }
 
 static const char* const log_category_names[] = {
@@ -361,6 +369,26 @@ static void publish(fmu_model* m, int restart, double time, const gm_result* r) 
   m->outputs_current = 1;
 }
 
+/* An internal step of the large-step mode (gm_advance_options.observer): its contact, spins and
+ * shaft torques become the outputs, and the model's user reads them (model_set_intermediate). */
+static void on_internal_step(void* context, const gm_internal_point* point) {
+  fmu_model* m = context;
+  m->v.y = *point->res;
+  for (int i = 0; i < 2; i++) {
+    m->v.ds.phi[i] = point->phi[i];
+    m->v.ds.omega[i] = point->omega[i];
+    m->v.ds.shaft_torque[i] = point->shaft_torque[i];
+  }
+  publish_ports(m);
+  m->outputs_current = 1;
+  m->intermediate(m->intermediate_context, m->step_start + point->time);
+}
+
+void model_set_intermediate(fmu_model* m, model_intermediate_fn fn, void* context) {
+  m->intermediate = fn;
+  m->intermediate_context = context;
+}
+
 /* The core's step: one evaluation at the held inputs, or in large-step mode the dynamics started
  * (restart) or advanced by step. */
 static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r) {
@@ -370,10 +398,27 @@ static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r)
     m->sens_valid = 0;
     return gm_dynamics_start(m->core, m->data, &m->v.dp, &m->v.k, &in, &m->v.ds, r);
   }
-  if (!m->v.step_sensitivities) return gm_dynamics_advance(m->core, m->data, &m->v.dp, &m->v.k, &in, step, &m->v.ds, r);
+  gm_advance_options extra = {NULL, NULL, NULL};
+  if (m->v.step_sensitivities) extra.sensitivity = &m->sens;
+  /* the outputs at the internal steps (model_set_intermediate); a failed step takes them back */
+  const gm_dynamics_state saved_ds = m->v.ds;
+  const gm_result saved_y = m->v.y;
+  const gm_fmu_ports saved_port = m->v.port;
+  const int saved_current = m->outputs_current;
+  if (m->intermediate) {
+    extra.observer = on_internal_step;
+    extra.observer_context = m;
+    m->step_start = m->step_end - step;
+  }
   const gm_status status =
-      gm_dynamics_advance_sensitivity(m->core, m->data, &m->v.dp, &m->v.k, &in, step, &m->v.ds, r, &m->sens);
-  if (status == GM_OK) { /* a failed step changed nothing: the last one's stays */
+      gm_dynamics_advance_with(m->core, m->data, &m->v.dp, &m->v.k, &in, step, &m->v.ds, r, &extra);
+  if (status != GM_OK && m->intermediate) {
+    m->v.ds = saved_ds;
+    m->v.y = saved_y;
+    m->v.port = saved_port;
+    m->outputs_current = saved_current;
+  }
+  if (status == GM_OK && m->v.step_sensitivities) { /* a failed step changed nothing: the last one's stays */
     m->sens_valid = 1;
     m->sens_step = step;
   }
@@ -408,6 +453,7 @@ int model_evaluate(fmu_model* m, int restart, double time, double step, char* ms
   if (!restart && skipped_tooth(m, msg, n)) return 2;
   if (restart) gm_data_reset(m->core, m->data);
   gm_result r;
+  m->step_end = time;
   const gm_status status = core_step(m, restart, step, &r);
   if (status != GM_OK) {
     snprintf(msg, n, "%s", gm_data_message(m->data));
@@ -491,26 +537,20 @@ static int derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_valu
   return 0;
 }
 
-/* 1 if vr's field lies in the member [offset, offset + size) of gm_fmu_values. */
-static int in_member(unsigned vr, size_t offset, size_t size) {
-  return gm_fmu_variables[vr].offset >= offset && gm_fmu_variables[vr].offset < offset + size;
-}
-#define IN_MEMBER(vr, member) in_member(vr, offsetof(gm_fmu_values, member), sizeof(((gm_fmu_values*)0)->member))
-
 /* dynamics.step_sensitivities: a known is an input held over the step (the core's columns). */
 static int step_known(unsigned vr) {
-  return IN_MEMBER(vr, di) || IN_MEMBER(vr, port.torque) || IN_MEMBER(vr, port.shaft_phi) ||
-         IN_MEMBER(vr, port.shaft_omega);
+  const gm_fmu_variable* v = &gm_fmu_variables[vr];
+  return GM_FMU_IN(v, di) || GM_FMU_IN(v, port.torque) || GM_FMU_IN(v, port.shaft_phi) ||
+         GM_FMU_IN(v, port.shaft_omega);
 }
 
 /* ... and an unknown a value at the step's end that follows from its spins and inputs. */
 static int step_unknown(unsigned vr) {
-  return IN_MEMBER(vr, y) || IN_MEMBER(vr, ds.phi) || IN_MEMBER(vr, ds.omega) || IN_MEMBER(vr, ds.shaft_torque) ||
-         IN_MEMBER(vr, port.angle) || IN_MEMBER(vr, port.speed) || IN_MEMBER(vr, port.shaft_torque);
+  return gm_fmu_follows_spins(&gm_fmu_variables[vr]);
 }
 
 /* The last step's derivative along the inputs in seed, into out: the spins' from the core's step
- * sensitivity (gm_dynamics_advance_sensitivity), the contact's at the end state by the chain rule
+ * sensitivity (gm_dynamics_advance_with), the contact's at the end state by the chain rule
  * through gm_directional_derivative, the shafts' from their law at the step's end. */
 static int step_derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu_values* out, char* msg, size_t n) {
   if (model_build(m, msg, n) || load_scratch(m, msg, n)) return 1;

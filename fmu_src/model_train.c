@@ -104,6 +104,16 @@ unsigned model_variable_count(void) {
   return TABLE_SIZE;
 }
 
+int model_variable_intermediate(unsigned vr) {
+  (void)vr;
+  return 0;
+}
+
+/* The train FMU offers no intermediate results (FMI 2.0 only). */
+void model_set_intermediate(fmu_model* m, model_intermediate_fn fn, void* context) {
+  (void)m, (void)fn, (void)context;
+}
+
 static const char* const log_names[] = {"logEvents", "logStatusWarning", "logStatusError", "logStatusFatal", "logAll"};
 unsigned model_log_category_count(void) { return 5; }
 const char* model_log_category_name(unsigned category) { return log_names[category]; }

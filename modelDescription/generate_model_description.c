@@ -325,7 +325,7 @@ static int write_fmi3(const char* path, const gm_fmu_values* start) {
         "    canBeInstantiatedOnlyOncePerProcess=\"false\" canGetAndSetFMUState=\"true\"\n"
         "    canSerializeFMUState=\"true\" providesDirectionalDerivatives=\"true\"\n"
         "    providesAdjointDerivatives=\"true\" canHandleVariableCommunicationStepSize=\"true\"\n"
-        "    maxOutputDerivativeOrder=\"0\" providesIntermediateUpdate=\"false\" hasEventMode=\"false\"/>\n",
+        "    maxOutputDerivativeOrder=\"0\" providesIntermediateUpdate=\"true\" hasEventMode=\"false\"/>\n",
         f);
   put_common(f, 1);
   fputs("  <ModelVariables>\n", f);
@@ -348,6 +348,7 @@ static int write_fmi3(const char* path, const gm_fmu_values* start) {
       put_bound(f, "min", r->lo, v->type);
       put_bound(f, "max", r->hi, v->type);
     }
+    if (gm_fmu_follows_spins(v)) fputs(" intermediateUpdate=\"true\"", f);
     const int with_start = strcmp(v->initial, "exact") == 0;
     if (v->type == GM_FMU_String) { /* FMI 3.0: a String's start is a <Start> element */
       if (with_start) {

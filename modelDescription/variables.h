@@ -509,6 +509,23 @@ static const gm_fmu_variable gm_fmu_variables[] = {GM_FMU_VARIABLES(GM_FMU_VARIA
 
 #define GM_FMU_VARIABLE_COUNT (sizeof gm_fmu_variables / sizeof gm_fmu_variables[0])
 
+/* 1 if the field at `offset` lies in gm_fmu_values' member [member_offset, + size). */
+static inline int gm_fmu_in_member(size_t offset, size_t member_offset, size_t size) {
+  return offset >= member_offset && offset < member_offset + size;
+}
+#define GM_FMU_IN(v, member) \
+  gm_fmu_in_member((v)->offset, offsetof(gm_fmu_values, member), sizeof(((gm_fmu_values*)0)->member))
+
+/* 1 for an output that, at the end of a large-step step, follows from the spins and the contact
+ * there alone: the contact outputs (gm_result), the spin state and the shaft torques, also in the
+ * ports' senses. What an FMI 3.0 intermediate update offers at the internal steps
+ * (intermediateUpdate="true") and what dynamics.step_sensitivities differentiates. */
+static inline int gm_fmu_follows_spins(const gm_fmu_variable* v) {
+  return v->causality == GM_FMU_output &&
+         (GM_FMU_IN(v, y) || GM_FMU_IN(v, ds.phi) || GM_FMU_IN(v, ds.omega) || GM_FMU_IN(v, ds.shaft_torque) ||
+          GM_FMU_IN(v, port.angle) || GM_FMU_IN(v, port.speed) || GM_FMU_IN(v, port.shaft_torque));
+}
+
 /* A Real is bound to a double, an Integer or Boolean to an int, a String to a const char*:
  * checked at compile time. */
 #define GM_FMU_CTYPE_Real double

@@ -381,14 +381,17 @@ gm_status gm_dynamics_advance(const gm_model* m, gm_data* d, const gm_dynamics_p
   }
 }
 
-gm_status gm_dynamics_advance_sensitivity(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
-                                          const gm_kinematics* pose, const gm_dynamics_inputs* in,
-                                          double duration, gm_dynamics_state* s, gm_result* res,
-                                          gm_step_sensitivity* sens) {
+gm_status gm_dynamics_advance_with(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
+                                   const gm_kinematics* pose, const gm_dynamics_inputs* in, double duration,
+                                   gm_dynamics_state* s, gm_result* res, const gm_advance_options* extra) {
   if (!m || !d || !p || !pose || !in || !s || !res) return GM_ERR_ARGUMENT;
   try {
     gm::StepOptions options;
-    options.sensitivity = sens;
+    if (extra) {
+      options.sensitivity = extra->sensitivity;
+      options.observer = extra->observer;
+      options.observer_context = extra->observer_context;
+    }
     return gm::dynamics_advance(*m, *d, *p, *pose, *in, duration, *s, *res, options);
   } catch (const std::exception& e) {
     d->message = e.what();

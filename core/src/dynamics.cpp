@@ -561,6 +561,14 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       account(h_try, x1, x2, x3, s);
       aggregates.add(h_try, x1, x2, x3);
       t = h_try == remaining ? duration : t + h_try;
+      if (options.observer) {
+        const gm_internal_point point{t,
+                                      {x3.phi[0], x3.phi[1]},
+                                      {x3.omega[0], x3.omega[1]},
+                                      {x3.shaft_torque[0], x3.shaft_torque[1]},
+                                      &x3.res};
+        options.observer(options.observer_context, &point);
+      }
       x1 = x3;
       ++jacobian_age;
       jacobian_current = st.contraction <= kStaleContraction && jacobian_age < kJacobianAge;

@@ -34,10 +34,13 @@ gm_status dynamics_start(const gm_model& m, gm_data& d, const gm_dynamics_params
                          const gm_kinematics& pose, const gm_dynamics_inputs& in,
                          gm_dynamics_state& s, gm_result& res);
 
-// What an advance does beyond the plain step: the step's sensitivity (gm_step_sensitivity), and
+// What an advance does beyond the plain step: the step's sensitivity (gm_step_sensitivity), an
+// observer of its internal steps (gm_advance_options), and
 // for tests of its exactness, the internal steps it took and a replay of given steps.
 struct StepOptions {
   gm_step_sensitivity* sensitivity = nullptr;  // written on GM_OK
+  gm_internal_observer observer = nullptr;     // after each accepted internal step
+  void* observer_context = nullptr;
   std::vector<double>* taken = nullptr;        // the accepted internal steps' sizes, s
   // Take exactly these internal steps (they must sum to the duration), accepted whatever their
   // error, each stage's Newton run until it stops contracting: the step as a smooth function

@@ -516,7 +516,7 @@ TEST(Dynamics, AMastersRoundingKeepsTheInternalSteps) {
 
 }  // namespace
 
-// The step's sensitivity (gm_dynamics_advance_sensitivity) is the derivative of the step: a 1 ms
+// The step's sensitivity (gm_dynamics_advance_with) is the derivative of the step: a 1 ms
 // step of the drive at 1000 rpm (gear 1 on its shaft, 350 N m on gear 2, a soft shaft on gear 2,
 // 41 to 64 internal steps through tooth changes), each of the ten columns against the
 // fourth-order central difference of whole steps that take the same internal steps
@@ -657,7 +657,9 @@ TEST(Dynamics, StepSensitivityIsTheDerivativeOfTheStep) {
     ASSERT_EQ(gm_data_state_load(inst.m, inst.d, memory.data(), memory.size()), GM_OK);
     gm_step_sensitivity api{};
     gm_dynamics_state s = start;
-    ASSERT_EQ(gm_dynamics_advance_sensitivity(inst.m, inst.d, &dr.dp, &dr.pose, &dr.in, H, &s, &res, &api), GM_OK);
+    gm_advance_options extra{};
+    extra.sensitivity = &api;
+    ASSERT_EQ(gm_dynamics_advance_with(inst.m, inst.d, &dr.dp, &dr.pose, &dr.in, H, &s, &res, &extra), GM_OK);
     EXPECT_EQ(std::memcmp(&api, &plain, sizeof api), 0);
   }
 }

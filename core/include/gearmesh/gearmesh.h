@@ -349,13 +349,31 @@ typedef struct gm_step_sensitivity {
   double omega[2][GM_SENS_COLUMNS]; /* d omega_i(end) / d column, rad/s per column unit */
 } gm_step_sensitivity;
 
-/* gm_dynamics_advance, and the step's sensitivity into *sens (NULL: none, the same as
- * gm_dynamics_advance). The sensitivity costs two Jacobians of the mesh (two to four
- * gm_directional_derivative each) per accepted internal step. sens is written on GM_OK only. */
-gm_status gm_dynamics_advance_sensitivity(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
-                                          const gm_kinematics* pose, const gm_dynamics_inputs* in,
-                                          double duration, gm_dynamics_state* s, gm_result* res,
-                                          gm_step_sensitivity* sens);
+/* Where one accepted internal step of a gm_dynamics_advance ends: for a caller that records the
+ * mesh signal at the internal steps while stepping far longer (an FMI 3.0 intermediate update). */
+typedef struct gm_internal_point {
+  double time;            /* s into the call */
+  double phi[2], omega[2]; /* the spins there, rad, rad/s */
+  double shaft_torque[2]; /* N m */
+  const gm_result* res;   /* the evaluation there (valid during the call only) */
+} gm_internal_point;
+typedef void (*gm_internal_observer)(void* context, const gm_internal_point* point);
+
+/* What a gm_dynamics_advance_with does beyond gm_dynamics_advance (each member NULL: nothing). */
+typedef struct gm_advance_options {
+  /* the step's sensitivity, written on GM_OK; costs two Jacobians of the mesh (two to four
+   * gm_directional_derivative each) per accepted internal step */
+  gm_step_sensitivity* sensitivity;
+  /* called after each accepted internal step, in order, the last at the step's end; an advance
+   * that fails afterwards (GM_ERR_SOLVER) has called it for steps it then takes back */
+  gm_internal_observer observer;
+  void* observer_context;
+} gm_advance_options;
+
+/* gm_dynamics_advance with the options (NULL: none, the same as gm_dynamics_advance). */
+gm_status gm_dynamics_advance_with(const gm_model* m, gm_data* d, const gm_dynamics_params* p,
+                                   const gm_kinematics* pose, const gm_dynamics_inputs* in, double duration,
+                                   gm_dynamics_state* s, gm_result* res, const gm_advance_options* options);
 
 /* Mesh damping by its damping ratio (docs/dynamics.md, "Mesh damping"). The FMU's large-step mode
  * adds to model.damping what dynamics.mesh_damping_ratio (default GM_MESH_DAMPING_RATIO) gives;
