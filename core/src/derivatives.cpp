@@ -306,14 +306,32 @@ class FeWarmStartGuard {
   int n_;
 };
 
+// One gm_directional_derivative at the pose at_in along seed: the poses, the pass and the TE.
+struct Derivative {
+  Derivative(const MeshLayout& L, const gm_kinematics& given, const gm_kinematics& seed_in)
+      : at_in(given), seed(seed_in), at(reduced_pose(L, given, &phi2_offset)),
+        kin(dual_kinematics(at, seed)) {}
+  const gm_kinematics& at_in;  // the pose as given
+  const gm_kinematics& seed;
+  double phi2_offset = 0;  // quasi-static: gear 2's whole-turn-reduced spin offset (before `at`:
+                           // reduced_pose writes it)
+  gm_kinematics at;        // the pose as gm_evaluate detects it
+  KinematicsT<Dual> kin;   // at as dual numbers along seed (quasi-static: gear 2 at the solved TE)
+  DualPass pass;           // the pass (quasi-static: the combined one)
+  Dual te;                 // the TE and its derivative
+};
+
 // Quasi-static: the solved TE at `at` (the warm start is restored afterwards), then two passes
 // at that pose: A along the seed with the TE held, B along the TE alone. Every output is linear
 // in the direction, so output' = A + dTE B with dTE from the load balance:
 // d(sum b_i F_i) = d(load_torque)/r_b2 (or, on a free mesh at zero load, from the touching
-// slice's approach staying 0). p: the combined pass; te: the solved TE and its derivative.
-gm_status quasi_static_dual(const gm_model& m, gm_data& d, const gm_kinematics& at_in,
-                            const gm_kinematics& at, const gm_kinematics& seed,
-                            double phi2_offset, KinematicsT<Dual>& kin, DualPass& p, Dual& te) {
+// slice's approach staying 0). g.pass: the combined pass; g.te: the solved TE and its derivative.
+gm_status quasi_static_dual(const gm_model& m, gm_data& d, Derivative& g) {
+  const gm_kinematics &at_in = g.at_in, &at = g.at, &seed = g.seed;
+  const double phi2_offset = g.phi2_offset;
+  KinematicsT<Dual>& kin = g.kin;
+  DualPass& p = g.pass;
+  Dual& te = g.te;
   const MeshLayout& L = m.layout;
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   const double warm = d.te_estimate;
@@ -391,20 +409,16 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
   // level 5: the coupled solve's warm start is the evaluation's, left as it was
   const FeWarmStartGuard guard(d, coupled_solve(m));
   const MeshLayout& L = m.layout;
-  double phi2_offset = 0;
-  const gm_kinematics at = reduced_pose(L, at_in, &phi2_offset);  // as gm_evaluate detects
-  KinematicsT<Dual> kin = dual_kinematics(at, seed);
-  Dual te;
-  DualPass p;
+  Derivative g(L, at_in, seed);
   if (!m.params.quasi_static) {
-    const gm_status st = dual_pass(m, d, kin, false, p);
+    const gm_status st = dual_pass(m, d, g.kin, false, g.pass);
     if (st != GM_OK) return st;
-    te = L.base_radius[0] * kin.phi[0] + L.sign * L.base_radius[1] * kin.phi[1];
+    g.te = L.base_radius[0] * g.kin.phi[0] + L.sign * L.base_radius[1] * g.kin.phi[1];
   } else {
-    const gm_status st = quasi_static_dual(m, d, at_in, at, seed, phi2_offset, kin, p, te);
+    const gm_status st = quasi_static_dual(m, d, g);
     if (st != GM_OK) return st;
   }
-  res = derivative_outputs(p, te, L.base_radius[1]);
+  res = derivative_outputs(g.pass, g.te, L.base_radius[1]);
   d.message.clear();
   return GM_OK;
 }
