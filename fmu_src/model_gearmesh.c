@@ -650,9 +650,10 @@ int model_outputs_current(const fmu_model* m) {
 
 /* State payload, native byte order (the binary is per platform):
  *   values (values_state_save: every parameter, input, output in table order) |
- *   u8 flags (1 outputs current, 2 core built) | u64 core blob size | core blob */
+ *   u8 flags (1 outputs current, 2 core built) | u64 core blob size | core blob |
+ *   [gm_kinematics: the inputs of the last evaluation, flag EVAL_INPUTS] |
+ *   gm_mesh_orders (the mesh orders' accumulation, which no variable holds) */
 enum { OUTPUTS_CURRENT = 1, CORE_BUILT = 2, EVAL_INPUTS = 4 };
-/* EVAL_INPUTS: the inputs of the last evaluation (gm_kinematics) follow the core blob. */
 
 /* The core's evaluation memory belongs to the state only if the core matches the parameters. */
 static int core_built(const fmu_model* m) {
@@ -662,7 +663,7 @@ static int core_built(const fmu_model* m) {
 size_t model_state_size(const fmu_model* m) {
   size_t n = values_state_size(&m->v) + sizeof(uint8_t) + sizeof(uint64_t);
   return n + (core_built(m) ? gm_data_state_size(m->core, m->data) : 0) +
-         (m->evaluated ? sizeof(gm_kinematics) : 0);
+         (m->evaluated ? sizeof(gm_kinematics) : 0) + sizeof(gm_mesh_orders);
 }
 
 void model_state_save(const fmu_model* m, unsigned char* buf) {
@@ -674,7 +675,11 @@ void model_state_save(const fmu_model* m, unsigned char* buf) {
   buf += sizeof blob;
   if (blob) gm_data_state_save(m->core, m->data, buf, (size_t)blob);
   buf += blob;
-  if (m->evaluated) memcpy(buf, &m->k_eval, sizeof m->k_eval);
+  if (m->evaluated) {
+    memcpy(buf, &m->k_eval, sizeof m->k_eval);
+    buf += sizeof m->k_eval;
+  }
+  memcpy(buf, &m->v.ds.orders, sizeof m->v.ds.orders);
 }
 
 /* Load into v (an owning copy of the values); m changes only on success. */
@@ -689,14 +694,22 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   uint64_t blob;
   memcpy(&blob, buf, sizeof blob);
   buf += sizeof blob;
-  const size_t tail = (flags & EVAL_INPUTS) ? sizeof(gm_kinematics) : 0;
+  const size_t orders_size = sizeof(gm_mesh_orders);
+  const size_t tail = ((flags & EVAL_INPUTS) ? sizeof(gm_kinematics) : 0) + orders_size;
   if ((size_t)(end - buf) < tail || blob != (uint64_t)(end - buf - tail) || (blob && !(flags & CORE_BUILT))) {
     snprintf(msg, n, "FMU state: contact memory of %llu bytes, %zu present", (unsigned long long)blob,
              (size_t)(end - buf - tail));
     return 1;
   }
   gm_kinematics k_eval;
-  if (tail) memcpy(&k_eval, end - tail, sizeof k_eval);
+  if (flags & EVAL_INPUTS) memcpy(&k_eval, end - tail, sizeof k_eval);
+  gm_mesh_orders orders;
+  memcpy(&orders, end - orders_size, orders_size);
+  if (!(orders.ring_count >= 0 && orders.ring_count <= GM_ORDER_CYCLES_MAX && orders.ring_next >= 0 &&
+        orders.ring_next < GM_ORDER_CYCLES_MAX && orders.cycles >= 0 && orders.cycles <= GM_ORDER_CYCLES_MAX)) {
+    snprintf(msg, n, "FMU state: the mesh orders' record is corrupt");
+    return 1;
+  }
 
   if (flags & CORE_BUILT) { /* restore the core's evaluation memory exactly */
     gm_model* core = m->core;
@@ -723,8 +736,9 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   m->v = *v; /* m takes over v's strings */
   m->sens_valid = 0;
   m->outputs_current = (flags & OUTPUTS_CURRENT) && (flags & CORE_BUILT);
-  m->evaluated = tail != 0;
-  if (tail) m->k_eval = k_eval;
+  m->evaluated = (flags & EVAL_INPUTS) != 0;
+  if (m->evaluated) m->k_eval = k_eval;
+  m->v.ds.orders = orders;
   return 0;
 }
 

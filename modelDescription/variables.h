@@ -322,6 +322,20 @@ typedef enum {
 /* X(name, type, causality, variability, initial, unit, displayUnit, field of gm_fmu_values,
  *   dependency class, description). Value reference = position in this list. min and max are not
  *   here: modelDescription.xml takes them from the core's range table (core/src/param_ranges.cpp). */
+/* Mesh order k (1 ... GM_MESH_ORDERS) of the TE and the normal force in the large-step mode
+ * (gm_mesh_orders; docs/dynamics.md, "Mesh orders"). */
+#define GM_FMU_MESH_ORDER(X, k, n)                                                                                  \
+  X("mesh.te_order" #k, Real, output, continuous, calculated, "m", "um", ds.orders.te_amplitude[n], 0,              \
+    "large-step mode: amplitude of mesh order " #k " of mesh.te over the last dynamics.order_cycles mesh cycles")    \
+  X("mesh.te_order" #k "_phase", Real, output, continuous, calculated, "rad", "deg", ds.orders.te_phase[n], 0,      \
+    "large-step mode: its phase against gear 1's mesh angle (te = mean + amplitude cos(" #k " z1 phi1 + phase))")   \
+  X("mesh.normal_force_order" #k, Real, output, continuous, calculated, "N", "kN", ds.orders.force_amplitude[n], 0, \
+    "large-step mode: amplitude of mesh order " #k " of mesh.normal_force over the same cycles")                     \
+  X("mesh.normal_force_order" #k "_phase", Real, output, continuous, calculated, "rad", "deg",                       \
+    ds.orders.force_phase[n], 0, "large-step mode: its phase against gear 1's mesh angle")
+
+_Static_assert(GM_MESH_ORDERS == 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3");
+
 #define GM_FMU_VARIABLES(X)                                                                                        \
   X("pair.center_distance", Real, parameter, fixed, exact, "m", "mm", p.pair.center_distance, D_GEO,               \
     "operating centre distance a (positive also for internal pairs)")                                              \
@@ -386,6 +400,8 @@ typedef enum {
     "inertias; adds dynamics.mesh_damping to model.damping (0 = model.damping alone)")                            \
   X("dynamics.mesh_damping", Real, calculatedParameter, fixed, calculated, "N.s/m2", "", mesh_damping,            \
     D_GEO | D_SET | D_DYN, "large-step mode: the contact damping dynamics.mesh_damping_ratio adds to model.damping") \
+  X("dynamics.order_cycles", Integer, parameter, fixed, exact, "", "", dp.order_cycles, D_DYN,                    \
+    "large-step mode: mesh cycles the mesh orders (mesh.te_order<k>) average over")                                \
   X("dynamics.step_sensitivities", Boolean, parameter, fixed, exact, "", "", step_sensitivities, D_DYN,            \
     "large-step mode: fmi2GetDirectionalDerivative gives the last step's sensitivities, d(value at its end) / "    \
     "d(gear<i>.torque, .shaft_phi, .shaft_omega held over it), instead of the partials at the point")              \
@@ -431,6 +447,11 @@ typedef enum {
     "mesh.te, root mean square over the last step")                                                                \
   X("mesh.normal_force_mean", Real, output, continuous, calculated, "N", "kN", ds.step_aggregates.normal_force_mean, \
     D_CONTACT, "mesh.normal_force, mean over the last step")                                                        \
+  GM_FMU_MESH_ORDER(X, 1, 0)                                                                                       \
+  GM_FMU_MESH_ORDER(X, 2, 1)                                                                                       \
+  GM_FMU_MESH_ORDER(X, 3, 2)                                                                                       \
+  X("mesh.order_cycles", Integer, output, discrete, calculated, "", "", ds.orders.cycles, 0,                       \
+    "large-step mode: whole mesh cycles the mesh orders are over (0: none completed yet; other modes: 0)")          \
   X("mesh.stiffness", Real, output, continuous, calculated, "N/m", "N/um", y.stiffness, D_TE,              \
     "tangent mesh stiffness along the line of action")                                                             \
   X("mesh.pairs_in_contact", Integer, output, discrete, calculated, "", "", y.pairs_in_contact, D_CONTACT,         \

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "evaluate.hpp"
+#include "mesh_orders.hpp"
 #include "trbdf2.hpp"
 #include "params.hpp"
 
@@ -400,6 +401,14 @@ struct Aggregator {
   }
 };
 
+// The mesh orders' trajectory over a step: its stage points x1 -> x2 -> x3 (mesh_orders.hpp).
+void add_orders(const gm_model& m, const Point& x1, const Point& x2, const Point& x3, gm_mesh_orders& orders) {
+  const auto point = [](const Point& x) { return OrderPoint{x.phi[0], {x.res.te, x.res.normal_force}}; };
+  const int z1 = m.params.gear[0].teeth;
+  orders_add(orders, z1, point(x1), point(x2));
+  orders_add(orders, z1, point(x2), point(x3));
+}
+
 // The aggregates of a state alone (gm_dynamics_start): its values.
 gm_step_aggregates point_aggregates(const Point& x) {
   gm_step_aggregates a;
@@ -441,7 +450,7 @@ std::string check_dynamics(const gm_model& m, const gm_dynamics_params& p) {
       return msg;
   }
   if (!check_range("dynamics.tolerance", p.tolerance, msg) || !check_range("dynamics.max_step", p.max_step, msg) ||
-      !check_range("dynamics.min_step", p.min_step, msg))
+      !check_range("dynamics.min_step", p.min_step, msg) || !check_range("dynamics.order_cycles", p.order_cycles, msg))
     return msg;
   if (!(p.min_step <= p.max_step))
     return "dynamics.min_step = " + number(p.min_step) + " s: allowed <= dynamics.max_step = " + number(p.max_step) +
@@ -560,6 +569,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       ++replayed;
       account(h_try, x1, x2, x3, s);
       aggregates.add(h_try, x1, x2, x3);
+      add_orders(m, x1, x2, x3, s.orders);
       t = h_try == remaining ? duration : t + h_try;
       if (options.observer) {
         const gm_internal_point point{t,
@@ -600,6 +610,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   s.step = h;
   finish_state(p, x1, s);
   s.step_aggregates = aggregates.finish();
+  orders_publish(s.orders, p.order_cycles);
   if (options.sensitivity) sensitivity.write(*options.sensitivity);
   s_io = s;
   res = x1.res;

@@ -74,6 +74,7 @@ constexpr gm_param_range kRanges[] = {
     row("dynamics.max_step", 1e-9, 1.0, kClosed, "s"),
     row("dynamics.min_step", 1e-15, 1.0, kClosed, "s"),  // and <= dynamics.max_step
     row("dynamics.mesh_damping_ratio", 0, 10.0, kClosed, ""),
+    row("dynamics.order_cycles", 1, GM_ORDER_CYCLES_MAX, kClosed, ""),
     // an output: the values it takes (0 none, 1 flank A, 2 flank B, 3 both)
     row("mesh.flank", 0, 3, kClosed, ""),
 };

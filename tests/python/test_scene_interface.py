@@ -69,7 +69,9 @@ def test_torsional_lists_the_spins_and_the_mesh_outputs(set_a_fmus):
     # the large-step mode's energy account is there for a master to check the integration by
     energy = {f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
                                       "damping", "parametric", "residual")}
-    assert names(fmu, "output") == set(TORSIONAL_OUTPUTS) | energy | {
+    # and the mesh orders over whole mesh cycles, for NVH at long steps
+    orders = {f"mesh.{s}_order{k}{x}" for s in ("te", "normal_force") for k in (1, 2, 3) for x in ("", "_phase")}
+    assert names(fmu, "output") == set(TORSIONAL_OUTPUTS) | energy | orders | {"mesh.order_cycles"} | {
         f"{p}.{x}" for p in ("drive", "load") for x in ("angle", "speed", "shaft_torque", "shaft_torque_mean")}
     parameters = names(fmu, "parameter")
     fixed = load_scene(SET_A).parameters

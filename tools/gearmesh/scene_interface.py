@@ -40,10 +40,13 @@ MODE_INPUTS = {
 # that the integration inside the FMU neither makes nor loses more energy than it reports
 ENERGY_OUTPUTS = [f"energy.{x}" for x in ("kinetic", "elastic", "initial", "work_in", "work_out", "friction",
                                           "damping", "parametric", "residual")]
+# the mesh orders over whole mesh cycles (docs/dynamics.md, "Mesh orders")
+MESH_ORDERS = [f"mesh.{s}_order{k}{x}" for s in ("te", "normal_force") for k in (1, 2, 3) for x in ("", "_phase")] \
+    + ["mesh.order_cycles"]
 MODE_OUTPUTS = {"prescribed": [], "quasi_static": [],
                 "large_step": [f"{p}.{x}" for p in ("drive", "load")
                                for x in ("angle", "speed", "shaft_torque", "shaft_torque_mean")]
-                + ENERGY_OUTPUTS}
+                + ENERGY_OUTPUTS + MESH_ORDERS}
 # the step means (over a large step: what a 1-10 ms master should record instead of point samples
 # of a kHz mesh signal; docs/guide/fmu.md)
 STEP_MEANS = ["mesh.te_mean", "mesh.te_min", "mesh.te_max", "mesh.te_rms", "mesh.normal_force_mean"]
@@ -61,7 +64,7 @@ LEVEL_PARAMETERS = {"model.user_stiffness": {0}, "model.stiffness_table": {1},
 # parameters of the large-step mode only
 LARGE_STEP_PARAMETERS = {f"gear{i}.{x}" for i in GEARS for x in ("inertia", "shaft_stiffness", "shaft_damping")} \
     | {"dynamics.tolerance", "dynamics.max_step", "dynamics.min_step", "dynamics.step_sensitivities",
-       "dynamics.mesh_damping_ratio"}
+       "dynamics.mesh_damping_ratio", "dynamics.order_cycles"}
 
 
 class InterfaceError(ValueError):

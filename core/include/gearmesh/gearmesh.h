@@ -253,6 +253,7 @@ typedef struct gm_dynamics_params {
   double tolerance;          /* local error of r_b,i phi_i per internal step, m, > 0 */
   double max_step;           /* largest internal step, s */
   double min_step;           /* smallest internal step before the step fails, s */
+  int order_cycles;          /* mesh cycles the orders average over, 1 ... GM_ORDER_CYCLES_MAX */
 } gm_dynamics_params;
 
 typedef struct gm_dynamics_inputs {
@@ -279,6 +280,30 @@ typedef struct gm_step_aggregates {
 /* The aggregates of a step that is one evaluation r (shaft torques: NULL for none): its values. */
 void gm_point_aggregates(const gm_result* r, const double* shaft_torque, gm_step_aggregates* out);
 
+/* Mesh orders 1..GM_MESH_ORDERS of the TE and the normal force in the large-step mode,
+ * synchronous with the mesh angle u = z_1 |phi_1| (one mesh cycle per base pitch of gear 1):
+ * Fourier coefficients over whole mesh cycles of the integrated trajectory (piecewise linear in u
+ * between the stage points, integrated exactly), averaged over the last `cycles` of them, so that
+ * signal = mean + sum_k amplitude_k cos(k u + phase_k). Exact for a steady run; in a run-up each
+ * cycle has its own speed and the window averages them. A reversal of gear 1 starts the window
+ * anew (docs/dynamics.md, "Mesh orders"). */
+#define GM_MESH_ORDERS 3
+#define GM_ORDER_CYCLES_MAX 16
+typedef struct gm_mesh_orders {
+  int cycles;                                /* whole mesh cycles in the window (0: none yet) */
+  double te_amplitude[GM_MESH_ORDERS];       /* m */
+  double te_phase[GM_MESH_ORDERS];           /* rad */
+  double force_amplitude[GM_MESH_ORDERS];    /* N */
+  double force_phase[GM_MESH_ORDERS];        /* rad */
+  /* the accumulation (internal): the open cycle, its direction, the completed cycles' coefficients */
+  int direction;                             /* +1, -1, 0: none yet */
+  int open;                                  /* 1 if a cycle began at a boundary and is open */
+  double open_from;                          /* u where it began, rad */
+  double sums[2][GM_MESH_ORDERS][2];         /* [te, force][order - 1][cos, sin] of the open cycle */
+  double ring[GM_ORDER_CYCLES_MAX][2][GM_MESH_ORDERS][2];
+  int ring_count, ring_next;
+} gm_mesh_orders;
+
 typedef struct gm_dynamics_state {
   double phi[2], omega[2]; /* spin state, rad, rad/s */
   double shaft_torque[2];  /* torque of each shaft on its gear at the state, N m */
@@ -299,9 +324,11 @@ typedef struct gm_dynamics_state {
   int steps;               /* internal steps accepted by the last gm_dynamics_advance */
   int rejected;            /* internal steps rejected by it (error, Newton, events) */
   gm_step_aggregates step_aggregates; /* over the last gm_dynamics_advance */
+  gm_mesh_orders orders;               /* over the last gm_dynamics_params.order_cycles mesh cycles */
 } gm_dynamics_state;
 
-/* Defaults: J = 0.02 kg m^2, no shafts, tolerance 1e-8 m, steps 1e-9 ... 1e-3 s. */
+/* Defaults: J = 0.02 kg m^2, no shafts, tolerance 1e-8 m, steps 1e-9 ... 1e-3 s, orders over 4
+ * mesh cycles. */
 void gm_dynamics_default_params(gm_dynamics_params* p);
 /* GM_OK, or GM_ERR_PARAMETER with msg naming the parameter and its allowed range (also when m is
  * in quasi-static mode, which the dynamics replace). */
