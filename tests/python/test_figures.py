@@ -41,10 +41,12 @@ def check_picture(path: pathlib.Path) -> None:
 
 def test_cheap_pictures(fmu_path, tmp_path):
     out = tmp_path / "img"
-    made = figures.make(out, ["schematic", "pareto"],
+    made = figures.make(out, ["schematic", "pareto", "aliasing"],
                         figures.Options(fmu=fmu_path, work=tmp_path / "work"))
-    assert set(made) == {"schematic", "pareto"}
-    assert sorted(p.name for p in out.iterdir()) == ["pareto.png", "schematic.png"]
+    assert set(made) == {"schematic", "pareto", "aliasing"}
+    assert sorted(p.name for p in out.iterdir()) == ["aliasing.png", "pareto.png", "schematic.png"]
+    # the aliasing picture's point: at 1 kHz the 2.85 kHz mesh line lands at 150 Hz
+    assert "largest line at 150 Hz" in made["aliasing"][2], made["aliasing"][2]
     for name, (path, seconds, _) in made.items():
         assert path == out / figures.FILES[name]
         check_picture(path)
