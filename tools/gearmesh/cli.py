@@ -94,8 +94,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "misaligned (full) or its bearings move (planar)")
     p_fmu.add_argument("--tunable", action="append", default=[], metavar="PARAMETER",
                        help="a parameter the scene sets that stays listed and tunable (repeatable)")
-    p_fmu.add_argument("--fmu", type=pathlib.Path, default=REPO / "build" / "GearMesh.fmu",
-                       help="the generic FMU (default build/GearMesh.fmu)")
+    p_fmu.add_argument("--fmi3", action="store_true",
+                       help="an FMI 3.0 FMU, from build/GearMesh-fmi3.fmu (default: FMI 2.0)")
+    p_fmu.add_argument("--fmu", type=pathlib.Path, default=None,
+                       help="the generic FMU (default build/GearMesh.fmu, with --fmi3 build/GearMesh-fmi3.fmu)")
     p_fmu.add_argument("--out", type=pathlib.Path, help="default: output/SCENE_NAME.fmu")
     p_train = sub.add_parser("train-fmu", help="write a gear train's FMU (bodies, shafts, meshes; "
                              "gearmesh.train_fmu) around the train binary")
@@ -183,7 +185,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "fmu":
         from gearmesh.train_fmu import is_train_scene
 
+        if args.fmu is None:
+            args.fmu = REPO / "build" / ("GearMesh-fmi3.fmu" if args.fmi3 else "GearMesh.fmu")
         if is_train_scene(args.scenes[0]):  # a train scene: its train FMU (gearmesh train-fmu)
+            if args.fmi3:
+                print("gearmesh: --fmi3: a train FMU is FMI 2.0 only (gearmesh train-fmu)", file=sys.stderr)
+                return 2
             if args.interface or args.tunable:
                 print("gearmesh: --interface and --tunable are for pair scenes; a train FMU lists its "
                       "members' variables (and the outputs its [fmu] outputs names)", file=sys.stderr)

@@ -94,10 +94,27 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
     return out
 
 
+# FMI 3.0's variable elements and the FMI 2.0 types they stand for (generate_model_description --fmi3)
+FMI3_TYPES = {"Float64": "Real", "Int32": "Integer", "Boolean": "Boolean", "String": "String"}
+
+
+def is_fmi3(xml: str) -> bool:
+    return ET.fromstring(xml).get("fmiVersion", "").startswith("3")
+
+
 def model_variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
-    """name -> (type, causality, start) of every ScalarVariable."""
+    """name -> (type, causality, start) of every variable (FMI 2.0 or 3.0; the type as FMI 2.0
+    names it; FMI 3.0's independent variable left out)."""
     root = ET.fromstring(xml)
     out = {}
+    if root.get("fmiVersion", "").startswith("3"):
+        for el in root.find("ModelVariables"):
+            if el.get("causality") == "independent":
+                continue
+            start = el.find("Start").get("value") if el.tag == "String" and el.find("Start") is not None \
+                else el.get("start")
+            out[el.get("name")] = (FMI3_TYPES[el.tag], el.get("causality", "local"), start)
+        return out
     for sv in root.iter("ScalarVariable"):
         typ = sv[0]  # the type element
         out[sv.get("name")] = (typ.tag, sv.get("causality", "local"), typ.get("start"))
@@ -150,8 +167,14 @@ def _xml_value(text: str) -> str:
 def _replace_start(xml: str, name: str, text: str, typ: str) -> str:
     """Replace the start attribute of one variable, leaving the rest of the file as it is."""
     attribute = escape(_xml_value(text), {'"': "&quot;"})
-    pattern = re.compile(r'(<ScalarVariable\s+name="' + re.escape(escape(name, {'"': "&quot;"}))
-                         + r'"[^>]*>\s*<' + typ + r'\b[^>]*?\sstart=")[^"]*(")')
+    quoted = re.escape(escape(name, {'"': "&quot;"}))
+    if is_fmi3(xml):  # the start on the variable's own element, a String's in its <Start>
+        tag = {v: k for k, v in FMI3_TYPES.items()}[typ]
+        pattern = re.compile(r'(<String\s+name="' + quoted + r'"[^>]*>\s*<Start\s+value=")[^"]*(")' if typ == "String"
+                             else r'(<' + tag + r'\s+name="' + quoted + r'"[^>]*?\sstart=")[^"]*(")')
+    else:
+        pattern = re.compile(r'(<ScalarVariable\s+name="' + quoted
+                             + r'"[^>]*>\s*<' + typ + r'\b[^>]*?\sstart=")[^"]*(")')
     xml, n = pattern.subn(lambda m: m.group(1) + attribute + m.group(2), xml)
     if n != 1:
         raise ValueError(f"{name}: modelDescription.xml has no start value to replace")

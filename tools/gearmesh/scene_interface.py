@@ -140,8 +140,11 @@ def _read(name: str, fixed: Mapping[str, object], modes: list[str]) -> bool:
 def restrict_model_description(xml: str, listed: set[str]) -> str:
     """modelDescription.xml with only the `listed` ScalarVariables, the ModelStructure indices
     renumbered and dependencies on variables no longer listed dropped (their values are now
-    constants of the scene)."""
+    constants of the scene). FMI 3.0: the same by value reference (nothing renumbered), the
+    independent variable kept."""
     root = ET.fromstring(xml)
+    if root.get("fmiVersion", "").startswith("3"):
+        return _restrict_fmi3(root, listed)
     variables = root.find("ModelVariables")
     new_index, kept = {}, []
     for old, sv in enumerate(variables.findall("ScalarVariable"), start=1):
@@ -170,6 +173,30 @@ def restrict_model_description(xml: str, listed: set[str]) -> str:
         for rng in ranges.findall("Range"):
             if rng.get("variable") not in listed:
                 ranges.remove(rng)
+    ET.indent(root, space="  ")
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def _restrict_fmi3(root: ET.Element, listed: set[str]) -> str:
+    variables = root.find("ModelVariables")
+    kept = [el for el in variables if el.get("name") in listed or el.get("causality") == "independent"]
+    unknown = listed - {el.get("name") for el in kept}
+    if unknown:
+        raise InterfaceError(f"{sorted(unknown)[0]}: no such variable in modelDescription.xml")
+    refs = {el.get("valueReference") for el in kept}
+    variables.clear()
+    variables.extend(kept)
+    structure = root.find("ModelStructure")
+    for unknown_el in list(structure):
+        if unknown_el.get("valueReference") not in refs:
+            structure.remove(unknown_el)
+            continue
+        deps, kinds = (unknown_el.get("dependencies") or "").split(), (unknown_el.get("dependenciesKind") or "").split()
+        pairs = [(d, k) for d, k in zip(deps, kinds or [None] * len(deps)) if d in refs]
+        if unknown_el.get("dependencies") is not None:
+            unknown_el.set("dependencies", " ".join(d for d, _ in pairs))
+            if kinds:
+                unknown_el.set("dependenciesKind", " ".join(k for _, k in pairs))
     ET.indent(root, space="  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
