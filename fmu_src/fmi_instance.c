@@ -479,7 +479,7 @@ static fmu_state* state_for(fmi_instance* c, const char* function, void** slot, 
   if (*slot && i == c->n_states) {
     fmi_error(c, "%s: *%s = %p was not made by this instance; allowed: NULL (a new state) or a state "
                  "this instance made",
-              function, c->api->state + 0, *slot);
+              function, c->api->state, *slot);
     return NULL;
   }
   if (!*slot && c->n_states == c->cap_states) {

@@ -274,6 +274,20 @@ static void put_unknown3(FILE* f, const char* element, size_t index, int initial
  * <TypeDefinitions>, named for them ("m", "m in um"), which the variable names as declaredType:
  * FMI 3.0 allows unit and displayUnit on the variable too, but fmi-sim (fmi-schema 0.8) reads
  * them only there. */
+/* The unit and display unit attributes of v (none if it has none). */
+static void put_units(FILE* f, const gm_fmu_variable* v) {
+  if (v->unit[0]) {
+    fputs(" unit=\"", f);
+    put_escaped(f, v->unit);
+    fputc('"', f);
+  }
+  if (v->display_unit[0]) {
+    fputs(" displayUnit=\"", f);
+    put_escaped(f, v->display_unit);
+    fputc('"', f);
+  }
+}
+
 static void put_type_name(FILE* f, const gm_fmu_variable* v) {
   put_escaped(f, v->unit);
   if (v->display_unit[0]) {
@@ -294,14 +308,8 @@ static void put_type_definitions(FILE* f) {
     if (seen) continue;
     fputs("    <Float64Type name=\"", f);
     put_type_name(f, v);
-    fputs("\" unit=\"", f);
-    put_escaped(f, v->unit);
     fputc('"', f);
-    if (v->display_unit[0]) {
-      fputs(" displayUnit=\"", f);
-      put_escaped(f, v->display_unit);
-      fputc('"', f);
-    }
+    put_units(f, v);
     fputs("/>\n", f);
   }
   fputs("    <Float64Type name=\"s\" unit=\"s\"/>\n  </TypeDefinitions>\n", f);
@@ -451,16 +459,7 @@ int main(int argc, char** argv) {
     fprintf(f, "\"\n      causality=\"%s\" variability=\"%s\"", v->causality_name, v->variability);
     if (v->causality != GM_FMU_input) fprintf(f, " initial=\"%s\"", v->initial); /* inputs carry no initial */
     fprintf(f, ">\n      <%s", v->type_name);
-    if (v->unit[0]) {
-      fputs(" unit=\"", f);
-      put_escaped(f, v->unit);
-      fputc('"', f);
-    }
-    if (v->display_unit[0]) {
-      fputs(" displayUnit=\"", f);
-      put_escaped(f, v->display_unit);
-      fputc('"', f);
-    }
+    put_units(f, v);
     if (r) {
       put_bound(f, "min", r->lo, v->type);
       put_bound(f, "max", r->hi, v->type);

@@ -16,36 +16,39 @@ namespace {
 constexpr double kPi = 3.14159265358979323846264338327950;
 constexpr double kTwoPi = 2.0 * kPi;
 
-// int over [u0, u1] of (f0 + s (u - u0)) cos(k u) and sin(k u) du, s the slope.
-void linear_fourier(double u0, double u1, double f0, double f1, int k, double* c, double* sn) {
-  const double s = u1 > u0 ? (f1 - f0) / (u1 - u0) : 0.0;
-  const auto primitive = [&](double u, double* pc, double* ps) {
-    const double kk = k, ck = std::cos(k * u), sk = std::sin(k * u);
-    const double f = f0 + s * (u - u0);
-    *pc = f * sk / kk + s * ck / (kk * kk);   // d/du: f cos(ku)
-    *ps = -f * ck / kk + s * sk / (kk * kk);  // d/du: f sin(ku)
-  };
-  double c0, s0, c1, s1;
-  primitive(u0, &c0, &s0);
-  primitive(u1, &c1, &s1);
-  *c = c1 - c0;
-  *sn = s1 - s0;
-}
-
 void clear_sums(gm_mesh_orders& o) {
   for (auto& signal : o.sums)
     for (auto& order : signal) order[0] = order[1] = 0.0;
 }
 
-// Add the piece [u0, u1] (u0 < u1, inside one cycle) to the open cycle.
+// cos(k u) and sin(k u) for k = 1 .. GM_MESH_ORDERS from one cosine and sine (the angle-addition
+// recurrence: two trigonometric calls per point instead of two per order).
+void harmonics(double u, double c[GM_MESH_ORDERS], double sn[GM_MESH_ORDERS]) {
+  c[0] = std::cos(u);
+  sn[0] = std::sin(u);
+  for (int k = 1; k < GM_MESH_ORDERS; ++k) {
+    c[k] = c[k - 1] * c[0] - sn[k - 1] * sn[0];
+    sn[k] = sn[k - 1] * c[0] + c[k - 1] * sn[0];
+  }
+}
+
+// Add the piece [u0, u1] (u0 < u1, inside one cycle) to the open cycle: the integrals of
+// (f0 + s (u - u0)) cos(k u) and sin(k u), s the slope, from their primitives
+//   f sin(ku)/k + s cos(ku)/k^2  and  -f cos(ku)/k + s sin(ku)/k^2.
 void add_piece(gm_mesh_orders& o, double u0, double u1, const double f0[2], const double f1[2]) {
-  for (int sig = 0; sig < 2; ++sig)
+  double c0[GM_MESH_ORDERS], s0[GM_MESH_ORDERS], c1[GM_MESH_ORDERS], s1[GM_MESH_ORDERS];
+  harmonics(u0, c0, s0);
+  harmonics(u1, c1, s1);
+  for (int sig = 0; sig < 2; ++sig) {
+    const double slope = (f1[sig] - f0[sig]) / (u1 - u0);
     for (int k = 1; k <= GM_MESH_ORDERS; ++k) {
-      double c, sn;
-      linear_fourier(u0, u1, f0[sig], f1[sig], k, &c, &sn);
-      o.sums[sig][k - 1][0] += c / kPi;
-      o.sums[sig][k - 1][1] += sn / kPi;
+      const double kk = k, a = f0[sig], b = f1[sig];
+      const double cos_part = (b * s1[k - 1] - a * s0[k - 1]) / kk + slope * (c1[k - 1] - c0[k - 1]) / (kk * kk);
+      const double sin_part = (a * c0[k - 1] - b * c1[k - 1]) / kk + slope * (s1[k - 1] - s0[k - 1]) / (kk * kk);
+      o.sums[sig][k - 1][0] += cos_part / kPi;
+      o.sums[sig][k - 1][1] += sin_part / kPi;
     }
+  }
 }
 
 void close_cycle(gm_mesh_orders& o) {
