@@ -279,6 +279,7 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
     d->dual_forces.resize(m->slice_capacity);
     d->dual_stiffness.resize(m->slice_capacity);
     d->dual_balance.resize(m->slice_capacity);
+    d->loaded.resize(m->slice_capacity);
     if (gm::coupled_solve(*m)) {
       const int c = m->slice_capacity;
       d->nlcp = std::make_unique<gm::NlcpSolver>(c);
@@ -315,6 +316,7 @@ void gm_data_free(gm_data* d) { delete d; }
 void gm_data_reset(const gm_model* m, gm_data* d) {
   if (!m || !d) return;
   d->message.clear();
+  d->loaded_count = 0;
   d->te_estimate = 0;
   d->fe_prev_n = -1;
   d->fe_assembly.invalidate();
@@ -428,6 +430,7 @@ gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, siz
   d->te_estimate = h.te_estimate;
   d->fe_prev_n = -1;  // level 5: the next solve starts cold
   d->fe_assembly.invalidate();  // derived caches: rebuilt by the next call
+  d->loaded_count = 0;          // the record of the last evaluation: none since
   d->message.clear();
   return GM_OK;
 }

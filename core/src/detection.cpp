@@ -544,18 +544,21 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
         ContactSliceT<T>& c = out[count++];
         if (uniform && emitted) {
           shift_slice(out[first], mo, z, T(approach_t * L.cos_beta_b), c);
+          c.slice = k;
           continue;
         }
         fill_slice(L, F, S, mo, G, sigma, fl, z, approach_t, c);
         c.tooth[0] = tooth1;
         c.tooth[1] = tooth2;
         c.pair = pair;
+        c.slice = k;
         first = count - 1;
         emitted = true;
         if (one_per_pair) {
           const ContactSliceT<T> one = c;
           shift_slice(one, mo, T(F.zlo + (0.5 * L.slices) * F.width), c.approach, c);
           c.width = one.width * double(L.slices);
+          c.run = L.slices;
           break;
         }
       }

@@ -65,6 +65,8 @@ struct ContactSliceT {
   int kind = kFlankContact;        // ContactKind
   int tooth[2] = {0, 0};           // tooth index on gear 1, tooth (ring: space) index on gear 2
   int pair = 0;                    // index of the tooth pair within this evaluation
+  int slice = 0;                   // its first slice across the axial overlap, 0 .. slices - 1,
+  int run = 1;                     // and how many consecutive ones it stands for (merged: > 1)
   T approach = 0;             // normal approach Delta_n, m: > 0 overlap, < 0 gap
   T width = 0;                // axial slice width L, m
   T roll[2] = {T(0), T(0)};         // roll distances of the contact point on both flanks, m

@@ -102,11 +102,19 @@ void store_resultants(const gm_model& m, gm_data& d, Evaluation& e) {
   r.max_load_share = rt.max_load_share;
   r.pairs_in_contact = rt.pairs_in_contact;
   r.flank = rt.flank;
+  int loaded = 0;  // the loaded slices, for gm_data_load_distribution
+  for (int i = 0; i < n; ++i) {
+    const ContactSlice& s = d.slices[i];
+    if (d.forces[i] > 0)
+      d.loaded[loaded++] = {s.pair, s.slice, s.run, s.flank, d.forces[i], s.width, s.path_position, s.approach};
+  }
+  d.loaded_count = loaded;
 }
 
 }  // namespace
 
 gm_status evaluate(const gm_model& m, gm_data& d, const gm_kinematics& kin_in, gm_result& res) {
+  d.loaded_count = 0;
   if (!inputs_valid(kin_in, d.message)) return GM_ERR_INPUT;
   const MeshLayout& L = m.layout;
   Evaluation e(L, kin_in);

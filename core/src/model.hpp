@@ -78,6 +78,15 @@ struct gm_data {
   std::vector<gm::ContactSliceT<gm::Dual>> dual_slices;
   std::vector<gm::SliceLawT<gm::Dual>> dual_laws;
   std::vector<gm::Dual> dual_forces, dual_stiffness, dual_balance;
+  // The loaded slices of the last gm_evaluate (gm_data_load_distribution), recorded as it
+  // stores its outputs: the passes that follow (a directional derivative, a quasi-static pass)
+  // reuse the candidate arrays.
+  struct LoadedSlice {
+    int pair, slice, run, flank;
+    double force, width, path_position, approach;
+  };
+  std::vector<LoadedSlice> loaded;       // capacity fixed at creation
+  int loaded_count = 0;
   std::string message;                   // last error ("" if none)
 };
 

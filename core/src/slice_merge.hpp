@@ -33,7 +33,7 @@ bool same(const T& a, const T& b) {
 template <class T>
 bool repeats(const ContactSliceT<T>& a, const T& a_width, const ContactSliceT<T>& b) {
   if (a.flank != b.flank || a.kind != b.kind || a.pair != b.pair || a.tooth[0] != b.tooth[0] ||
-      a.tooth[1] != b.tooth[1])
+      a.tooth[1] != b.tooth[1] || b.slice != a.slice + a.run)  // the next slice of a's run
     return false;
   if (!same(a.approach, b.approach) || !same(a_width, b.width) || !same(a.roll[0], b.roll[0]) ||
       !same(a.roll[1], b.roll[1]) || !same(a.approach_rate, b.approach_rate) ||
@@ -62,7 +62,8 @@ void merge_into(ContactSliceT<T>& acc, const ContactSliceT<T>& x, int count) {
   }
   fold(acc.point.x(), x.point.x(), count);
   fold(acc.point.y(), x.point.y(), count);
-  acc.width += x.width;  // the widths add
+  acc.width += x.width;  // the widths add, and the slices it stands for
+  acc.run += x.run;
 }
 
 }  // namespace slice_merge_detail

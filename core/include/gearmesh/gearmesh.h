@@ -414,6 +414,31 @@ gm_status gm_dynamics_advance_with(const gm_model* m, gm_data* d, const gm_dynam
 gm_status gm_mesh_damping_for_ratio(const gm_model_params* p, const double inertia[2], double ratio,
                                     double* damping, char* msg, size_t msg_size);
 
+/* The load distribution across the face (docs/model.md, "Load across the face"). */
+/* One loaded tooth pair of the last gm_evaluate. */
+typedef struct gm_pair_load {
+  double force;         /* its normal force, N (the sum of its slices') */
+  double share;         /* its share of the mesh's normal force, 0..1 */
+  double path_position; /* where it is on the path of contact: 0 at the start, 1 at the end (the
+                           mean over its loaded slices, weighted by their forces) */
+  double approach;      /* the largest normal approach of its loaded slices, m */
+  int flank;            /* 1 flank A, 2 flank B */
+} gm_pair_load;
+
+/* The tooth pairs that the last gm_evaluate of d loaded, in the order of their position on the
+ * path of contact (flank A's, then flank B's), and the line load of each at the model's
+ * gm_model_parameters(m)->slices slices across the axial overlap: line_load[k * slices + j], N/m,
+ * 0 where the pair's slice j carries nothing. Writes max_pairs rows of pairs and line_load (rows
+ * past the loaded pairs are zero; either pointer may be NULL) and returns how many tooth pairs are
+ * loaded, which may exceed max_pairs: then only the first max_pairs are written. 0 before the
+ * first evaluation and after a failed one. */
+int gm_data_load_distribution(const gm_model* m, const gm_data* d, int max_pairs, gm_pair_load* pairs,
+                              double* line_load);
+
+/* The centre of each of the model's slices across the axial overlap at the nominal pose, as a
+ * coordinate along the housing frame's z axis, m (z[j], j < gm_model_parameters(m)->slices). */
+void gm_model_slice_positions(const gm_model* m, double* z);
+
 /* Last error message of d ("" if none). */
 const char* gm_data_message(const gm_data* d);
 
