@@ -7,9 +7,10 @@
  * with the contact, spins and shaft torques readable at that time (intermediateUpdate="true").
  *
  * The variables are the FMI 2.0 table's, with the same value references: Real as Float64,
- * Integer as Int32, Boolean and String as themselves; plus the independent variable `time` at
- * value reference model_variable_count(), which reads the instance's time. Arrays: none yet, so
- * nValues equals nValueReferences. */
+ * Integer as Int32 (a structural parameter as UInt64), Boolean and String as themselves; plus the
+ * independent variable `time` at value reference model_variable_count(), which reads the
+ * instance's time, and after it the arrays (model.h), Float64 arrays whose elements come in
+ * row-major order: nValues counts them. Configuration Mode sets the structural parameters. */
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -244,42 +245,83 @@ fmi3Status fmi3Reset(fmi3Instance component) {
 
 /* ---- values ----------------------------------------------------------------------------- */
 
-/* nValues must be nValueReferences: no variable is an array. */
+/* nValues must be nValueReferences for types without arrays. */
 static fmi3Status scalars(fmi_instance* c, const char* function, size_t nvr, size_t n_values) {
   if (n_values == nvr) return fmi3OK;
   return (fmi3Status)fmi_error(c,
-                               "%s: nValues = %zu for %zu value references; allowed: equal (no variable is an "
-                               "array)",
+                               "%s: nValues = %zu for %zu value references; allowed: equal (no variable of this "
+                               "type is an array)",
                                function, n_values, nvr);
 }
 
+/* The array with FMI 3.0 value reference vr (after `time`), or -1. */
+static int array_of(unsigned vr) {
+  const unsigned first = time_vr() + 1;
+  return vr >= first && vr - first < model_array_count() ? (int)(vr - first) : -1;
+}
+
+/* Structural parameters are UInt64 in FMI 3.0: not Int32 (1 with an error naming the first). */
+static int structural_as_int32(fmi_instance* c, const char* function, const fmi3ValueReference vr[], size_t n) {
+  for (size_t i = 0; i < n && vr; i++)
+    if (model_variable_structural(vr[i])) {
+      fmi_error(c, "%s: %s is a structural parameter, of type UInt64 (fmi3GetUInt64, fmi3SetUInt64)", function,
+                model_variable(vr[i])->name);
+      return 1;
+    }
+  return 0;
+}
+
+/* Float64 values: the scalars', `time` from the instance, each array's elements in turn. The
+ * value references are expanded to one per value (an array's to its elements', model.h), which
+ * the shared layer reads as scalars. */
 fmi3Status fmi3GetFloat64(fmi3Instance component, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, fmi3Float64 values[], size_t nValues) {
   CHECK_MODE(FMI_MASK_GET_VALUES);
-  if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
-  if (not_intermediate(outer, __func__, valueReferences, nValueReferences)) return fmi3Error;
-  /* the independent variable: the instance's time (read alone or among the others) */
-  const unsigned t = time_vr();
-  for (size_t i = 0; i < nValueReferences && valueReferences && values; i++) {
-    if (valueReferences[i] != t) continue;
-    /* the rest one by one, time from the instance */
-    for (size_t k = 0; k < nValueReferences; k++) {
-      if (valueReferences[k] == t) {
-        values[k] = c->time;
-        continue;
-      }
-      fmi_status s = fmi_get_values(c, __func__, MODEL_Real, &valueReferences[k], 1, &values[k], 1);
-      if (s != FMI_OK) return (fmi3Status)s;
-    }
-    return fmi3OK;
+  if (nValueReferences == 0) return fmi3OK;
+  if (!valueReferences || !values) return (fmi3Status)fmi_error(c, "%s: vr[] and value[] must not be NULL", __func__);
+  size_t total = 0;
+  for (size_t i = 0; i < nValueReferences; i++) {
+    const int a = array_of(valueReferences[i]);
+    total += a < 0 ? 1 : model_array_length(c->model, (unsigned)a);
   }
-  return (fmi3Status)fmi_get_values(c, __func__, MODEL_Real, valueReferences, nValueReferences, values, 1);
+  if (total != nValues)
+    return (fmi3Status)fmi_error(c,
+                                 "%s: nValues = %zu for %zu value references, whose values number %zu (an array "
+                                 "counts its elements at the current structural parameters)",
+                                 __func__, nValues, nValueReferences, total);
+  unsigned* vr = malloc((total ? total : 1) * sizeof *vr);
+  if (!vr) return (fmi3Status)fmi_error(c, "%s: out of memory", __func__);
+  size_t k = 0;
+  for (size_t i = 0; i < nValueReferences; i++) {
+    const int a = array_of(valueReferences[i]);
+    if (a < 0) {
+      vr[k++] = valueReferences[i];
+      continue;
+    }
+    const size_t length = model_array_length(c->model, (unsigned)a);
+    for (size_t e = 0; e < length; e++) vr[k++] = MODEL_ELEMENT_VR((unsigned)a, e);
+  }
+  fmi3Status status = fmi3OK;
+  const unsigned t = time_vr();
+  size_t from = 0; /* runs without `time` in one call (the outputs are evaluated once), time apart */
+  for (size_t i = 0; i <= total && status == fmi3OK; i++) {
+    if (i < total && vr[i] != t) continue;
+    if (i > from) {
+      if (not_intermediate(outer, __func__, &vr[from], i - from)) status = fmi3Error;
+      else status = (fmi3Status)fmi_get_values(c, __func__, MODEL_Real, &vr[from], i - from, &values[from], 1);
+    }
+    if (i < total) values[i] = c->time;
+    from = i + 1;
+  }
+  free(vr);
+  return status;
 }
 
 fmi3Status fmi3GetInt32(fmi3Instance component, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                         fmi3Int32 values[], size_t nValues) {
   CHECK_MODE(FMI_MASK_GET_VALUES);
   if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (structural_as_int32(c, __func__, valueReferences, nValueReferences)) return fmi3Error;
   if (not_intermediate(outer, __func__, valueReferences, nValueReferences)) return fmi3Error;
   return (fmi3Status)fmi_get_values(c, __func__, MODEL_Integer, valueReferences, nValueReferences, values, 1);
 }
@@ -316,6 +358,7 @@ fmi3Status fmi3SetInt32(fmi3Instance component, const fmi3ValueReference valueRe
                         const fmi3Int32 values[], size_t nValues) {
   CHECK_MODE(FMI_MASK_SET_VALUES);
   if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (structural_as_int32(c, __func__, valueReferences, nValueReferences)) return fmi3Error;
   return (fmi3Status)fmi_set_values(c, __func__, MODEL_Integer, valueReferences, nValueReferences, values, 1);
 }
 
@@ -361,7 +404,52 @@ NO_VARIABLES(Int16, fmi3Int16)
 NO_VARIABLES(UInt16, fmi3UInt16)
 NO_VARIABLES(UInt32, fmi3UInt32)
 NO_VARIABLES(Int64, fmi3Int64)
-NO_VARIABLES(UInt64, fmi3UInt64)
+
+/* UInt64: the structural parameters (Integer parameters of the model), read and set as ints. */
+static int only_structural(fmi_instance* c, const char* function, const fmi3ValueReference vr[], size_t n) {
+  for (size_t i = 0; i < n && vr; i++)
+    if (!model_variable_structural(vr[i])) {
+      fmi_error(c, "%s: value reference %u is not a variable of type UInt64 (the structural parameters)", function,
+                (unsigned)vr[i]);
+      return 1;
+    }
+  return 0;
+}
+
+fmi3Status fmi3GetUInt64(fmi3Instance component, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         fmi3UInt64 values[], size_t nValues) {
+  CHECK_MODE(FMI_MASK_GET_VALUES | FMI_CONFIGURATION | FMI_INSTANTIATED);
+  if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (nValueReferences == 0) return fmi3OK;
+  if (!valueReferences || !values) return (fmi3Status)fmi_error(c, "%s: vr[] and value[] must not be NULL", __func__);
+  if (only_structural(c, __func__, valueReferences, nValueReferences)) return fmi3Error;
+  for (size_t i = 0; i < nValueReferences; i++) values[i] = (fmi3UInt64)model_get_int(c->model, valueReferences[i]);
+  return fmi3OK;
+}
+
+fmi3Status fmi3SetUInt64(fmi3Instance component, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const fmi3UInt64 values[], size_t nValues) {
+  CHECK_MODE(FMI_INSTANTIATED | FMI_CONFIGURATION);
+  if (scalars(c, __func__, nValueReferences, nValues) != fmi3OK) return fmi3Error;
+  if (nValueReferences == 0) return fmi3OK;
+  if (!valueReferences || !values) return (fmi3Status)fmi_error(c, "%s: vr[] and value[] must not be NULL", __func__);
+  if (only_structural(c, __func__, valueReferences, nValueReferences)) return fmi3Error;
+  int* ints = malloc(nValueReferences * sizeof *ints);
+  if (!ints) return (fmi3Status)fmi_error(c, "%s: out of memory", __func__);
+  fmi3Status status = fmi3OK;
+  for (size_t i = 0; i < nValueReferences && status == fmi3OK; i++) {
+    if (values[i] > (fmi3UInt64)0x7FFFFFFF)
+      status = (fmi3Status)fmi_error(c, "%s: %s = %llu is out of range; it keeps %d", __func__,
+                                     model_variable(valueReferences[i])->name, (unsigned long long)values[i],
+                                     model_get_int(c->model, valueReferences[i]));
+    else
+      ints[i] = (int)values[i];
+  }
+  if (status == fmi3OK)
+    status = (fmi3Status)fmi_set_values(c, __func__, MODEL_Integer, valueReferences, nValueReferences, ints, 1);
+  free(ints);
+  return status;
+}
 
 fmi3Status fmi3GetBinary(fmi3Instance component, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                          size_t valueSizes[], fmi3Binary values[], size_t nValues) {
@@ -517,12 +605,18 @@ fmi3Status fmi3DoStep(fmi3Instance component, fmi3Float64 currentCommunicationPo
 
 /* ---- what co-simulation without event mode does not have -------------------------------- */
 
+/* Configuration Mode: the structural parameters (model.slices, which the arrays' dimensions
+ * name) are set there; also before initialization, as every fixed parameter. */
 fmi3Status fmi3EnterConfigurationMode(fmi3Instance component) {
-  UNSUPPORTED("this FMU has no structural parameters");
+  CHECK_MODE(FMI_INSTANTIATED);
+  c->mode = FMI_CONFIGURATION;
+  return fmi3OK;
 }
 
 fmi3Status fmi3ExitConfigurationMode(fmi3Instance component) {
-  UNSUPPORTED("this FMU has no structural parameters");
+  CHECK_MODE(FMI_CONFIGURATION);
+  c->mode = FMI_INSTANTIATED;
+  return fmi3OK;
 }
 
 fmi3Status fmi3GetIntervalDecimal(fmi3Instance component, const fmi3ValueReference valueReferences[],

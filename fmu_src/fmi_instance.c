@@ -130,6 +130,7 @@ static const char* mode_name(const fmi_instance* c) {
     case FMI_INITIALIZATION: return "Initialization Mode";
     case FMI_STEP: return c->api->step_mode;
     case FMI_TERMINATED: return "terminated";
+    case FMI_CONFIGURATION: return "Configuration Mode";
     default: return "error";
   }
 }
@@ -273,6 +274,13 @@ static const char* const causality_names[] = {"parameter", "calculatedParameter"
 static const model_variable_info* variable(const fmi_instance* c, const char* function, unsigned vr,
                                            model_type type) {
   const model_variable_info* v = model_variable(vr);
+  if (v && v->type == type && vr >= MODEL_ELEMENT_VR_BASE) { /* an array's element: within its length now */
+    const size_t length = model_array_length(c->model, MODEL_ELEMENT_ARRAY(vr));
+    if (MODEL_ELEMENT_INDEX(vr) < length) return v;
+    fmi_error(c, "%s: value reference %u is element %u of %s, which has %zu elements; allowed: 0 to %zu", function,
+              vr, MODEL_ELEMENT_INDEX(vr), v->name, length, length ? length - 1 : 0);
+    return NULL;
+  }
   if (v && v->type == type) return v;
   fmi_error(c, "%s: value reference %u is not a variable of type %s", function, vr, type_names[type]);
   return NULL;
@@ -323,7 +331,7 @@ fmi_status fmi_set_values(fmi_instance* c, const char* function, model_type type
     const model_variable_info* v = variable(c, function, vr[i], type);
     if (!v) return FMI_ERROR;
     if (v->causality == MODEL_parameter && v->variability == MODEL_fixed &&
-        !(c->mode & (FMI_INSTANTIATED | FMI_INITIALIZATION)))
+        !(c->mode & (FMI_INSTANTIATED | FMI_INITIALIZATION | FMI_CONFIGURATION)))
       return fmi_error(c, "%s: %s is a fixed parameter, settable only before %sExitInitializationMode", function,
                        v->name, c->api->prefix);
     if (v->causality != MODEL_parameter && v->causality != MODEL_input)

@@ -39,6 +39,25 @@ unsigned model_variable_count(void);
 /* 1 if vr may be read during an intermediate result (model_set_intermediate). */
 int model_variable_intermediate(unsigned vr);
 
+/* 1 if vr is a structural parameter (an Integer parameter that arrays' dimensions name; FMI 3.0
+ * declares it UInt64 causality="structuralParameter"). */
+int model_variable_structural(unsigned vr);
+
+/* ---- arrays ----------------------------------------------------------------------------- */
+
+/* Real arrays: FMI 3.0 array variables, value references model_variable_count() + 1 + a (after
+ * `time`). Each element is also a Real scalar with value reference MODEL_ELEMENT_VR(a, i), i its
+ * index in row-major order, which model_variable describes (the array's info) and
+ * model_get_real reads: FMI 2.0, which has no arrays, reaches the elements so (a scene FMU lists
+ * the ones it needs). */
+#define MODEL_ELEMENT_VR_BASE 0x40000000u
+#define MODEL_ELEMENT_VR(a, i) (MODEL_ELEMENT_VR_BASE + ((unsigned)(a) << 20) + (unsigned)(i))
+#define MODEL_ELEMENT_ARRAY(vr) (((vr) - MODEL_ELEMENT_VR_BASE) >> 20)
+#define MODEL_ELEMENT_INDEX(vr) (((vr) - MODEL_ELEMENT_VR_BASE) & 0xFFFFFu)
+unsigned model_array_count(void);
+/* The elements array a has now (its dimensions' product at the current structural parameters). */
+size_t model_array_length(const fmu_model* m, unsigned a);
+
 /* ---- logging ---------------------------------------------------------------------------- */
 
 /* Log categories are numbered as in modelDescription.xml's <LogCategories>: first the generic

@@ -53,8 +53,34 @@ static const model_variable_info variable_info[] = {
 #undef INFO
 };
 
+static const model_variable_info array_info[] = {
+#define INFO(name, causality, variability, ...) {name, MODEL_Real, MODEL_##causality, MODEL_##variability},
+    GM_FMU_ARRAYS(INFO)
+#undef INFO
+};
+
+/* An array element's value reference (model.h, MODEL_ELEMENT_VR) within the largest its array
+ * can be; model_array_length bounds it at the current model.slices. */
+static int element_vr(unsigned vr) {
+  return vr >= MODEL_ELEMENT_VR_BASE && MODEL_ELEMENT_ARRAY(vr) < GM_FMU_ARRAY_COUNT &&
+         MODEL_ELEMENT_INDEX(vr) < gm_fmu_arrays[MODEL_ELEMENT_ARRAY(vr)].capacity;
+}
+
 const model_variable_info* model_variable(unsigned vr) {
+  if (element_vr(vr)) return &array_info[MODEL_ELEMENT_ARRAY(vr)];
   return vr < GM_FMU_VARIABLE_COUNT ? &variable_info[vr] : NULL;
+}
+
+int model_variable_structural(unsigned vr) {
+  return vr < GM_FMU_VARIABLE_COUNT && gm_fmu_structural(gm_fmu_variables[vr].name);
+}
+
+unsigned model_array_count(void) {
+  return (unsigned)GM_FMU_ARRAY_COUNT;
+}
+
+size_t model_array_length(const fmu_model* m, unsigned a) {
+  return a < GM_FMU_ARRAY_COUNT ? gm_fmu_array_length(&gm_fmu_arrays[a], m->v.p.slices) : 0;
 }
 
 unsigned model_variable_count(void) {
@@ -62,6 +88,7 @@ unsigned model_variable_count(void) {
 }
 
 int model_variable_intermediate(unsigned vr) {
+  if (element_vr(vr)) return gm_fmu_arrays[MODEL_ELEMENT_ARRAY(vr)].causality == GM_FMU_output;
   return vr < GM_FMU_VARIABLE_COUNT && gm_fmu_follows_spins(&gm_fmu_variables[vr]);
 }
 
@@ -162,6 +189,11 @@ static void* field(const gm_fmu_values* values, unsigned vr) {
 
 double model_get_real(const fmu_model* m, unsigned vr) {
   double x;
+  if (element_vr(vr)) {
+    const gm_fmu_array* a = &gm_fmu_arrays[MODEL_ELEMENT_ARRAY(vr)];
+    memcpy(&x, (const char*)&m->v + a->offset + MODEL_ELEMENT_INDEX(vr) * sizeof x, sizeof x);
+    return x;
+  }
   memcpy(&x, field(&m->v, vr), sizeof x);
   return x;
 }
@@ -237,6 +269,8 @@ static void install_core(fmu_model* m, gm_model* core, gm_data* data, double add
   m->core = core;
   m->data = data;
   m->v.g = *gm_model_geometry(core);
+  memset(m->v.load.slice_position, 0, sizeof m->v.load.slice_position);
+  gm_model_slice_positions(core, m->v.load.slice_position);
   m->v.mesh_damping = added;
   m->params_changed = 0;
 }
@@ -352,9 +386,22 @@ static void prescribed_state(fmu_model* m) {
   m->v.ds = s;
 }
 
-/* r becomes the published outputs (logged); with prescribed spins the spin outputs are the
- * inputs. */
-static void publish(fmu_model* m, int restart, double time, const gm_result* r) {
+/* The load across the face of d's last evaluation becomes the arrays' (GM_FMU_ARRAYS). */
+static void publish_load(fmu_model* m, const gm_data* d) {
+  gm_fmu_load* load = &m->v.load;
+  gm_pair_load pairs[GM_FMU_LOAD_PAIRS];
+  gm_data_load_distribution(m->core, d, GM_FMU_LOAD_PAIRS, pairs, load->line_load);
+  for (int k = 0; k < GM_FMU_LOAD_PAIRS; k++) {
+    load->pair_force[k] = pairs[k].force;
+    load->pair_share[k] = pairs[k].share;
+    load->pair_position[k] = pairs[k].path_position;
+    load->pair_approach[k] = pairs[k].approach;
+  }
+}
+
+/* r, the result of an evaluation on d, becomes the published outputs (logged); with prescribed
+ * spins the spin outputs are the inputs. */
+static void publish(fmu_model* m, const gm_data* d, int restart, double time, const gm_result* r) {
   if (restart || r->pairs_in_contact != m->v.y.pairs_in_contact || r->flank != m->v.y.flank)
     m->log(m->log_context, GM_LOG_CONTACT, "t = %g s: %d tooth pairs in contact, %s", time, r->pairs_in_contact,
            flank_name(r->flank));
@@ -366,6 +413,7 @@ static void publish(fmu_model* m, int restart, double time, const gm_result* r) 
   }
   publish_ports(m);
   m->v.y = *r;
+  publish_load(m, d);
   m->outputs_current = 1;
 }
 
@@ -374,6 +422,7 @@ static void publish(fmu_model* m, int restart, double time, const gm_result* r) 
 static void on_internal_step(void* context, const gm_internal_point* point) {
   fmu_model* m = context;
   m->v.y = *point->res;
+  publish_load(m, m->data); /* the internal step ends at the core's last evaluation */
   for (int i = 0; i < 2; i++) {
     m->v.ds.phi[i] = point->phi[i];
     m->v.ds.omega[i] = point->omega[i];
@@ -404,6 +453,8 @@ static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r)
   const gm_dynamics_state saved_ds = m->v.ds;
   const gm_result saved_y = m->v.y;
   const gm_fmu_ports saved_port = m->v.port;
+  gm_fmu_load* saved_load = m->intermediate ? malloc(sizeof *saved_load) : NULL;
+  if (saved_load) *saved_load = m->v.load;
   const int saved_current = m->outputs_current;
   if (m->intermediate) {
     extra.observer = on_internal_step;
@@ -416,8 +467,10 @@ static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r)
     m->v.ds = saved_ds;
     m->v.y = saved_y;
     m->v.port = saved_port;
+    if (saved_load) m->v.load = *saved_load;
     m->outputs_current = saved_current;
   }
+  free(saved_load);
   if (status == GM_OK && m->v.step_sensitivities) { /* a failed step changed nothing: the last one's stays */
     m->sens_valid = 1;
     m->sens_step = step;
@@ -459,7 +512,7 @@ int model_evaluate(fmu_model* m, int restart, double time, double step, char* ms
     snprintf(msg, n, "%s", gm_data_message(m->data));
     return m->v.dynamics && status == GM_ERR_SOLVER ? 2 : 1;
   }
-  publish(m, restart, time, &r);
+  publish(m, m->data, restart, time, &r);
   if (restart) m->unloaded_points = 0;
   else check_unloaded(m, time, &r);
   if (m->v.dynamics)
@@ -501,7 +554,7 @@ int model_feedthrough(fmu_model* m, double time, char* msg, size_t n) {
     snprintf(msg, n, "%s", gm_data_message(m->scratch));
     return 1;
   }
-  publish(m, 0, time, &r);
+  publish(m, m->scratch, 0, time, &r);
   return 0;
 }
 
@@ -624,6 +677,13 @@ static int step_refused(const fmu_model* m, const unsigned known[], size_t n_kno
 int model_directional_derivative(fmu_model* m, const unsigned known[], const double dv_known[], size_t n_known,
                                  const unsigned unknown[], double dv_unknown[], size_t n_unknown, char* msg,
                                  size_t n) {
+  for (size_t i = 0; i < n_unknown; i++)
+    if (element_vr(unknown[i]))
+      return snprintf(msg, n,
+                      "unknown %s[%u]: the arrays have no directional derivative; allowed unknowns: the scalar "
+                      "outputs (mesh.max_line_load, mesh.max_load_share for the load across the face)",
+                      model_variable(unknown[i])->name, MODEL_ELEMENT_INDEX(unknown[i])),
+             1;
   gm_fmu_values seed, out;
   memset(&seed, 0, sizeof seed);
   memset(&out, 0, sizeof out);
@@ -652,7 +712,8 @@ int model_outputs_current(const fmu_model* m) {
  *   values (values_state_save: every parameter, input, output in table order) |
  *   u8 flags (1 outputs current, 2 core built) | u64 core blob size | core blob |
  *   [gm_kinematics: the inputs of the last evaluation, flag EVAL_INPUTS] |
- *   gm_mesh_orders (the mesh orders' accumulation, which no variable holds) */
+ *   gm_mesh_orders (the mesh orders' accumulation, which no variable holds) |
+ *   gm_fmu_load (the arrays, which the table's values leave out) */
 enum { OUTPUTS_CURRENT = 1, CORE_BUILT = 2, EVAL_INPUTS = 4 };
 
 /* The core's evaluation memory belongs to the state only if the core matches the parameters. */
@@ -663,7 +724,7 @@ static int core_built(const fmu_model* m) {
 size_t model_state_size(const fmu_model* m) {
   size_t n = values_state_size(&m->v) + sizeof(uint8_t) + sizeof(uint64_t);
   return n + (core_built(m) ? gm_data_state_size(m->core, m->data) : 0) +
-         (m->evaluated ? sizeof(gm_kinematics) : 0) + sizeof(gm_mesh_orders);
+         (m->evaluated ? sizeof(gm_kinematics) : 0) + sizeof(gm_mesh_orders) + sizeof(gm_fmu_load);
 }
 
 void model_state_save(const fmu_model* m, unsigned char* buf) {
@@ -680,6 +741,8 @@ void model_state_save(const fmu_model* m, unsigned char* buf) {
     buf += sizeof m->k_eval;
   }
   memcpy(buf, &m->v.ds.orders, sizeof m->v.ds.orders);
+  buf += sizeof m->v.ds.orders;
+  memcpy(buf, &m->v.load, sizeof m->v.load);
 }
 
 /* Load into v (an owning copy of the values); m changes only on success. */
@@ -694,8 +757,8 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   uint64_t blob;
   memcpy(&blob, buf, sizeof blob);
   buf += sizeof blob;
-  const size_t orders_size = sizeof(gm_mesh_orders);
-  const size_t tail = ((flags & EVAL_INPUTS) ? sizeof(gm_kinematics) : 0) + orders_size;
+  const size_t orders_size = sizeof(gm_mesh_orders), load_size = sizeof(gm_fmu_load);
+  const size_t tail = ((flags & EVAL_INPUTS) ? sizeof(gm_kinematics) : 0) + orders_size + load_size;
   if ((size_t)(end - buf) < tail || blob != (uint64_t)(end - buf - tail) || (blob && !(flags & CORE_BUILT))) {
     snprintf(msg, n, "FMU state: contact memory of %llu bytes, %zu present", (unsigned long long)blob,
              (size_t)(end - buf - tail));
@@ -704,25 +767,42 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   gm_kinematics k_eval;
   if (flags & EVAL_INPUTS) memcpy(&k_eval, end - tail, sizeof k_eval);
   gm_mesh_orders orders;
-  memcpy(&orders, end - orders_size, orders_size);
+  memcpy(&orders, end - load_size - orders_size, orders_size);
   if (!(orders.ring_count >= 0 && orders.ring_count <= GM_ORDER_CYCLES_MAX && orders.ring_next >= 0 &&
         orders.ring_next < GM_ORDER_CYCLES_MAX && orders.cycles >= 0 && orders.cycles <= GM_ORDER_CYCLES_MAX)) {
     snprintf(msg, n, "FMU state: the mesh orders' record is corrupt");
     return 1;
   }
+  gm_fmu_load* load = malloc(load_size);
+  if (!load) {
+    snprintf(msg, n, "out of memory");
+    return 1;
+  }
+  memcpy(load, end - load_size, load_size);
+  const double* element = (const double*)load;
+  for (size_t i = 0; i < load_size / sizeof(double); i++)
+    if (!isfinite(element[i])) {
+      snprintf(msg, n, "FMU state: the arrays' record is corrupt (a value that is not finite)");
+      free(load);
+      return 1;
+    }
 
   if (flags & CORE_BUILT) { /* restore the core's evaluation memory exactly */
     gm_model* core = m->core;
     gm_data* data = m->data;
     int fresh = !core || m->params_changed || !values_equal(v, &m->v, GM_FMU_parameter);
     double added = m->v.mesh_damping;
-    if (fresh && create_core(m, v, &core, &data, &added, msg, n)) return 1;
+    if (fresh && create_core(m, v, &core, &data, &added, msg, n)) {
+      free(load);
+      return 1;
+    }
     if (gm_data_state_load(core, data, buf, (size_t)blob) != GM_OK) {
       snprintf(msg, n, "FMU state: %s", gm_data_message(data));
       if (fresh) {
         gm_data_free(data);
         gm_model_free(core);
       }
+      free(load);
       return 1;
     }
     if (fresh) install_core(m, core, data, added);
@@ -739,6 +819,8 @@ static int state_load(fmu_model* m, gm_fmu_values* v, const unsigned char* buf, 
   m->evaluated = (flags & EVAL_INPUTS) != 0;
   if (m->evaluated) m->k_eval = k_eval;
   m->v.ds.orders = orders;
+  m->v.load = *load;
+  free(load);
   return 0;
 }
 

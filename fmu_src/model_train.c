@@ -109,6 +109,21 @@ int model_variable_intermediate(unsigned vr) {
   return 0;
 }
 
+/* The train FMU has no arrays and no structural parameters. */
+int model_variable_structural(unsigned vr) {
+  (void)vr;
+  return 0;
+}
+
+unsigned model_array_count(void) {
+  return 0;
+}
+
+size_t model_array_length(const fmu_model* m, unsigned a) {
+  (void)m, (void)a;
+  return 0;
+}
+
 /* The train FMU offers no intermediate results (FMI 2.0 only). */
 void model_set_intermediate(fmu_model* m, model_intermediate_fn fn, void* context) {
   (void)m, (void)fn, (void)context;

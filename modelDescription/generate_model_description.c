@@ -18,6 +18,7 @@
 #include <string.h>
 
 #include "gearmesh/param_ranges.h"
+#include "model.h"
 #include "variables.h"
 
 #define N_VARIABLES GM_FMU_VARIABLE_COUNT
@@ -138,6 +139,57 @@ static const char* open_note(const gm_param_range* r) {
   return r->lo_open && r->hi_open ? " (min and max exclusive)" : r->lo_open ? " (min exclusive)" : " (max exclusive)";
 }
 
+static int depends(const gm_fmu_variable* u, const gm_fmu_variable* k, int initialization);
+
+/* The value references of the knowns an unknown of dependency classes deps depends on. */
+static void put_dependency_refs(FILE* f, unsigned deps, int initialization) {
+  gm_fmu_variable unknown = {0};
+  unknown.deps = deps;
+  size_t k = 0;
+  for (size_t j = 0; j < N_VARIABLES; j++)
+    if (depends(&unknown, &gm_fmu_variables[j], initialization)) fprintf(f, "%s%zu", k++ ? " " : "", j);
+}
+
+/* FMI 2.0 has no arrays: the arrays (GM_FMU_ARRAYS) are described in <Tool name="GearMesh
+ * arrays">, from which a scene FMU lists the elements it needs as Real ScalarVariables (value
+ * references model.h's MODEL_ELEMENT_VR: elementBase + flat index; dimensions, a length or the
+ * structural parameter's name; the knowns' value references at a communication point and at
+ * initialization). */
+static void put_array_annotations(FILE* f) {
+  fputs("    <Tool name=\"GearMesh arrays\">\n      <Arrays>\n", f);
+  for (size_t a = 0; a < GM_FMU_ARRAY_COUNT; a++) {
+    const gm_fmu_array* v = &gm_fmu_arrays[a];
+    fputs("        <Array name=\"", f);
+    put_escaped(f, v->name);
+    fprintf(f, "\" elementBase=\"%u\" causality=\"%s\" variability=\"%s\" initial=\"%s\"",
+            MODEL_ELEMENT_VR(a, 0), v->causality_name, v->variability, v->initial);
+    if (v->unit[0]) {
+      fputs(" unit=\"", f);
+      put_escaped(f, v->unit);
+      fputc('"', f);
+    }
+    if (v->display_unit[0]) {
+      fputs(" displayUnit=\"", f);
+      put_escaped(f, v->display_unit);
+      fputc('"', f);
+    }
+    fputs(" dimensions=\"", f);
+    for (int d = 0; d < 2 && v->dims[d]; d++) {
+      if (d) fputc(' ', f);
+      if (v->dims[d] == GM_FMU_DIM_SLICES) fputs("model.slices", f);
+      else fprintf(f, "%d", v->dims[d]);
+    }
+    fputs("\"\n          dependencies=\"", f);
+    put_dependency_refs(f, v->deps & D_KNOWN_CLASSES, 0);
+    fputs("\" initialDependencies=\"", f);
+    put_dependency_refs(f, v->deps, 1);
+    fputs("\" description=\"", f);
+    put_escaped(f, v->description);
+    fputs("\"/>\n", f);
+  }
+  fputs("      </Arrays>\n    </Tool>\n", f);
+}
+
 static void put_open_annotations(FILE* f) {
   /* the schema allows one element in a Tool: the Range elements go into one Ranges */
   fputs("  <VendorAnnotations>\n    <Tool name=\"GearMesh\">\n      <Ranges>\n", f);
@@ -151,7 +203,9 @@ static void put_open_annotations(FILE* f) {
     if (r->hi_open) fputs(" maxExclusive=\"true\"", f);
     fputs("/>\n", f);
   }
-  fputs("      </Ranges>\n    </Tool>\n  </VendorAnnotations>\n", f);
+  fputs("      </Ranges>\n    </Tool>\n", f);
+  put_array_annotations(f);
+  fputs("  </VendorAnnotations>\n", f);
 }
 
 static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* start) {
@@ -250,12 +304,15 @@ static const char* fmi3_type(gm_fmu_type type) {
   }
 }
 
-/* FMI 3.0 <Output>/<InitialUnknown> of variable `index` with its knowns (value references). */
-static void put_unknown3(FILE* f, const char* element, size_t index, int initialization) {
-  const gm_fmu_variable* u = &gm_fmu_variables[index];
+/* FMI 3.0 <Output>/<InitialUnknown> of the variable with value reference vr and dependency
+ * classes deps, with its knowns (value references). */
+static void put_unknown3(FILE* f, const char* element, size_t vr, unsigned deps, int initialization) {
+  gm_fmu_variable unknown = {0};
+  unknown.deps = deps;
+  const gm_fmu_variable* u = &unknown;
   size_t count = 0;
   for (size_t j = 0; j < N_VARIABLES; j++) count += depends(u, &gm_fmu_variables[j], initialization) != 0;
-  fprintf(f, "    <%s valueReference=\"%zu\"", element, index);
+  fprintf(f, "    <%s valueReference=\"%zu\"", element, vr);
   if (count) {
     fputs(" dependencies=\"", f);
     size_t k = 0;
@@ -296,23 +353,68 @@ static void put_type_name(FILE* f, const gm_fmu_variable* v) {
   }
 }
 
+/* The (unit, display unit) of the table's variable i, then of the arrays' (i - N_VARIABLES). */
+static gm_fmu_variable typed(size_t i) {
+  if (i < N_VARIABLES) return gm_fmu_variables[i];
+  const gm_fmu_array* a = &gm_fmu_arrays[i - N_VARIABLES];
+  return (gm_fmu_variable){.unit = a->unit, .display_unit = a->display_unit};
+}
+
 static void put_type_definitions(FILE* f) {
   fputs("  <TypeDefinitions>\n", f);
-  for (size_t i = 0; i < N_VARIABLES; i++) {
-    const gm_fmu_variable* v = &gm_fmu_variables[i];
-    if (!v->unit[0]) continue;
+  for (size_t i = 0; i < N_VARIABLES + GM_FMU_ARRAY_COUNT; i++) {
+    const gm_fmu_variable v = typed(i);
+    if (!v.unit[0]) continue;
     int seen = 0; /* once per (unit, display unit) */
-    for (size_t j = 0; j < i && !seen; j++)
-      seen = strcmp(gm_fmu_variables[j].unit, v->unit) == 0 &&
-             strcmp(gm_fmu_variables[j].display_unit, v->display_unit) == 0;
+    for (size_t j = 0; j < i && !seen; j++) {
+      const gm_fmu_variable w = typed(j);
+      seen = strcmp(w.unit, v.unit) == 0 && strcmp(w.display_unit, v.display_unit) == 0;
+    }
     if (seen) continue;
     fputs("    <Float64Type name=\"", f);
-    put_type_name(f, v);
+    put_type_name(f, &v);
     fputc('"', f);
-    put_units(f, v);
+    put_units(f, &v);
     fputs("/>\n", f);
   }
   fputs("    <Float64Type name=\"s\" unit=\"s\"/>\n  </TypeDefinitions>\n", f);
+}
+
+#define N_ARRAYS GM_FMU_ARRAY_COUNT
+#define ARRAY_VR(a) ((size_t)N_VARIABLES + 1 + (a)) /* after `time` (model.h) */
+
+/* The value reference of the structural parameter named by dimension length GM_FMU_DIM_SLICES. */
+static size_t slices_vr(void) {
+  for (size_t i = 0; i < N_VARIABLES; i++)
+    if (strcmp(gm_fmu_variables[i].name, "model.slices") == 0 && gm_fmu_structural("model.slices")) return i;
+  fail("no structural parameter model.slices for the arrays' dimensions", "model.slices");
+  return 0;
+}
+
+/* FMI 3.0: the arrays (GM_FMU_ARRAYS), Float64 with their <Dimension>s, after `time`. */
+static void put_arrays3(FILE* f) {
+  for (size_t a = 0; a < N_ARRAYS; a++) {
+    const gm_fmu_array* v = &gm_fmu_arrays[a];
+    fputs("    <Float64 name=\"", f);
+    put_escaped(f, v->name);
+    fprintf(f, "\" valueReference=\"%zu\" description=\"", ARRAY_VR(a));
+    put_escaped(f, v->description);
+    fprintf(f, "\"\n      causality=\"%s\" variability=\"%s\" initial=\"%s\"", v->causality_name, v->variability,
+            v->initial);
+    if (v->unit[0]) {
+      const gm_fmu_variable units = {.unit = v->unit, .display_unit = v->display_unit};
+      fputs(" declaredType=\"", f);
+      put_type_name(f, &units);
+      fputc('"', f);
+    }
+    if (v->causality == GM_FMU_output) fputs(" intermediateUpdate=\"true\"", f);
+    fputs(">\n", f);
+    for (int d = 0; d < 2 && v->dims[d]; d++) {
+      if (v->dims[d] == GM_FMU_DIM_SLICES) fprintf(f, "      <Dimension valueReference=\"%zu\"/>\n", slices_vr());
+      else fprintf(f, "      <Dimension start=\"%d\"/>\n", v->dims[d]);
+    }
+    fputs("    </Float64>\n", f);
+  }
 }
 
 /* modelDescription.xml for FMI 3.0 (co-simulation only): the same variables, start values,
@@ -340,12 +442,15 @@ static int write_fmi3(const char* path, const gm_fmu_values* start) {
   for (size_t i = 0; i < N_VARIABLES; i++) {
     const gm_fmu_variable* v = &gm_fmu_variables[i];
     const gm_param_range* r = gm_param_range_find(v->name);
-    fprintf(f, "    <%s name=\"", fmi3_type(v->type));
+    const int structural = gm_fmu_structural(v->name);
+    if (structural && v->type != GM_FMU_Integer) fail("a structural parameter must be an Integer", v->name);
+    fprintf(f, "    <%s name=\"", structural ? "UInt64" : fmi3_type(v->type));
     put_escaped(f, v->name);
     fprintf(f, "\" valueReference=\"%zu\" description=\"", i);
     put_escaped(f, v->description);
     put_escaped(f, open_note(r));
-    fprintf(f, "\"\n      causality=\"%s\" variability=\"%s\"", v->causality_name, v->variability);
+    fprintf(f, "\"\n      causality=\"%s\" variability=\"%s\"", structural ? "structuralParameter" : v->causality_name,
+            v->variability);
     if (v->causality != GM_FMU_input) fprintf(f, " initial=\"%s\"", v->initial);
     if (v->unit[0]) {
       fputs(" declaredType=\"", f);
@@ -377,15 +482,20 @@ static int write_fmi3(const char* path, const gm_fmu_values* start) {
   fprintf(f, "    <Float64 name=\"time\" valueReference=\"%zu\" causality=\"independent\" variability=\"continuous\"\n"
              "      declaredType=\"s\" description=\"simulation time\"/>\n",
           (size_t)N_VARIABLES);
+  put_arrays3(f);
   fputs("  </ModelVariables>\n  <ModelStructure>\n", f);
   for (size_t i = 0; i < N_VARIABLES; i++)
-    if (gm_fmu_variables[i].causality == GM_FMU_output) put_unknown3(f, "Output", i, 0);
+    if (gm_fmu_variables[i].causality == GM_FMU_output) put_unknown3(f, "Output", i, gm_fmu_variables[i].deps, 0);
+  for (size_t a = 0; a < N_ARRAYS; a++)
+    if (gm_fmu_arrays[a].causality == GM_FMU_output) put_unknown3(f, "Output", ARRAY_VR(a), gm_fmu_arrays[a].deps, 0);
   for (size_t i = 0; i < N_VARIABLES; i++) {
     const gm_fmu_variable* v = &gm_fmu_variables[i];
     if (v->causality == GM_FMU_calculatedParameter ||
         (v->causality == GM_FMU_output && strcmp(v->initial, "exact") != 0))
-      put_unknown3(f, "InitialUnknown", i, 1);
+      put_unknown3(f, "InitialUnknown", i, v->deps, 1);
   }
+  for (size_t a = 0; a < N_ARRAYS; a++) /* calculated parameters and outputs, none with a start */
+    put_unknown3(f, "InitialUnknown", ARRAY_VR(a), gm_fmu_arrays[a].deps, 1);
   fputs("  </ModelStructure>\n", f);
   /* the open range bounds are in the descriptions only ("(min exclusive)"): fmi-sim's reader takes
    * no elements inside an <Annotation>, where FMI 2.0's VendorAnnotations carry them */

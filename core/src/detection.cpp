@@ -552,6 +552,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
         c.tooth[1] = tooth2;
         c.pair = pair;
         c.slice = k;
+        c.run = 1;
         first = count - 1;
         emitted = true;
         if (one_per_pair) {

@@ -169,4 +169,34 @@ TEST(LoadDistribution, MorePairsThanRowsWritesTheFirstAndCountsAll) {
   for (int j = 0; j < kSlices; ++j) EXPECT_EQ(row[j], all.line_load[j]);
 }
 
+// The slices' record (index, merged run) is written afresh by each evaluation: a pose sweep on one
+// instance gives each pose's result bit for bit as a fresh instance does, with profile crowning
+// (slices merged by slice_merge.hpp) and without (merged by detection), where the merged runs
+// and the candidates' places change from pose to pose.
+TEST(LoadDistribution, EvaluationIsTheSameWhateverCameBefore) {
+  for (double crowning : {0.0, 5e-6}) {
+    SCOPED_TRACE(crowning);
+    gm_model_params p = level0(kSlices);
+    p.gear[0].flank[0].profile_crowning = crowning;
+    Instance sweep(p);
+    const double pitch = sweep.geo().p_bt / sweep.rb(0);
+    for (int s = 0; s < 16; ++s) {
+      const gm_result a = sweep.at(kTe, pitch * s / 16);
+      const Distribution da = distribution(sweep);
+      Instance fresh(p);
+      const gm_result b = fresh.at(kTe, pitch * s / 16);
+      const Distribution db = distribution(fresh);
+      for (int g = 0; g < 2; ++g)
+        for (int k = 0; k < 3; ++k) {
+          EXPECT_EQ(a.force[g][k], b.force[g][k]) << "pose " << s;
+          EXPECT_EQ(a.moment[g][k], b.moment[g][k]) << "pose " << s;
+        }
+      EXPECT_EQ(a.normal_force, b.normal_force) << "pose " << s;
+      EXPECT_EQ(a.stiffness, b.stiffness) << "pose " << s;
+      EXPECT_EQ(a.elastic_energy, b.elastic_energy) << "pose " << s;
+      EXPECT_EQ(da.line_load, db.line_load) << "pose " << s;
+    }
+  }
+}
+
 }  // namespace

@@ -37,6 +37,15 @@ def fmu_path() -> pathlib.Path:
 
 
 @pytest.fixture(scope="session")
+def fmu3_path(fmu_path) -> pathlib.Path:
+    """GearMesh-fmi3.fmu beside the 2.0 FMU (GEARMESH_FMU3 overrides)."""
+    path = pathlib.Path(os.environ.get("GEARMESH_FMU3", pathlib.Path(fmu_path).with_name("GearMesh-fmi3.fmu")))
+    if not path.is_file():
+        pytest.fail(f"{path} not found: build the 'fmu3' target first (tools/run-tests does)")
+    return path
+
+
+@pytest.fixture(scope="session")
 def fmu_dir(fmu_path, tmp_path_factory) -> pathlib.Path:
     """The FMU extracted once per session."""
     from fmpy import extract

@@ -7,8 +7,9 @@ refusals of what FMI 3.0 offers and this FMU does not."""
 from __future__ import annotations
 
 import ctypes
-import os
 import pathlib
+import zipfile
+from xml.etree import ElementTree
 
 import numpy as np
 import pytest
@@ -19,15 +20,6 @@ from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
-
-
-@pytest.fixture(scope="module")
-def fmu3_path(fmu_path) -> pathlib.Path:
-    """GearMesh-fmi3.fmu beside the 2.0 FMU (GEARMESH_FMU3 overrides)."""
-    path = pathlib.Path(os.environ.get("GEARMESH_FMU3", pathlib.Path(fmu_path).with_name("GearMesh-fmi3.fmu")))
-    if not path.is_file():
-        pytest.fail(f"{path} not found: build the 'fmu3' target first (tools/run-tests does)")
-    return path
 
 
 # The three modes, each with inputs that load the mesh (one per mode, held over 10 ms in 1 ms steps).
@@ -47,10 +39,24 @@ def test_fmpy_validates_it(fmu3_path):
     assert validate_fmu(str(fmu3_path)) == []
 
 
+STRUCTURAL = {"model.slices"}  # FMI 3.0: UInt64 structural parameters (the arrays' dimensions)
+ARRAYS = ["mesh.slice_position", "mesh.line_load", "mesh.pair_force", "mesh.pair_share", "mesh.pair_position",
+          "mesh.pair_approach"]
+
+
+def xml_bounds(fmu: pathlib.Path, name: str) -> tuple[str | None, str | None]:
+    """The min and max attributes of variable `name` in the FMU's modelDescription.xml."""
+    with zipfile.ZipFile(fmu) as z:
+        root = ElementTree.fromstring(z.read("modelDescription.xml"))
+    element = next(e for e in root.find("ModelVariables") if e.get("name") == name)
+    return element.get("min"), element.get("max")
+
+
 def test_same_variables_as_fmi2(fmu_path, fmu3_path):
     """Every variable of the 2.0 FMU with its value reference, causality, variability, type (Real
-    as Float64, Integer as Int32), unit, start, min and max; plus the independent variable `time`
-    after them; the same GUID as instantiation token."""
+    as Float64, Integer as Int32; model.slices a UInt64 structural parameter), unit, start, min
+    and max; plus the independent variable `time` after them, and after it the arrays; the same
+    GUID as instantiation token."""
     md2, md3 = read_model_description(str(fmu_path)), read_model_description(str(fmu3_path))
     assert md3.fmiVersion == "3.0" and md3.instantiationToken == md2.guid
     v3 = {v.name: v for v in md3.modelVariables}
@@ -60,12 +66,18 @@ def test_same_variables_as_fmi2(fmu_path, fmu3_path):
         # FMI 3.0: the unit and display unit through the variable's declared type
         unit = w.declaredType.unit if w.declaredType else w.unit
         display = w.declaredType.displayUnit if w.declaredType else w.displayUnit
-        assert (w.valueReference, w.causality, w.variability, w.type, unit, display, w.min, w.max) == \
-            (v.valueReference, v.causality, v.variability, types[v.type], v.unit, v.displayUnit, v.min, v.max), v.name
+        causality, kind = ("structuralParameter", "UInt64") if v.name in STRUCTURAL else (v.causality, types[v.type])
+        bounds = (w.min, w.max) if v.name not in STRUCTURAL else xml_bounds(fmu3_path, v.name)  # FMPy reads none
+        assert (w.valueReference, w.causality, w.variability, w.type, unit, display, *bounds) == \
+            (v.valueReference, causality, v.variability, kind, v.unit, v.displayUnit, v.min, v.max), v.name
         assert str(w.start) == str(v.start), v.name
-    assert list(v3) == ["time"] and v3["time"].causality == "independent"
+    assert list(v3) == ["time", *ARRAYS] and v3["time"].causality == "independent"
     assert v3["time"].valueReference == len(md2.modelVariables)
-    assert len(md3.outputs) == len(md2.outputs) and len(md3.initialUnknowns) == len(md2.initialUnknowns)
+    assert [v3[a].valueReference for a in ARRAYS] == list(range(len(md2.modelVariables) + 1,
+                                                                len(md2.modelVariables) + 1 + len(ARRAYS)))
+    output_arrays = [a for a in ARRAYS if v3[a].causality == "output"]
+    assert len(md3.outputs) == len(md2.outputs) + len(output_arrays)
+    assert len(md3.initialUnknowns) == len(md2.initialUnknowns) + len(ARRAYS)
 
 
 @pytest.mark.parametrize("mode", list(CASES))
@@ -118,7 +130,10 @@ class Pair:
                 self.f3.setBoolean([self.vr[name]], [x])
             else:
                 self.f2.setInteger([self.vr[name]], [x])
-                self.f3.setInt32([self.vr[name]], [x])
+                if name in STRUCTURAL:
+                    self.f3.setUInt64([self.vr[name]], [x])
+                else:
+                    self.f3.setInt32([self.vr[name]], [x])
 
     def step(self, h=1e-3):
         self.f2.doStep(self.t, h)
@@ -199,7 +214,7 @@ def test_what_fmi3_offers_and_this_fmu_does_not_is_refused(fmu3_path):
     time_vr = next(v.valueReference for v in md.modelVariables if v.name == "time")
     for call, expected in [(lambda: f.getFloat32([te]), "not a variable of type Float32"),
                            (lambda: f.fmi3GetFloat64(f.component, (ctypes.c_uint32 * 1)(te), 1,
-                                                     (ctypes.c_double * 2)(), 2), "no variable is an array"),
+                                                     (ctypes.c_double * 2)(), 2), "whose values number 1"),
                            (lambda: f.setFloat64([time_vr], [1.0]), "independent variable"),
                            (lambda: f.enterEventMode(), "no event mode")]:
         messages.clear()

@@ -9,7 +9,7 @@ from collections.abc import Iterable
 
 from gearmesh import main_levels
 from gearmesh.scene import Scene
-from gearmesh.scene_fmu import build_scene_fmu, model_variables
+from gearmesh.scene_fmu import array_variables, build_scene_fmu, model_variables
 from gearmesh.scene_interface import MODE_PARAMETERS, default_interface, listed_variables
 
 
@@ -24,16 +24,24 @@ def write_scene_fmu(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path,
     mode = scene.fmu.get("mode")
     fixed = {**scene.parameters, **(MODE_PARAMETERS[mode] if mode else {})}
     interface = interface or scene.fmu.get("interface") or default_interface(fixed, scene.bearing_motion)
-    listed = listed_variables(causalities(generic_fmu), fixed, interface, [*scene.fmu.get("tunable", []), *tunable])
-    build_scene_fmu(generic_fmu, fixed, scene.resources, out,
-                    None if interface == "full" else listed)
+    listed = listed_variables(causalities(generic_fmu), fixed, interface, [*scene.fmu.get("tunable", []), *tunable],
+                              scene.fmu.get("outputs", []), arrays=set(offered_arrays(generic_fmu)))
+    build_scene_fmu(generic_fmu, fixed, scene.resources, out, listed)
     return interface, listed
 
 
 def causalities(fmu: pathlib.Path) -> dict[str, str]:
-    """name -> causality of every variable the FMU lists."""
+    """name -> causality of every variable the FMU lists and of every array it offers."""
     with zipfile.ZipFile(fmu) as z:
-        return {name: v[1] for name, v in model_variables(z.read("modelDescription.xml").decode()).items()}
+        xml = z.read("modelDescription.xml").decode()
+    return {**{name: v[1] for name, v in model_variables(xml).items()},
+            **{name: a.causality for name, a in array_variables(xml).items()}}
+
+
+def offered_arrays(fmu: pathlib.Path) -> list[str]:
+    """The arrays the FMU offers (FMI 3.0 array variables; FMI 2.0: its annotation's)."""
+    with zipfile.ZipFile(fmu) as z:
+        return list(array_variables(z.read("modelDescription.xml").decode()))
 
 
 def summary(interface: str, listed: set[str], generic_fmu: pathlib.Path, out: pathlib.Path) -> str:

@@ -32,6 +32,7 @@ from unittest import mock
 from gearmesh import cli, main_job, scene_interface
 from gearmesh.compliance import default_tool
 from gearmesh.param_ranges import Range, default_fmu, fmu_ranges
+from gearmesh.scene_fmu import array_variables
 from gearmesh.scene import (BODY_SCHEMA, FE_SCHEMA, FMU_INTERFACES, FMU_MODES, MOUNTING_SCHEMA,
                             RUN_SCHEMA, SCHEMA, Key, Scene, SceneError, parse_scene)
 
@@ -204,6 +205,19 @@ def fmu_variables_page(root: ET.Element) -> str:
                           [[_code(v.name), v.causality, v.variability, v.type, _unit_cell(v),
                             _start_cell(v, factors), _range_cell(v, factors), _cell(v.description)]
                            for v in vs]))
+    arrays = array_variables(ET.tostring(root, encoding="unicode"))
+    out.append("## Arrays\n")
+    out.append("Real arrays with one or two dimensions, each a length or the structural parameter it names "
+               "(docs/fmi.md, \"Arrays\"): in `GearMesh-fmi3.fmu` array variables after `time`; the FMI 2.0 "
+               "FMU lists none (its `<VendorAnnotations><Tool name=\"GearMesh arrays\">` describes them), and "
+               "a scene FMU whose `[fmu] outputs` names one lists its elements as Real scalars `name[i]` or "
+               "`name[i,j]` (1-based, row-major), value reference the element base plus the index.\n")
+    out.append(_table(["name", "causality", "variability", "unit", "dimensions", "element base", "description"],
+                      [[_code(a.name), a.causality, a.variability,
+                        (_code(a.unit) + (f" (display {_code(a.display_unit)})" if a.display_unit else ""))
+                        if a.unit else "—",
+                        " × ".join(_code(d) for d in a.dimensions), str(a.element_base), _cell(a.description)]
+                       for a in arrays.values()]))
     out.append("## Units\n")
     rows = []
     for u in root.iter("Unit"):

@@ -166,7 +166,7 @@ class Scene:
     bodies: dict[int, dict[str, float | int | pathlib.Path]] = field(default_factory=dict)
     fe: dict[str, float | int] = field(default_factory=dict)                 # [fe] key -> value
     bearing_motion: tuple[int, ...] = ()  # gears whose centres move in the plane ([gear<i>.mounting])
-    fmu: dict[str, str | list[str]] = field(default_factory=dict)  # [fmu]: interface, mode, tunable
+    fmu: dict[str, str | list[str]] = field(default_factory=dict)  # [fmu]: interface, mode, tunable, outputs
 
 
 def _convert(where: str, key: Key, value, fmu_range: Range | None = None):
@@ -466,8 +466,9 @@ def _parse_mounting(scene: Scene, gear: int, mounting) -> None:
 
 
 def _parse_fmu(table: dict) -> dict:
-    """[fmu]: interface (torsional, planar, full), mode (prescribed, quasi_static, large_step)
-    and tunable (parameters the scene sets that its FMU keeps listed)."""
+    """[fmu]: interface (torsional, planar, full), mode (prescribed, quasi_static, large_step),
+    tunable (parameters the scene sets that its FMU keeps listed) and outputs (outputs and arrays
+    the FMU lists besides the interface's, e.g. mesh.line_load)."""
     choices = {"interface": FMU_INTERFACES, "mode": FMU_MODES}
     out: dict = {}
     for key, value in table.items():
@@ -475,13 +476,13 @@ def _parse_fmu(table: dict) -> dict:
             if value not in choices[key]:
                 raise SceneError(f"fmu.{key} = {_short(value)}: allowed: {', '.join(choices[key])}")
             out[key] = value
-        elif key == "tunable":
+        elif key in ("tunable", "outputs"):
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-                raise SceneError(f"fmu.tunable = {_short(value)}: expected a list of FMU parameter "
-                                 "names")
+                what = "parameter" if key == "tunable" else "output or array"
+                raise SceneError(f"fmu.{key} = {_short(value)}: expected a list of FMU {what} names")
             out[key] = list(value)
         else:
-            raise SceneError(f"fmu.{key}: unknown key; allowed: interface, mode, tunable")
+            raise SceneError(f"fmu.{key}: unknown key; allowed: interface, mode, tunable, outputs")
     return out
 
 

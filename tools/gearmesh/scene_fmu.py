@@ -17,6 +17,7 @@ import tempfile
 import xml.etree.ElementTree as ET
 import zipfile
 from collections.abc import Mapping
+from dataclasses import dataclass
 from xml.sax.saxutils import escape
 
 from gearmesh.scene_interface import restrict_model_description
@@ -94,17 +95,63 @@ def build_scene_fmu(generic_fmu: pathlib.Path, parameters: Mapping[str, Value],
     return out
 
 
-# FMI 3.0's variable elements and the FMI 2.0 types they stand for (generate_model_description --fmi3)
-FMI3_TYPES = {"Float64": "Real", "Int32": "Integer", "Boolean": "Boolean", "String": "String"}
+# FMI 3.0's variable elements and the FMI 2.0 types they stand for (generate_model_description --fmi3:
+# a structural parameter, an Integer of the table, is a UInt64)
+FMI3_TYPES = {"Float64": "Real", "Int32": "Integer", "UInt64": "Integer", "Boolean": "Boolean", "String": "String"}
 
 
 def is_fmi3(xml: str) -> bool:
     return ET.fromstring(xml).get("fmiVersion", "").startswith("3")
 
 
+@dataclass(frozen=True)
+class ArrayVariable:
+    """An array the FMU offers (modelDescription/variables.h, GM_FMU_ARRAYS): FMI 3.0 declares it
+    with its <Dimension>s, FMI 2.0 in <Tool name="GearMesh arrays">, whose element scalars a scene
+    FMU lists (value reference element_base + row-major index)."""
+    name: str
+    causality: str
+    variability: str
+    initial: str
+    unit: str
+    display_unit: str
+    dimensions: tuple[str, ...]  # each a length or the structural parameter's name
+    description: str
+    element_base: int = 0  # FMI 2.0
+    dependencies: tuple[int, ...] = ()  # FMI 2.0: the knowns' value references at a communication point
+    initial_dependencies: tuple[int, ...] = ()  # ... and at initialization
+
+
+def array_variables(xml: str) -> dict[str, ArrayVariable]:
+    """name -> ArrayVariable of every array the FMU offers (FMI 2.0 or 3.0)."""
+    root = ET.fromstring(xml)
+    out = {}
+    if root.get("fmiVersion", "").startswith("3"):
+        by_vr = {el.get("valueReference"): el.get("name") for el in root.find("ModelVariables")}
+        types = {t.get("name"): t for t in root.iter("Float64Type")}
+        for el in root.find("ModelVariables"):
+            dims = el.findall("Dimension")
+            if not dims:
+                continue
+            typ = types.get(el.get("declaredType"), el)
+            out[el.get("name")] = ArrayVariable(
+                el.get("name"), el.get("causality", "local"), el.get("variability", "continuous"),
+                el.get("initial", ""), typ.get("unit", ""), typ.get("displayUnit", ""),
+                tuple(d.get("start") or by_vr[d.get("valueReference")] for d in dims), el.get("description", ""))
+        return out
+    for el in root.iterfind("VendorAnnotations/Tool[@name='GearMesh arrays']/Arrays/Array"):
+        out[el.get("name")] = ArrayVariable(
+            el.get("name"), el.get("causality"), el.get("variability"), el.get("initial"), el.get("unit", ""),
+            el.get("displayUnit", ""), tuple(el.get("dimensions").split()), el.get("description", ""),
+            int(el.get("elementBase")), tuple(int(v) for v in el.get("dependencies").split()),
+            tuple(int(v) for v in el.get("initialDependencies").split()))
+    return out
+
+
 def model_variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
     """name -> (type, causality, start) of every variable (FMI 2.0 or 3.0; the type as FMI 2.0
-    names it; FMI 3.0's independent variable left out)."""
+    names it; FMI 3.0's independent variable left out; an array once by its name, whose FMI 2.0
+    element scalars, name[i,j], a scene FMU lists)."""
     root = ET.fromstring(xml)
     out = {}
     if root.get("fmiVersion", "").startswith("3"):
@@ -113,12 +160,18 @@ def model_variables(xml: str) -> dict[str, tuple[str, str, str | None]]:
                 continue
             start = el.find("Start").get("value") if el.tag == "String" and el.find("Start") is not None \
                 else el.get("start")
-            out[el.get("name")] = (FMI3_TYPES[el.tag], el.get("causality", "local"), start)
+            causality = el.get("causality", "local")
+            out[el.get("name")] = (FMI3_TYPES[el.tag], "parameter" if causality == "structuralParameter" else causality,
+                                   start)
         return out
     for sv in root.iter("ScalarVariable"):
         typ = sv[0]  # the type element
-        out[sv.get("name")] = (typ.tag, sv.get("causality", "local"), typ.get("start"))
+        name = sv.get("name").split("[")[0] if int(sv.get("valueReference")) >= ELEMENT_VR_BASE else sv.get("name")
+        out[name] = (typ.tag, sv.get("causality", "local"), typ.get("start"))
     return out
+
+
+ELEMENT_VR_BASE = 0x40000000  # fmu_src/model.h, MODEL_ELEMENT_VR: an array element's value reference
 
 
 def _check_resource_name(name: str, what: str) -> None:
@@ -169,7 +222,7 @@ def _replace_start(xml: str, name: str, text: str, typ: str) -> str:
     attribute = escape(_xml_value(text), {'"': "&quot;"})
     quoted = re.escape(escape(name, {'"': "&quot;"}))
     if is_fmi3(xml):  # the start on the variable's own element, a String's in its <Start>
-        tag = {v: k for k, v in FMI3_TYPES.items()}[typ]
+        tag = "(?:" + "|".join(k for k, v in FMI3_TYPES.items() if v == typ) + ")"
         pattern = re.compile(r'(<String\s+name="' + quoted + r'"[^>]*>\s*<Start\s+value=")[^"]*(")' if typ == "String"
                              else r'(<' + tag + r'\s+name="' + quoted + r'"[^>]*?\sstart=")[^"]*(")')
     else:

@@ -11,6 +11,10 @@
 * full: every variable of the generic FMU (the ports and the housing-frame gear<i>.torque,
   .shaft_phi, .shaft_omega, .angle, .speed, .shaft_torque, all about +z).
 
+Arrays (the load across the face: mesh.line_load, mesh.pair_force, ...) and further outputs are
+listed when the scene names them in [fmu] outputs: FMI 3.0 as arrays, FMI 2.0 as their elements,
+Real scalars named name[i] or name[i,j] (1-based, row-major).
+
 Parameters the scene sets are not listed (the binary reads them from the scene's start values
 file in resources/) unless named tunable; those it leaves at the FMU's defaults stay parameters
 where the scene's level and modes read them. Calculated parameters stay listed. A hidden input
@@ -88,18 +92,24 @@ def scene_modes(fixed: Mapping[str, object]) -> list[str]:
 
 
 def listed_variables(variables: Mapping[str, str], fixed: Mapping[str, object], interface: str,
-                     tunable: Iterable[str] = ()) -> set[str]:
-    """The names the scene FMU lists. `variables`: name -> causality of the generic FMU;
-    `fixed`: what the scene sets (name -> value); `tunable`: set parameters kept listed."""
+                     tunable: Iterable[str] = (), outputs: Iterable[str] = (), arrays: Iterable[str] = ()) -> set[str]:
+    """The names the scene FMU lists. `variables`: name -> causality of the generic FMU's
+    variables and arrays; `fixed`: what the scene sets (name -> value); `tunable`: set parameters
+    kept listed; `outputs`: outputs and arrays listed besides the interface's; `arrays`: which of
+    `variables` are arrays (listed only when named in `outputs`)."""
     if interface not in INTERFACES:
         raise InterfaceError(f"interface {interface!r}: allowed: {', '.join(INTERFACES)}")
-    tunable = set(tunable)
+    tunable, asked, arrays = set(tunable), set(outputs), set(arrays)
     for name in sorted(tunable):
         if variables.get(name) != "parameter":
             raise InterfaceError(f"tunable {name!r}: not a parameter of the FMU; allowed: a "
                                  "parameter name such as model.friction_coefficient")
+    for name in sorted(asked):
+        if variables.get(name) != "output" and name not in arrays:
+            raise InterfaceError(f"output {name!r}: not an output or array of the FMU; allowed: an output "
+                                 f"name such as mesh.max_line_load, or an array: {', '.join(sorted(arrays))}")
     if interface == "full":
-        return set(variables)
+        return (set(variables) - arrays) | asked
     modes = scene_modes(fixed)
     if not modes:
         raise InterfaceError("model.quasi_static = true with model.dynamics = 1: no such mode; "
@@ -112,7 +122,11 @@ def listed_variables(variables: Mapping[str, str], fixed: Mapping[str, object], 
     wanted = {"input": inputs, "output": outputs}
     listed = set()
     for name, causality in variables.items():
-        if causality in wanted:
+        if name in arrays:
+            keep = name in asked
+        elif causality == "output" and name in asked:
+            keep = True
+        elif causality in wanted:
             keep = name in wanted[causality]
         elif causality == "parameter":
             keep = name in tunable or (name not in fixed and _read(name, fixed, modes))
@@ -151,11 +165,19 @@ def restrict_model_description(xml: str, listed: set[str]) -> str:
         if sv.get("name") in listed:
             kept.append(sv)
             new_index[old] = len(kept)
-    unknown = listed - {sv.get("name") for sv in kept}
+    arrays = {a.get("name"): a for a in root.iterfind("VendorAnnotations/Tool[@name='GearMesh arrays']/Arrays/Array")
+              if a.get("name") in listed}
+    elements = _array_elements(variables, arrays)
+    unknown = listed - {sv.get("name") for sv in kept} - set(arrays)
     if unknown:
         raise InterfaceError(f"{sorted(unknown)[0]}: no such variable in modelDescription.xml")
+    index_of_vr = {int(sv.get("valueReference")): new_index[old]
+                   for old, sv in enumerate(variables.findall("ScalarVariable"), start=1) if old in new_index}
     variables.clear()
     for n, sv in enumerate(kept, start=1):
+        variables.append(ET.Comment(f" index {n} "))
+        variables.append(sv)
+    for n, (sv, _) in enumerate(elements, start=len(kept) + 1):
         variables.append(ET.Comment(f" index {n} "))
         variables.append(sv)
     structure = root.find("ModelStructure")
@@ -167,6 +189,8 @@ def restrict_model_description(xml: str, listed: set[str]) -> str:
                 continue
             unknown_el.set("index", str(index))
             _renumber_dependencies(unknown_el, new_index)
+    _add_element_unknowns(structure, elements, len(kept), index_of_vr)
+    for section in list(structure):
         if len(section) == 0:
             structure.remove(section)
     for ranges in root.findall("VendorAnnotations/Tool[@name='GearMesh']/Ranges"):  # the listed variables' only
@@ -177,6 +201,53 @@ def restrict_model_description(xml: str, listed: set[str]) -> str:
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
+def _array_elements(variables: ET.Element, arrays: Mapping[str, ET.Element]) -> list[tuple[ET.Element, ET.Element]]:
+    """FMI 2.0: the ScalarVariables of the listed arrays' elements (name[i] or name[i,j], 1-based,
+    row-major; value reference elementBase + index), each with its array's annotation, at the
+    structural parameters' start values (the scene's)."""
+    starts = {sv.get("name"): sv[0].get("start") for sv in variables.findall("ScalarVariable")}
+    out = []
+    for name, a in arrays.items():
+        dims = [int(d) if d.isdigit() else int(starts[d]) for d in a.get("dimensions").split()]
+        indices = [(i,) for i in range(dims[0])] if len(dims) == 1 else \
+            [(i, j) for i in range(dims[0]) for j in range(dims[1])]
+        for flat, index in enumerate(indices):
+            sv = ET.Element("ScalarVariable", {
+                "name": f"{name}[{','.join(str(i + 1) for i in index)}]",
+                "valueReference": str(int(a.get("elementBase")) + flat),
+                "description": a.get("description"), "causality": a.get("causality"),
+                "variability": a.get("variability"), "initial": a.get("initial")})
+            real = ET.SubElement(sv, "Real")
+            for attribute in ("unit", "displayUnit"):
+                if a.get(attribute):
+                    real.set(attribute, a.get(attribute))
+            out.append((sv, a))
+    return out
+
+
+def _add_element_unknowns(structure: ET.Element, elements: list[tuple[ET.Element, ET.Element]], first: int,
+                          index_of_vr: Mapping[int, int]) -> None:
+    """FMI 2.0 <Outputs> and <InitialUnknowns> of the array elements (indices after `first`), their
+    knowns from the annotation's value references, those still listed, in index order."""
+    def section(tag: str, before: tuple[str, ...]) -> ET.Element:
+        found = structure.find(tag)
+        if found is None:
+            found = ET.Element(tag)
+            at = next((i for i, s in enumerate(structure) if s.tag in before), len(structure))
+            structure.insert(at, found)
+        return found
+
+    def add(to: ET.Element, index: int, refs: str) -> None:
+        deps = sorted(index_of_vr[int(r)] for r in refs.split() if int(r) in index_of_vr)
+        ET.SubElement(to, "Unknown", {"index": str(index), "dependencies": " ".join(map(str, deps)),
+                                      "dependenciesKind": " ".join(["dependent"] * len(deps))})
+
+    for n, (sv, a) in enumerate(elements, start=first + 1):
+        if a.get("causality") == "output":
+            add(section("Outputs", ("Derivatives", "InitialUnknowns")), n, a.get("dependencies"))
+        add(section("InitialUnknowns", ()), n, a.get("initialDependencies"))
+
+
 def _restrict_fmi3(root: ET.Element, listed: set[str]) -> str:
     variables = root.find("ModelVariables")
     kept = [el for el in variables if el.get("name") in listed or el.get("causality") == "independent"]
@@ -184,6 +255,13 @@ def _restrict_fmi3(root: ET.Element, listed: set[str]) -> str:
     if unknown:
         raise InterfaceError(f"{sorted(unknown)[0]}: no such variable in modelDescription.xml")
     refs = {el.get("valueReference") for el in kept}
+    # an array's dimension whose structural parameter the scene fixes (and no longer lists) is that
+    # parameter's start value
+    starts = {el.get("valueReference"): el.get("start") for el in variables}
+    for el in kept:
+        for dim in el.findall("Dimension"):
+            if dim.get("valueReference") is not None and dim.get("valueReference") not in refs:
+                dim.set("start", starts[dim.attrib.pop("valueReference")])
     variables.clear()
     variables.extend(kept)
     structure = root.find("ModelStructure")
