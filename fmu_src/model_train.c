@@ -55,6 +55,7 @@ _Static_assert(sizeof TRAIN_GUID <= MODEL_GUID_SIZE, "the GUID does not fit an F
 /* ---- variables: generic names for every member the capacities allow ---------------------- */
 
 enum { TABLE_SIZE = TRAIN_MESH_BASE + NM * NF };
+_Static_assert(TABLE_SIZE == TRAIN_TIME_VR, "FMI 3.0's time follows the table (train_variables.h)");
 static model_variable_info table[TABLE_SIZE];
 static char names[TABLE_SIZE][40];
 static int table_ready;

@@ -17,6 +17,8 @@
 #define TRAIN_BODY_BASE 1000
 #define TRAIN_SHAFT_BASE 2000
 #define TRAIN_MESH_BASE 3000
+/* FMI 3.0's independent variable `time`: the value reference after the table (model_train.c) */
+#define TRAIN_TIME_VR 3512
 
 #define TRAIN_SCALAR_FIELDS(X)                                                                                   \
   X(1, "dynamics.tolerance", Real, parameter, fixed, "m", "local error of the rim motion per internal step")    \

@@ -111,6 +111,9 @@ def build_parser() -> argparse.ArgumentParser:
                          "win64/GearTrain.dll, darwin64/GearTrain.dylib: gearmesh platforms writes "
                          "build-platforms/GearTrain/binaries); default: $GEARMESH_TRAIN_BINARIES, else "
                          "linux64 only ($GEARMESH_TRAIN_BINARY, else build/fmu_src/GearTrain.so)")
+    p_train.add_argument("--fmi3", action="store_true",
+                         help="an FMI 3.0 train FMU for this platform ($GEARMESH_TRAIN_BINARY3, else "
+                         "build/fmu_src/GearTrain3.so)")
     sub.add_parser("fmu-docs", help="regenerate the FMU's documentation/index.html from README.md "
                    "and docs/fmi.md")
     p_acc = sub.add_parser("accuracy", help="error of every stiffness setting against the FE "
@@ -156,13 +159,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _train_fmu(scene: pathlib.Path, out: pathlib.Path | None, fmu: pathlib.Path,
-               binaries: pathlib.Path | None) -> int:
+               binaries: pathlib.Path | None, fmi3: bool = False) -> int:
     from gearmesh import train_fmu
 
     try:
         train = train_fmu.load_train(scene)
         written = train_fmu.build_train_fmu(scene, out or REPO / "output" / f"{train.name}.fmu", fmu,
-                                            binaries_folder=binaries)
+                                            binaries_folder=binaries, fmi3=fmi3)
     except (SceneError, OSError, ValueError) as exc:
         print(f"gearmesh: {exc}", file=sys.stderr)
         return 2
@@ -181,21 +184,18 @@ def main(argv: list[str] | None = None) -> int:
 
         return platforms.main(rest)
     if args.command == "train-fmu":
-        return _train_fmu(args.train, args.out, args.fmu, args.binaries)
+        return _train_fmu(args.train, args.out, args.fmu, args.binaries, args.fmi3)
     if args.command == "fmu":
         from gearmesh.train_fmu import is_train_scene
 
         if args.fmu is None:
             args.fmu = REPO / "build" / ("GearMesh-fmi3.fmu" if args.fmi3 else "GearMesh.fmu")
         if is_train_scene(args.scenes[0]):  # a train scene: its train FMU (gearmesh train-fmu)
-            if args.fmi3:
-                print("gearmesh: --fmi3: a train FMU is FMI 2.0 only (gearmesh train-fmu)", file=sys.stderr)
-                return 2
             if args.interface or args.tunable:
                 print("gearmesh: --interface and --tunable are for pair scenes; a train FMU lists its "
                       "members' variables (and the outputs its [fmu] outputs names)", file=sys.stderr)
                 return 2
-            return _train_fmu(args.scenes[0], args.out, args.fmu, None)
+            return _train_fmu(args.scenes[0], args.out, args.fmu, None, args.fmi3)
     if args.command == "fmu-docs":
         from gearmesh import fmu_docs
 

@@ -309,8 +309,9 @@ def _scalar_start(train: Train) -> dict[int, float]:
             3: float(d.get("min_step_s", 1e-9)), 15: 0, 16: train.held_body() + 1, 17: 0.0}
 
 
-def model_description(train: Train, lay: Layout) -> str:
-    """The train FMU's modelDescription.xml: the scalars, then each member's fields under its name."""
+def model_description(train: Train, lay: Layout, fmi3: bool = False) -> str:
+    """The train FMU's modelDescription.xml: the scalars, then each member's fields under its name
+    (FMI 3.0: the same variables and value references, plus `time` after the table)."""
     stride = lay.value("TRAIN_STRIDE")
     rows: list[tuple[int, str, Field, float | None]] = []
     starts = _scalar_start(train)
@@ -344,6 +345,8 @@ def model_description(train: Train, lay: Layout) -> str:
                             "outputs such as sun_planet*.normal_force, carrier.speed, energy.*")
         rows = [row for row in rows if row[2].causality != "output" or
                 any(fnmatch.fnmatchcase(row[1], pattern) for pattern in train.outputs)]
+    if fmi3:
+        return _model_description3(train, lay, rows)
     units = sorted({f.unit for _, _, f, _ in rows if f.unit})
     lines = ['<?xml version="1.0" encoding="UTF-8"?>',
              f'<fmiModelDescription fmiVersion="2.0" modelName="{escape(train.name)}" '
@@ -372,6 +375,52 @@ def model_description(train: Train, lay: Layout) -> str:
               # at initialization they follow from the initial inputs and the parameters
               *[f'      <Unknown index="{k}"/>' for k in outputs],
               "    </InitialUnknowns>", "  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(lines)
+
+
+FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
+
+
+def _model_description3(train: Train, lay: Layout, rows: list) -> str:
+    """FMI 3.0 (fmu_src/fmi3_functions.c over model_train.c): Real as Float64, Integer as Int32,
+    units through <TypeDefinitions> as GearMesh-fmi3.fmu declares them; no intermediate update."""
+    units = sorted({f.unit for _, _, f, _ in rows if f.unit and f.type == "Real"})
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
+             f'<fmiModelDescription fmiVersion="3.0" modelName="{escape(train.name)}" '
+             f'instantiationToken="{lay.defines["TRAIN_GUID"]}" generationTool="gearmesh train-fmu" '
+             'variableNamingConvention="structured">',
+             '  <CoSimulation modelIdentifier="GearTrain" canHandleVariableCommunicationStepSize="true" '
+             'canGetAndSetFMUState="true" canSerializeFMUState="true" providesDirectionalDerivatives="false" '
+             'providesIntermediateUpdate="false" hasEventMode="false"/>',
+             "  <UnitDefinitions>", *[f'    <Unit name="{escape(u)}"/>' for u in units], '    <Unit name="s"/>',
+             "  </UnitDefinitions>", "  <TypeDefinitions>",
+             *[f'    <Float64Type name="{escape(u)}" unit="{escape(u)}"/>' for u in units],
+             '    <Float64Type name="s" unit="s"/>', "  </TypeDefinitions>",
+             "  <LogCategories>",
+             *[f'    <Category name="{c}"/>' for c in
+               ("logEvents", "logStatusWarning", "logStatusError", "logStatusFatal", "logAll")],
+             "  </LogCategories>", "  <ModelVariables>"]
+    outputs = []
+    for vr, name, f, start in rows:
+        attrs = (f'name="{escape(name)}" valueReference="{vr}" causality="{f.causality}" '
+                 f'variability="{f.variability}" description="{escape(f.description)}"')
+        typed = f' declaredType="{escape(f.unit)}"' if f.unit and f.type == "Real" else ""
+        start_attr = ""
+        if start is not None:
+            start_attr = f' start="{repr(float(start)) if f.type == "Real" else int(start)}"'
+        elif f.causality != "input":
+            attrs += ' initial="calculated"'
+        lines.append(f"    <{FMI3_TYPES[f.type]} {attrs}{typed}{start_attr}/>")
+        if f.causality == "output":
+            outputs.append(vr)
+    lines += [f'    <Float64 name="time" valueReference="{lay.value("TRAIN_TIME_VR")}" causality="independent" '
+              'variability="continuous" declaredType="s" description="simulation time"/>',
+              "  </ModelVariables>", "  <ModelStructure>",
+              # the outputs are the train's state: no input acts on them at a communication point
+              *[f'    <Output valueReference="{vr}" dependencies=""/>' for vr in outputs],
+              # at initialization they follow from the initial inputs and the parameters
+              *[f'    <InitialUnknown valueReference="{vr}"/>' for vr in outputs],
+              "  </ModelStructure>", "</fmiModelDescription>", ""]
     return "\n".join(lines)
 
 
@@ -454,8 +503,11 @@ def train_text(train: Train, senses: list[int] | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def binary(path: pathlib.Path | None = None) -> pathlib.Path:
-    p = pathlib.Path(path or os.environ.get("GEARMESH_TRAIN_BINARY", REPO / "build" / "fmu_src" / "GearTrain.so"))
+def binary(path: pathlib.Path | None = None, fmi3: bool = False) -> pathlib.Path:
+    if fmi3:
+        p = pathlib.Path(path or os.environ.get("GEARMESH_TRAIN_BINARY3", REPO / "build" / "fmu_src" / "GearTrain3.so"))
+    else:
+        p = pathlib.Path(path or os.environ.get("GEARMESH_TRAIN_BINARY", REPO / "build" / "fmu_src" / "GearTrain.so"))
     if not p.is_file():
         raise FileNotFoundError(f"{p}: the train binary; build it (cmake --build build --target GearTrain)")
     return p
@@ -548,9 +600,11 @@ def check_geometry(train: Train, scenes: list) -> None:
 
 def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: pathlib.Path,
                     train_binary: pathlib.Path | None = None,
-                    binaries_folder: pathlib.Path | None = None) -> pathlib.Path:
+                    binaries_folder: pathlib.Path | None = None, fmi3: bool = False) -> pathlib.Path:
     """Write the train scene's FMU to out; returns out. Its binaries: binaries(binaries_folder,
-    train_binary)."""
+    train_binary); FMI 3.0 (fmi3): the FMI 3.0 train binary (GearTrain3.so) for this platform."""
+    if fmi3 and binaries_folder is not None:
+        raise ValueError("an FMI 3.0 train FMU is built for this platform only: no binaries folder")
     lay = layout()
     train = load_train(train_scene, lay)
     with zipfile.ZipFile(generic_fmu) as z:
@@ -558,10 +612,11 @@ def build_train_fmu(train_scene: pathlib.Path, out: pathlib.Path, generic_fmu: p
     scenes = [load_scene(m["_scene"], generic_fmu) for m in train.meshes]
     check_geometry(train, scenes)
     check_assembly(train, scenes)
-    libraries = binaries(binaries_folder, train_binary)
+    libraries = ({"binaries/x86_64-linux/GearTrain.so": binary(train_binary, fmi3=True)} if fmi3  # modelIdentifier
+                 else binaries(binaries_folder, train_binary))
     out.parent.mkdir(parents=True, exist_ok=True)
     with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("modelDescription.xml", model_description(train, lay))
+        z.writestr("modelDescription.xml", model_description(train, lay, fmi3))
         for name, library in libraries.items():
             z.write(library, name)
         z.writestr(f"resources/{TRAIN_FILE}", train_text(train, own_senses(train, scenes)))
