@@ -190,3 +190,39 @@ def test_generic_fmi2_annotation_describes_the_arrays(fmu_path):
     assert [a.element_base for a in arrays.values()] == [element_vr(n, 0) for n in ARRAYS]
     assert arrays["mesh.line_load"].dimensions == (str(PAIRS), "model.slices")
     assert arrays["mesh.line_load"].unit == "N/m" and arrays["mesh.slice_position"].causality == "calculatedParameter"
+
+
+def test_intermediate_update_offers_the_line_loads(fmu3_path):
+    """In the large-step mode at a 5 ms step, the intermediate-update callback reads the line loads
+    at each internal step (intermediateUpdate="true"): they change from step to step, each adds up
+    to the mesh's normal force read with it, and the last is the step's outputs."""
+    md = read_model_description(str(fmu3_path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    slices = 10
+    f = FMU3Slave(guid=md.instantiationToken, unzipDirectory=extract(str(fmu3_path)), modelIdentifier="GearMesh",
+                  instanceName="intermediate")
+    samples = []
+
+    def update(env, t, set_requested, get_allowed, finished, can_return_early, early, early_time):
+        loads = f.getFloat64([vr["mesh.line_load"], vr["mesh.pair_force"], vr["mesh.normal_force"]],
+                             nValues=PAIRS * slices + PAIRS + 1)
+        samples.append((t, np.array(loads)))
+
+    f.instantiate(intermediateUpdate=update)
+    w = 1000 * 2 * np.pi / 60
+    f.setInt32([vr["model.dynamics"]], [1])
+    f.setFloat64([vr["gear1.omega"], vr["gear2.omega"], vr["gear1.shaft_stiffness"], vr["gear1.shaft_omega"],
+                  vr["gear2.torque"]], [w, -w, 2e4, w, 200.0])
+    f.enterInitializationMode(startTime=0.0)
+    f.exitInitializationMode()
+    f.doStep(0.0, 5e-3)
+    end = np.array(f.getFloat64([vr["mesh.line_load"], vr["mesh.pair_force"], vr["mesh.normal_force"]],
+                                nValues=PAIRS * slices + PAIRS + 1))
+    f.terminate()
+    f.freeInstance()
+    assert len(samples) >= 10
+    assert np.array_equal(samples[-1][1], end)
+    values = np.array([s[1] for s in samples])
+    assert len({v.tobytes() for v in values}) > len(samples) // 2  # the samples are the internal steps'
+    pair_force, normal_force = values[:, PAIRS * slices:-1], values[:, -1]
+    assert np.allclose(pair_force.sum(axis=1), normal_force, rtol=1e-12) and normal_force.max() > 0
