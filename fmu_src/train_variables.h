@@ -1,6 +1,6 @@
 /* The variables of the gear-train FMU (GearTrain.so, model_train.c): one source for the binary
  * and for the scene tooling that writes a train FMU's modelDescription.xml
- * (tools/gearmesh/train_fmu.py reads this file). A value reference is a block base plus the
+ * (python/gearmesh/train_fmu.py reads this file). A value reference is a block base plus the
  * member's index times the block's stride plus the field; a train FMU lists the members its
  * scene has, under the scene's names (the binary's own names, used in its messages, are the
  * generic ones: body3.speed, shaft1.torque, mesh2.te).
@@ -78,7 +78,7 @@
   X(7, "pairs_in_contact", Integer, output, discrete, "", "loaded tooth pairs")                                 \
   X(8, "planet_share", Real, output, continuous, "", "share of its planet group's normal force (the meshes of one pair scene on one carrier; 1 outside a group)")
 
-/* Resources of a train FMU (written by tools/gearmesh/train_fmu.py):
+/* Resources of a train FMU (written by python/gearmesh/train_fmu.py):
  *   resources/train.txt: "gearmesh-train 1", then one line per member, in index order:
  *     body <name> <inertia kg m^2> <fixed 0|1> <initial angle rad, the start of <body>.phi>
  *          [<mass kg> <bearing stiffness N/m> <bearing damping N s/m> <pin error tangential m> <radial m>

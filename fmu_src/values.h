@@ -10,7 +10,7 @@
 
 #include "variables.h"
 
-/* Start values of a scene FMU, written by tools/gearmesh/scene_fmu.py beside the same start
+/* Start values of a scene FMU, written by python/gearmesh/scene_fmu.py beside the same start
  * attributes in modelDescription.xml. Format (UTF-8, one value per line, '#' comment lines):
  *   gearmesh-start-values 1
  *   <name> <value>      Real: C-locale decimal; Integer: decimal; Boolean: true | false;

@@ -4,7 +4,7 @@
  * binary and a modelDescription.xml built from different versions of it never pair up.
  *
  * Start values are not written here: parameters start at gm_default_params() (the core owns
- * the defaults), inputs at 0 (nominal pose, at rest). A scene FMU (tools/gearmesh/scene_fmu.py)
+ * the defaults), inputs at 0 (nominal pose, at rest). A scene FMU (python/gearmesh/scene_fmu.py)
  * overrides some of them: it rewrites their start attributes in modelDescription.xml and lists
  * the same values in resources/gearmesh-start-values.txt, which the binary reads at
  * fmi2Instantiate (model.h, model_set_resources).

@@ -1,3 +1,3 @@
 """GearMesh's independent nonlinear FE reference of a spur pair (CalculiX), reference_fe/README.md.
 
-Shares no code with core/, compliance_tool/ or tools/gearmesh/: an independent check."""
+Shares no code with core/, compliance_tool/ or python/gearmesh/: an independent check."""

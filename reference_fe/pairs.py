@@ -16,7 +16,7 @@ the checks below, cost). Checks, written into the JSON and refused when they fai
   0.16 % at 50 N m, the band between the two models 6-7 %.
 The product compares its mesh.max_load_share with the largest tooth force's share, and that
 share of its normal force over the face width with the largest tooth force over the face width
-(tools/gearmesh/accuracy_reference.py).
+(python/gearmesh/accuracy/reference.py).
 """
 from __future__ import annotations
 

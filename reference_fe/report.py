@@ -19,7 +19,7 @@ def _git_commit(path: pathlib.Path) -> str:
     try:
         out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=path, capture_output=True,
                              text=True, timeout=30)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--", "reference_fe"], cwd=path,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "."], cwd=path,
                                capture_output=True, text=True, timeout=30).stdout.strip()
         return out.stdout.strip() + ("+modified reference_fe" if dirty else "")
     except (OSError, subprocess.SubprocessError):
@@ -60,7 +60,7 @@ def provenance(scene_name: str, scene_path) -> dict:
         "scene_file": pathlib.Path(scene_path).name,
         "command": "python -m reference_fe " + " ".join(_portable_args(sys.argv[1:])),
         "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": _git_commit(pathlib.Path(__file__).resolve().parents[1]),
+        "git_commit": _git_commit(pathlib.Path(__file__).resolve().parent),
         "ccx_version": ccx.ccx_version(),
         "python": platform.python_version(),
         "gmsh_version": __import__("gmsh").__version__,

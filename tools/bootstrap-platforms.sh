@@ -49,4 +49,4 @@ gm_install_debian_packages wine wine64 llvm-14 unzip maven openjdk-17-jre-headle
 gm_install_fmi_sim
 gm_install_vdmcheck
 echo "gearmesh: building the multi-platform FMU (build-platforms/GearMesh.fmu)"
-"$GM_VENV/bin/python" -m gearmesh platforms --jobs "$(nproc)"
+"$GM_VENV/bin/gearmesh-dev" platforms --jobs "$(nproc)"

@@ -37,9 +37,15 @@ gm_install_debian_packages() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# The venv: the pinned packages (tools/requirements.txt, the CI lock file), then the repository's
+# three Python packages as editable installs without their dependencies: gearmesh (the root
+# pyproject.toml; GM_PACKAGE_BINARIES=OFF builds no binaries into it, it finds the FMUs in build/
+# through GEARMESH_CHECKOUT), the maintainer tools gearmesh-dev (tools/) and the FE reference
+# gearmesh-reference-fe (reference_fe/).
 gm_make_venv() {
   local stamp="$GM_VENV/.requirements.sha256" want
-  want=$(cat "$GM_REPO/tools/requirements.txt" "$GM_REPO/tools/pyproject.toml" | sha256sum | cut -d' ' -f1)
+  want=$(cat "$GM_REPO/tools/requirements.txt" "$GM_REPO/pyproject.toml" "$GM_REPO/tools/pyproject.toml" \
+    "$GM_REPO/reference_fe/pyproject.toml" | sha256sum | cut -d' ' -f1)
   if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x "$GM_VENV/bin/python" ]; then
     return 0
   fi
@@ -47,7 +53,9 @@ gm_make_venv() {
   [ -x "$GM_VENV/bin/python" ] || "${PYTHON:-python3}" -m venv "$GM_VENV"
   "$GM_VENV/bin/python" -m pip install -q --upgrade pip
   "$GM_VENV/bin/python" -m pip install -q -r "$GM_REPO/tools/requirements.txt"
-  "$GM_VENV/bin/python" -m pip install -q --no-deps -e "$GM_REPO/tools"
+  "$GM_VENV/bin/python" -m pip uninstall -q -y gearmesh 2>/dev/null || true # an older tools/ install
+  GM_PACKAGE_BINARIES=OFF "$GM_VENV/bin/python" -m pip install -q --no-deps --no-build-isolation \
+    -e "$GM_REPO" -e "$GM_REPO/tools" -e "$GM_REPO/reference_fe"
   echo "$want" >"$stamp"
 }
 
@@ -59,6 +67,8 @@ gm_build() {
   cmake --build "$GM_BUILD" --parallel "$(nproc)"
 }
 
+# gearmesh.paths: the package of the editable install finds the FMUs, scenes and tools here
+export GEARMESH_CHECKOUT="$GM_REPO"
 gm_install_debian_packages "${GM_APT_PACKAGES[@]}"
 gm_make_venv
 gm_build

@@ -8,7 +8,7 @@
 // per unit line load q (N/m, face-uniform) on tooth 0 at height h_b, heights above the
 // reference circle in normal modules; k_-d(h_a, h_b) = k_d(h_b, h_a) (Maxwell-Betti). The
 // coefficients are a surrogate of compliance_tool's FE databases, fitted offline
-// (tools/gearmesh/coupling_fit.py) over a family of solid-disc gears clamped at a bore of 0.4
+// (tools/gearmesh_dev/coupling_fit.py) over a family of solid-disc gears clamped at a bore of 0.4
 // root radius (the body Sainsot's term of level 4 assumes), tabulated over the tooth count and
 // b/m_n and interpolated here (linear in 1/z and in b/m_n, clamped at the table's ends; a tooth
 // count outside the table flags the gear as extrapolated, a b/m_n outside it does not: the

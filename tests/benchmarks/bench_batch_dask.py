@@ -16,10 +16,11 @@ import sys
 import tempfile
 import time
 
-from gearmesh import batch, batch_tasks, cluster
+from gearmesh.batch import run as batch, tasks as batch_tasks, cluster
+from gearmesh.paths import find_checkout
 from gearmesh.scene import load_scene
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
+REPO = find_checkout(pathlib.Path(__file__).parent)
 
 
 def the_cases(n: int) -> list[batch.Case]:

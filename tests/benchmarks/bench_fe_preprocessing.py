@@ -12,7 +12,7 @@
 2. One fmi2DoStep of the quasi-static loaded TE at level 5 (set A, the database of 1.) against
    level 4 of the same FMU, in the same process: median and spread over repeats.
 
-    PYTHONPATH=tools python tests/benchmarks/bench_fe_preprocessing.py [--repeats N] [--small-only]
+    .venv/bin/python tests/benchmarks/bench_fe_preprocessing.py [--repeats N] [--small-only]
         [--baseline-tool OLD_COMPLIANCE_TOOL] [--fine] [--no-fmu]
 
 The machine's load average is printed with the figures (they are noisy on a shared machine).
@@ -30,13 +30,13 @@ import sys
 import tempfile
 import time
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "tools"))
+from gearmesh import compliance
+from gearmesh.fmu_driver import GearMeshFMU
+from gearmesh.paths import find_checkout
+from gearmesh.scene import load_scene, parse_scene
+from gearmesh.scene_fmu import build_scene_fmu
 
-from gearmesh import compliance  # noqa: E402
-from gearmesh.fmu_driver import GearMeshFMU  # noqa: E402
-from gearmesh.scene import load_scene, parse_scene  # noqa: E402
-from gearmesh.scene_fmu import build_scene_fmu  # noqa: E402
+REPO = find_checkout(pathlib.Path(__file__).parent)
 
 SMALL = """
 [pair]

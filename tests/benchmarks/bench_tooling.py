@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from gearmesh.accuracy_timing import StepTimer
+from gearmesh.accuracy.timing import StepTimer
 from gearmesh.drivetrain import Drivetrain, simulate
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import loaded_te_sweep

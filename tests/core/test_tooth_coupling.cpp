@@ -1,7 +1,7 @@
 // Level 4's tooth coupling (tooth_coupling.hpp) and its low-rank force solve
 // (coupled_forces.hpp):
 // * the table against held-out compliance_tool databases (tests/core/data/
-//   tooth_coupling_check.csv: gears outside the fit, written by tools/gearmesh/coupling_fit.py
+//   tooth_coupling_check.csv: gears outside the fit, written by tools/gearmesh_dev/coupling_fit.py
 //   from the databases, not from the core);
 // * Maxwell-Betti: C_ij = C_ji between slices of any teeth, flanks and gears;
 // * limits: one tooth pair alone carries exactly the uncoupled level 4's forces; the coupling

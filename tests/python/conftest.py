@@ -7,12 +7,17 @@ import shutil
 
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
+from gearmesh.paths import ENV_CHECKOUT, find_checkout
+
+# The checkout the tests belong to (they read its scenes, docs and build); the package under test
+# resolves its files through the same checkout (gearmesh.paths), as tools/bootstrap.sh sets it.
+REPO = find_checkout(pathlib.Path(__file__).parent)
+os.environ.setdefault(ENV_CHECKOUT, str(REPO))
 
 # Modules that take seconds to minutes (CalculiX runs, the stability suite's subset, the main
 # job, FE databases, Dask clusters, the platform stage): marked `slow`, left out by
 # `tools/run-tests --quick` (pytest -m "not slow"). The rest runs in about half a minute.
-SLOW_MODULES = {"test_stability", "test_main_job", "test_train_fe", "test_reference_fe_smoke",
+SLOW_MODULES = {"test_stability", "test_main_job", "test_package", "test_train_fe", "test_reference_fe_smoke",
                 "test_reference_fe3d_smoke", "test_reference_fe3d_lineload_smoke", "test_fe_scenes",
                 "test_batch_tasks", "test_platforms", "test_stability_trains", "test_masters"}
 

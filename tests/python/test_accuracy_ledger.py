@@ -12,25 +12,25 @@ them built on 2 threads, 0."""
 from __future__ import annotations
 
 import copy
-import pathlib
 import re
 import subprocess
 
 import numpy as np
 import pytest
 
-from gearmesh import accuracy, accuracy_iso, accuracy_ledger, accuracy_report, cli
-from gearmesh.accuracy_reference import (QUANTITIES, ReferenceError, band_error, curve_error,
-                                         errors, pair_errors, read_pairs, read_positions,
-                                         read_summary)
-from gearmesh.accuracy_sweep import sweep
+from gearmesh import cli
+from gearmesh.accuracy import levels as accuracy, iso as accuracy_iso, report as accuracy_report
+from gearmesh_dev import ledger as accuracy_ledger
+from gearmesh.accuracy.reference import (QUANTITIES, ReferenceError, band_error, curve_error, errors,
+                                         pair_errors, read_pairs, read_positions, read_summary)
+from gearmesh.accuracy.sweep import sweep
 from gearmesh.scene import load_scene
 from gearmesh.scene_fmu import build_scene_fmu
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "tests" / "python" / "fixtures" / "accuracy"
 # The committed ledger against the committed FE references (scenarios/reference/), written by
-# `python -m gearmesh.accuracy_ledger` (a move of more than 1 point needs --reason).
+# `gearmesh-dev ledger` (a move of more than 1 point needs --reason).
 LEDGER = REPO / "scenarios" / "reference" / "ledger_small.csv"
 MARGIN = accuracy_ledger.MARGIN
 
@@ -110,7 +110,7 @@ def test_regeneration_needs_a_reason_for_a_move_over_one_point(tmp_path):
 
 
 def test_regeneration_command(fmu_path, tmp_path, capsys):
-    """python -m gearmesh.accuracy_ledger on a copy of the quick ledger with one error planted
+    """gearmesh-dev ledger on a copy of the quick ledger with one error planted
     2 points off: --check names it with its band; without --reason nothing is written; with one,
     the row is back at today's error with the reason in it."""
     ledger = tmp_path / "ledger.csv"

@@ -7,18 +7,18 @@ pair; about 35 s for all on a clean clone, most of it the helical pair's)."""
 from __future__ import annotations
 
 import dataclasses
-import pathlib
 
 import numpy as np
 import pytest
 
-from gearmesh import accuracy, accuracy_ledger, accuracy_report
-from gearmesh.accuracy_reference import read_summary, summary_path
-from gearmesh.accuracy_sweep import summarize
+from gearmesh.accuracy import levels as accuracy, report as accuracy_report
+from gearmesh_dev import ledger as accuracy_ledger
+from gearmesh.accuracy.reference import read_summary, summary_path
+from gearmesh.accuracy.sweep import summarize
+from conftest import REPO
 
 pytestmark = pytest.mark.slow
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 LEDGER = REPO / "scenarios" / "reference" / "ledger_level5.csv"
 GATED = ("mean", "pp", "order1", "order2")
 

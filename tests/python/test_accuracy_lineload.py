@@ -3,19 +3,17 @@
 error row, and the product side (mesh.max_line_load collected by the sweep)."""
 from __future__ import annotations
 
-import pathlib
-
 import numpy as np
 import pytest
 
-from gearmesh import accuracy_report
-from gearmesh.accuracy_reference import (PEAK_LINE_LOAD, ReferenceError, lineload_path,
-                                         peak_line_load_error, read_lineload)
-from gearmesh.accuracy_sweep import sweep
+from gearmesh.accuracy import report as accuracy_report
+from gearmesh.accuracy.reference import (PEAK_LINE_LOAD, ReferenceError, lineload_path, peak_line_load_error,
+                                         read_lineload)
+from gearmesh.accuracy.sweep import sweep
 from gearmesh.scene import load_scene
 from gearmesh.scene_fmu import build_scene_fmu
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "tests" / "python" / "fixtures" / "accuracy"
 # scene "fx", 150 N m, 8 positions, 2 and 1 bins over a 20 mm face, teeth 0 and 56: tooth 0
 # alone at positions 0-3 (1000 N, 500 N per 10 mm bin), the load shared at 4-7 and skewed at

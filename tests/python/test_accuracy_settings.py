@@ -1,19 +1,19 @@
-"""The settings `gearmesh accuracy` compares (tools/gearmesh/accuracy_settings.py): level 5's FE
+"""The settings `gearmesh accuracy` compares (python/gearmesh/accuracy/settings.py): level 5's FE
 variants (mesh coarse/fine, flank grid loaded at 70/50 %) on top of the scene's [fe] keys, their
 own cached databases, and what those cost to build (docs/validation.md, "FE variants")."""
 from __future__ import annotations
 
 import json
 import math
-import pathlib
 
 import pytest
 
-from gearmesh import accuracy_report, accuracy_settings, compliance
-from gearmesh.accuracy_settings import FE_VARIANTS, Setting
+from gearmesh import compliance
+from gearmesh.accuracy import report as accuracy_report, settings as accuracy_settings
+from gearmesh.accuracy.settings import FE_VARIANTS, Setting
 from gearmesh.scene import load_scene
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 SET_A = REPO / "scenarios" / "paper_setA_3U4U.toml"
 HELICAL = REPO / "scenarios" / "fe" / "helical_fe.toml"
 

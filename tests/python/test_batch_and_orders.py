@@ -3,16 +3,16 @@ from __future__ import annotations
 
 import csv
 import math
-import pathlib
 
 import numpy as np
 import pytest
 
-from gearmesh import batch
+from gearmesh.batch import run as batch
 from gearmesh.prescribed_motion import mesh_order_amplitudes
 from gearmesh.scene import load_scene
+from conftest import REPO
 
-SCENES = pathlib.Path(__file__).resolve().parents[2] / "scenarios"
+SCENES = REPO / "scenarios"
 
 
 def test_order_analysis_recovers_the_harmonics_of_a_synthetic_te():
@@ -62,7 +62,7 @@ def test_report_plots_variations_that_lost_a_case(tmp_path):
     """A case that failed leaves its variation's curve one torque short: the report plots each
     curve over its own torques (the clean-clone CI of 9f5728f crashed there: x and y of
     different lengths)."""
-    from gearmesh import batch
+    from gearmesh.batch import run as batch
 
     def row(mu, torque):
         return {"scene": "s", "torque_Nm": torque, "model.friction_coefficient": mu,

@@ -22,11 +22,12 @@ import pytest
 from distributed import Client
 from distributed.diagnostics.plugin import SchedulerPlugin
 
-from gearmesh import batch, batch_tasks, cluster, compliance
+from gearmesh import compliance
+from gearmesh.batch import run as batch, tasks as batch_tasks, cluster
 from gearmesh.scene import load_scene
 from test_fe_scenes import PAIR
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 SCENES = REPO / "scenarios"
 DASK = pathlib.Path(sys.executable).with_name("dask")
 FAKE_TOOL = """#!{python}

@@ -4,10 +4,9 @@ the system-simulation guide's passing runs against docs/stability.md's tables. A
 drifts from its source fails here."""
 from __future__ import annotations
 
-import pathlib
 import re
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
 def table_after(text: str, anchor: str) -> list[list[str]]:

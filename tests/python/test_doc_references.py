@@ -8,8 +8,8 @@ from __future__ import annotations
 import pathlib
 import re
 import subprocess
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 TEXT = (".c", ".h", ".cpp", ".hpp", ".py", ".md", ".txt", ".toml", ".html", ".sh", ".cmake")
 REFERENCE = re.compile(r'docs/([A-Za-z_]+\.md)(?:,?\s*(?:§(\d+)|"([^"\n]+)"))?')
 # a README and a quoted section: `README, "Choosing a level"`, `reference_fe/README.md, "Outputs"`

@@ -1,10 +1,10 @@
-"""`gearmesh figures` (tools/gearmesh/figures.py): the cheap pictures are made into a temporary
+"""`gearmesh-dev figures` (tools/gearmesh_dev/figures.py): the cheap pictures are made into a temporary
 folder and are PNGs of a plausible size; the schematic's geometry is the FMU's (its drawn teeth
 have the FMU's backlash, its lines of action touch the base circles, its path of contact has the
 FMU's contact ratio); and every picture in docs/img/ is one the script makes (none drawn by
 hand). The expensive pictures (te_set_a: a level-5 database; stability_map: the quick stability
 suite; study_histogram: a study on a Dask cluster; compliance_mesh: a compliance_tool run) are
-made by `python -m gearmesh figures`, not here."""
+made by `gearmesh-dev figures`, not here."""
 from __future__ import annotations
 
 import math
@@ -14,11 +14,11 @@ import struct
 import numpy as np
 import pytest
 
-from gearmesh import cli, figures
+from gearmesh_dev import cli, figures
 from gearmesh.scene import load_scene
 from gearmesh.scene_fmu import build_scene_fmu
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 DOCS_IMG = REPO / "docs" / "img"
 PNG = b"\x89PNG\r\n\x1a\n"
 MAX_BYTES = 200 * 1024
@@ -81,10 +81,10 @@ def test_schematic_is_the_fmus_geometry(geometry):
 
 
 def test_docs_img_holds_only_the_scripts_pictures():
-    """No hand-made orphans: every docs/img/*.png is a file `gearmesh figures` writes (and each
+    """No hand-made orphans: every docs/img/*.png is a file `gearmesh-dev figures` writes (and each
     file it writes is there), each within the size limit."""
     found = {p.name for p in DOCS_IMG.glob("*.png")}
-    assert found, "docs/img/ holds no pictures: run `python -m gearmesh figures`"
+    assert found, "docs/img/ holds no pictures: run `gearmesh-dev figures`"
     orphans = found - set(figures.FILES.values())
     assert not orphans, f"docs/img/ pictures no script makes: {sorted(orphans)}"
     missing = set(figures.FILES.values()) - found

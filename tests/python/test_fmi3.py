@@ -18,8 +18,8 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
 # The three modes, each with inputs that load the mesh (one per mode, held over 10 ms in 1 ms steps).

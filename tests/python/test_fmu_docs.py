@@ -1,16 +1,14 @@
 """The FMU's documentation/index.html (issue 13 item 8): generated from README.md and docs/fmi.md
-(`python -m gearmesh fmu-docs`, tools/gearmesh/fmu_docs.py), packed into the built FMU as
+(`gearmesh-dev fmu-docs`, tools/gearmesh_dev/fmu_docs.py), packed into the built FMU as
 committed, and naming only variables the FMU has."""
 from __future__ import annotations
 
 import html
-import pathlib
 import re
 import zipfile
 
-from gearmesh import fmu_docs
+from gearmesh_dev import fmu_docs
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 _PREFIXES = ("gear<i>", "gear1", "gear2", "mesh", "model", "solver", "pair", "geometry",
              "dynamics", "energy")
 
@@ -18,7 +16,7 @@ _PREFIXES = ("gear<i>", "gear1", "gear2", "mesh", "model", "solver", "pair", "ge
 def test_committed_page_is_generated():
     committed = fmu_docs.OUTPUT.read_text(encoding="utf-8")
     assert committed == fmu_docs.generate(), (
-        "fmu_src/documentation/index.html is stale: run `python -m gearmesh fmu-docs`")
+        "fmu_src/documentation/index.html is stale: run `gearmesh-dev fmu-docs`")
 
 
 def test_fmu_carries_the_page(fmu_path):

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import ctypes
 import math
-import pathlib
 import struct
 import zipfile
 from ctypes import byref, create_string_buffer
@@ -25,8 +24,8 @@ from gearmesh.scene_fmu import START_VALUES, build_scene_fmu
 
 import test_fmu_conformance as conformance
 from test_fmu_conformance import LEVEL0, Instance, assert_error
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 K_PRIME = 1.5e10  # N/m^2, the default user stiffness per unit face width
 FACE = 0.023      # m, the default face width

@@ -10,7 +10,6 @@ and the quasi-static TE at zero load against the TE table.
 from __future__ import annotations
 
 import math
-import pathlib
 
 import numpy as np
 import pytest
@@ -22,8 +21,8 @@ from gearmesh.scene_fmu import build_scene_fmu
 import test_fmu_conformance as conformance
 from test_fmu_conformance import assert_error
 from test_fmu_microgeometry import Pair, Stepper
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 FACE = 0.023  # m, the default face width
 TE = 4e-6     # m, approach on flank A
 # k(theta) = (theta/deg - 5) N/(mm um): linear in gear 1's roll angle

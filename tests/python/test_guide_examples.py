@@ -5,14 +5,13 @@ load torque, measured here independently through the FMU's quasi-static mode."""
 from __future__ import annotations
 
 import os
-import pathlib
 import re
 import subprocess
 import sys
 
 import numpy as np
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
 def example() -> tuple[str, str]:

@@ -2,15 +2,15 @@
 from __future__ import annotations
 
 import csv
-import pathlib
 
 import numpy as np
 import pytest
 
 from gearmesh.main_job import run_main
 from gearmesh.scene import load_scene
+from conftest import REPO
 
-SCENES = pathlib.Path(__file__).resolve().parents[2] / "scenarios"
+SCENES = REPO / "scenarios"
 
 
 def read(path):

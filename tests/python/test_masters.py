@@ -38,9 +38,9 @@ import zipfile
 
 import pytest
 
-from gearmesh import platforms
+from gearmesh_dev import platforms
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 MASTERS = REPO / "tests" / "masters"
 SCENE = REPO / "scenarios" / "paper_setA_3U4U.toml"
 sys.path.insert(0, str(MASTERS))

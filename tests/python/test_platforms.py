@@ -1,7 +1,7 @@
 """The multi-platform FMU, the source FMU and the FMI checkers (docs/platforms.md).
 
 build-platforms/GearMesh.fmu and the train binaries, build-platforms/GearTrain/binaries, are
-built by tools/bootstrap-platforms.sh (`python -m gearmesh platforms`), which also installs
+built by tools/bootstrap-platforms.sh (`gearmesh-dev platforms`), which also installs
 fmi-sim and VDMCheck2 into the cache; a missing piece fails these tests, it does not skip them.
 What runs for real here: linux64 (this machine: Debian 12, glibc 2.36, so newer than the 2.17
 the binary needs), win64 under wine, the sources built by the host compiler; the darwin64
@@ -21,13 +21,14 @@ import zipfile
 import lief
 import pytest
 
-from gearmesh import platforms, train_fmu
+from gearmesh import train_fmu
+from gearmesh_dev import platforms
 from gearmesh.fmu_command import write_scene_fmu
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.scene import load_scene
 from gearmesh.scene_fmu import build_scene_fmu
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 PLATFORMS = REPO / "build-platforms"
 SCENE = REPO / "scenarios" / "paper_setA_3U4U.toml"
 TRAIN_SCENE = REPO / "scenarios" / "trains" / "two_stage_reducer.toml"
@@ -432,7 +433,7 @@ def test_the_sources_alone_build_an_fmu_equal_to_the_binary(fmu_path, tmp_path):
 @pytest.fixture(scope="module", params=["generic", "torsional", "planar", "full"])
 def checked_fmu(request, multi_fmu, tmp_path_factory) -> pathlib.Path:
     """The multi-platform FMU, and set A's scene FMU with each interface built from it
-    (gearmesh fmu --interface; tools/gearmesh/scene_interface.py)."""
+    (gearmesh fmu --interface; python/gearmesh/scene_interface.py)."""
     if request.param == "generic":
         return multi_fmu
     out = tmp_path_factory.mktemp("interface") / f"setA.{request.param}.fmu"

@@ -5,12 +5,11 @@ README states are the generic FMU's start values."""
 from __future__ import annotations
 
 import os
-import pathlib
 import re
 import subprocess
 import sys
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
 def first_curve() -> tuple[str, str, str]:

@@ -2,14 +2,13 @@
 fails beyond reference_curves.TOLERANCE; the references are regenerated only on purpose."""
 from __future__ import annotations
 
-import pathlib
-
 import pytest
 
 from gearmesh import reference_curves as rc
 from gearmesh.scene import load_scene
+from conftest import REPO
 
-SCENES = sorted((pathlib.Path(__file__).resolve().parents[2] / "scenarios").glob("*.toml"))
+SCENES = sorted((REPO / "scenarios").glob("*.toml"))
 
 
 @pytest.mark.parametrize("scene_path", SCENES, ids=[p.stem for p in SCENES])

@@ -1,9 +1,9 @@
 """docs/reference/ (scene keys, FMU variables, commands) is generated from the code by
-`python -m gearmesh reference-docs` (tools/gearmesh/reference_docs.py): the committed pages equal
+`gearmesh-dev reference-docs` (tools/gearmesh_dev/reference_docs.py): the committed pages equal
 a fresh generation, carry nothing machine- or time-dependent, and are checked independently of the
 generator against what they document: every key of every scene in scenarios/, every
 ScalarVariable of the built FMU's modelDescription.xml (read here with xml.etree) with its unit
-and min/max, and every subcommand and option `python -m gearmesh --help` lists."""
+and min/max, and every subcommand and option `gearmesh --help` lists."""
 from __future__ import annotations
 
 import pathlib
@@ -16,11 +16,11 @@ import zipfile
 
 import pytest
 
-from gearmesh import reference_docs
+from gearmesh_dev import reference_docs
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 PAGES = REPO / "docs" / "reference"
-COMMAND = ".venv/bin/python -m gearmesh reference-docs"
+COMMAND = "gearmesh-dev reference-docs"
 
 
 @pytest.fixture(scope="module")
@@ -183,27 +183,30 @@ def test_every_fmu_variable_is_documented_with_unit_and_range(fmu_path):
 
 # --- commands: every subcommand and option the CLI lists -----------------------------------------
 
-def gearmesh_help(*args: str) -> str:
-    proc = subprocess.run([sys.executable, "-m", "gearmesh", *args, "--help"], capture_output=True,
+def gearmesh_help(prog: str, *args: str) -> str:
+    """`prog [args] --help` of the installed console script (gearmesh, gearmesh-dev)."""
+    script = pathlib.Path(sys.executable).with_name(prog)
+    proc = subprocess.run([str(script), *args, "--help"], capture_output=True,
                           text=True, timeout=60, cwd=REPO)
     assert proc.returncode == 0, proc.stderr
     return proc.stdout
 
 
-def command_sections() -> dict[str, str]:
+def command_sections(prog: str) -> dict[str, str]:
     text = page("commands.md")
-    parts = re.split(r"^## gearmesh (\S+)\n", text, flags=re.M)
-    return dict(zip(parts[1::2], parts[2::2]))
+    parts = re.split(r"^## (gearmesh(?:-dev)?) (\S+)\n", text, flags=re.M)
+    return {name: body for p, name, body in zip(parts[1::3], parts[2::3], parts[3::3]) if p == prog}
 
 
-def test_every_subcommand_and_option_is_documented():
-    usage = gearmesh_help()
+@pytest.mark.parametrize("prog, one, least", [("gearmesh", "main", 10), ("gearmesh-dev", "reference-docs", 6)])
+def test_every_subcommand_and_option_is_documented(prog, one, least):
+    usage = gearmesh_help(prog)
     commands = re.search(r"\{([\w,-]+)\}", usage).group(1).split(",")
-    assert "reference-docs" in commands and len(commands) >= 10
-    sections = command_sections()
+    assert one in commands and len(commands) >= least
+    sections = command_sections(prog)
     assert list(sections) == commands
     for command in commands:
-        listed = re.findall(r"(?<![\w-])(--[a-z][a-z-]*)", gearmesh_help(command))
+        listed = re.findall(r"(?<![\w-])(--[a-z][a-z-]*)", gearmesh_help(prog, command))
         options = set(listed) - {"--help"}
         documented = set(re.findall(r"`(--[a-z][a-z-]*)", sections[command]))
         assert options <= documented, (command, sorted(options - documented))

@@ -16,16 +16,13 @@
 from __future__ import annotations
 
 import math
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO))
 
 from reference_fe import geometry, mesh3d, model3d, scene  # noqa: E402
+from conftest import REPO
 
 # faces of a hex20 / wedge15 side S3..S6 / S3..S5: the section edge j (corner nodes and mid)
 _SIDE = {20: {3: [0, 1, 5, 4, 8, 12, 16, 17], 4: [1, 2, 6, 5, 9, 13, 17, 18],

@@ -4,13 +4,9 @@ sensitivity and the layer study, on made-up forces whose answers are known."""
 from __future__ import annotations
 
 import math
-import pathlib
-import sys
 
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO))
 
 from reference_fe import lineload3d  # noqa: E402
 from reference_fe.analysis import PositionResult  # noqa: E402

@@ -20,8 +20,8 @@ import pathlib
 from collections import defaultdict
 
 import pytest
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 REFERENCE = REPO / "scenarios" / "reference"
 FILES = sorted(REFERENCE.glob("*.reference_fe3d.lineload.csv"))
 # set A (and its crowned variant): r_b1 = m z cos(20 deg) / 2, 57 teeth of module 2.6 mm

@@ -20,16 +20,13 @@ from __future__ import annotations
 
 import csv
 import math
-import pathlib
-import sys
 import tempfile
 
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO))
 
 from reference_fe import mesh3d, model3d, scene  # noqa: E402
+from conftest import REPO
 
 
 pytestmark = pytest.mark.usefixtures("ccx_installed")

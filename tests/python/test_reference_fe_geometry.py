@@ -11,16 +11,13 @@ the flank by more than a few hundredths of a micron)."""
 from __future__ import annotations
 
 import math
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO))
 
 from reference_fe import geometry, mesh, scene  # noqa: E402
+from conftest import REPO
 
 SCENES = ["paper_setA_3U4U.toml", "paper_setB_P1P2.toml"]
 

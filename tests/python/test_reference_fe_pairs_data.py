@@ -12,8 +12,8 @@ import pathlib
 from collections import defaultdict
 
 import pytest
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 REFERENCE = REPO / "scenarios" / "reference"
 FILES = sorted(REFERENCE.glob("*.reference_fe.pairs.csv"))
 # set A, set B: base radius r_b1 = m z cos(20 deg) / 2 (both 57 teeth of module 2.6 mm)

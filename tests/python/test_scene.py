@@ -1,13 +1,12 @@
 """Scene validation: one schema, errors that name the key, the value and the allowed range."""
 from __future__ import annotations
 
-import pathlib
-
 import pytest
 
 from gearmesh.scene import SceneError, load_scene, parse_scene
+from conftest import REPO
 
-SCENES = pathlib.Path(__file__).resolve().parents[2] / "scenarios"
+SCENES = REPO / "scenarios"
 
 
 def test_paper_set_a_converts_units_to_si():

@@ -1,6 +1,6 @@
 """Every malformed scene is a SceneError naming the file and the key or line, never a traceback
 (docs/reliability.md): the corpus in fixtures/bad_scenes/ through load_scene and through
-`python -m gearmesh check`, and the resource rule (files stay inside the scene's folder, or
+`gearmesh check`, and the resource rule (files stay inside the scene's folder, or
 [scene] resource_root, and are regular files)."""
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ import pytest
 
 from gearmesh import cli
 from gearmesh.scene import SceneError, load_scene, parse_scene
+from conftest import REPO
 
 HERE = pathlib.Path(__file__).resolve().parent
-REPO = HERE.parents[1]
 BAD = HERE / "fixtures" / "bad_scenes"
 # files that cannot carry their "# ... -- expect: ..." comment line
 EXPECT = {"empty.toml": "empty scene", "utf16.toml": "UTF-16 byte-order mark"}
@@ -57,14 +57,13 @@ def test_check_command_reports_without_traceback(path, capsys):
 
 
 def test_check_command_in_a_process(tmp_path):
-    """`python -m gearmesh check FILE` for a few of the worst files: exit 2, the message on
+    """`gearmesh check FILE` for a few of the worst files: exit 2, the message on
     stderr, no traceback."""
-    env = {**os.environ, "PYTHONPATH": str(REPO / "tools")}
     for name in ("nested_arrays.toml", "invalid_utf8.toml", "scene_is_number.toml", "binary_junk.toml",
                  "escaping_path.toml"):
         path = BAD / name
         proc = subprocess.run([sys.executable, "-m", "gearmesh", "check", str(path)], capture_output=True,
-                              text=True, env=env, timeout=60)
+                              text=True, timeout=60)
         assert proc.returncode == 2, proc.stderr
         assert f"gearmesh: {path}: " in proc.stderr and expected(path) in proc.stderr
         assert "Traceback" not in proc.stderr

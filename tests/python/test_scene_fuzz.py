@@ -17,8 +17,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from gearmesh.scene import BODY_SCHEMA, FE_SCHEMA, RUN_SCHEMA, SCHEMA, SceneError, load_scene
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 SCENES = sorted((REPO / "scenarios").rglob("*.toml"))
 
 settings.register_profile("ci", max_examples=300, deadline=None, derandomize=True, database=None,

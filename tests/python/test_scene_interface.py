@@ -1,5 +1,5 @@
 """Scene FMUs that list only what their scene uses: `gearmesh fmu SCENE --interface
-torsional|planar|full` (tools/gearmesh/scene_interface.py; docs/fmi.md, "Scene interfaces").
+torsional|planar|full` (python/gearmesh/scene_interface.py; docs/fmi.md, "Scene interfaces").
 
 The interfaces are checked against the generic FMU: fmpy validates each, the listed sets are the
 ones the docs state, a hidden scene value still acts (a tilt kept in resources/ moves the
@@ -21,8 +21,8 @@ from gearmesh.fmu_command import write_scene_fmu
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.scene import SceneError, load_scene, parse_scene
 from gearmesh.scene_interface import InterfaceError, TORSIONAL_OUTPUTS
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 SET_A = REPO / "scenarios" / "paper_setA_3U4U.toml"
 W1 = 10 * 2 * math.pi / 60
 

@@ -13,10 +13,10 @@ import math
 import numpy as np
 import pytest
 
-from gearmesh import stability
+from gearmesh.stability import suite as stability
 from gearmesh.fmu_driver import GearMeshFMU
-from gearmesh.stability_cases import SETTLE, select
-from gearmesh.stability_runs import Run, chain_plant, converged_te, cut_reference_te, prepare
+from gearmesh.stability.cases import SETTLE, select
+from gearmesh.stability.runs import Run, chain_plant, converged_te, cut_reference_te, prepare
 
 
 @pytest.fixture(scope="module")

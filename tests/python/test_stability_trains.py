@@ -1,4 +1,4 @@
-"""The train cases of the stability suite (`gearmesh stability --trains`, gearmesh.stability_trains,
+"""The train cases of the stability suite (`gearmesh stability --trains`, gearmesh.stability.trains,
 docs/stability.md "Gear trains"): the undamped 3-planet stage at 1e-2 s and the damped two-stage
 reducer at 1e-3 s pass every judgement under the explicit master; the judge fails made-up runs
 that made energy, ran away or whose mesh oscillation grew, so that a judgement that could not
@@ -12,8 +12,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from gearmesh import stability_trains as st
-from gearmesh.stability import ENERGY_TOL, UNDAMPED_GAIN
+from gearmesh.stability import trains as st
+from gearmesh.stability.suite import ENERGY_TOL, UNDAMPED_GAIN
 
 
 def one_row(fmu_path, case: st.TrainCase, step: float) -> st.TrainRow:

@@ -3,15 +3,16 @@ deviation files the FMU reads, and bad input named without a traceback."""
 from __future__ import annotations
 
 import json
-import pathlib
 
 import numpy as np
 import pytest
 
-from gearmesh import batch, cli, study
+from gearmesh import cli
+from gearmesh.batch import run as batch, study
 from gearmesh.scene import load_scene
+from conftest import REPO
 
-SCENES = pathlib.Path(__file__).resolve().parents[2] / "scenarios"
+SCENES = REPO / "scenarios"
 
 
 def test_study_draws_are_seeded_in_si_and_pitch_files_close(fmu_path, tmp_path):
@@ -60,7 +61,7 @@ def test_bad_study_input_is_named_without_traceback(argv, needle, fmu_path, tmp_
 
 
 def test_study_report_lists_the_worst_cases_and_plots_the_distribution(fmu_path, tmp_path):
-    from gearmesh import study_report
+    from gearmesh.batch import study_report
 
     scene = load_scene(SCENES / "paper_setB_P1P2.toml")
     plan = study.plan(scene, ["gear2.rx=uniform(-0.5,0.5mrad)"], 3, 7, fmu_path, tmp_path)

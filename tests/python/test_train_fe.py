@@ -5,12 +5,11 @@ passes fmpy's validation and keeps the Willis ratio, the torque balance and equa
 at 1e-2 s, as the level-2 stage does (test_train_fmu.py)."""
 from __future__ import annotations
 
-import pathlib
 import zipfile
 
 from gearmesh import train_fmu
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
 def test_planetary_stage_with_an_fe_ring(fmu_path, tmp_path):

@@ -5,15 +5,13 @@ two stages, the motor's torque the load over the ratio); its FMU state restores 
 bad train scene is named."""
 from __future__ import annotations
 
-import pathlib
-
 import numpy as np
 import pytest
 
 from gearmesh import train_fmu
 from gearmesh.scene import SceneError
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 SCENE = REPO / "scenarios" / "trains" / "two_stage_reducer.toml"
 RATIO = (57 / 19) * (61 / 23)  # input over output speed
 W_IN, LOAD = 100.0, 200.0      # rad/s at the motor, N m against the output's turning

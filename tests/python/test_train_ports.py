@@ -6,16 +6,14 @@ same run as its housing-frame torque negated where the body turns backwards; the
 (+T drive, -T brake, each in its own sense) loads the train."""
 from __future__ import annotations
 
-import pathlib
-
 import numpy as np
 import pytest
 
 from gearmesh import train_fmu
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.scene import load_scene
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 TRAINS = REPO / "scenarios" / "trains"
 
 

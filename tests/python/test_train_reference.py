@@ -9,7 +9,6 @@ a difference of the two paths at the tooth changes, not of either integration's 
 from __future__ import annotations
 
 import math
-import pathlib
 import shutil
 
 import numpy as np
@@ -17,8 +16,8 @@ import numpy as np
 from gearmesh import train_fmu
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.scene import load_scene
+from conftest import REPO
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 TRAINS = REPO / "scenarios" / "trains"
 
 

@@ -1,7 +1,7 @@
 /* Static ranges of the FMU's parameters: the one table (core/src/param_ranges.cpp) that the
  * core's validation, the FMU binary and modelDescription.xml's min/max
  * (modelDescription/generate_model_description.c) all read; the Python scene checks read them
- * back from modelDescription.xml (tools/gearmesh/param_ranges.py).
+ * back from modelDescription.xml (python/gearmesh/param_ranges.py).
  *
  * A range is static: its bounds are constants. Bounds that depend on other parameters (e.g.
  * pair.rack_dedendum > pair.rack_addendum) are further checks after the static one

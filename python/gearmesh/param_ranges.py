@@ -1,0 +1,90 @@
+"""The FMU parameters' ranges as the FMU declares them: min and max in its modelDescription.xml,
+written from the core's one range table (core/src/param_ranges.cpp) that the binary enforces.
+Open bounds, which FMI 2.0 cannot state, are marked in the model's vendor annotation
+<Tool name="GearMesh"><Ranges><Range variable="..." minExclusive="true" .../>
+(modelDescription/generate_model_description.c).
+"""
+from __future__ import annotations
+
+import functools
+import math
+import pathlib
+import types
+import xml.etree.ElementTree as ET
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from gearmesh.paths import Paths
+
+
+
+@dataclass(frozen=True)
+class Range:
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def contains(self, x: float | int) -> bool:
+        """x finite and inside (an int of any size is compared exactly)."""
+        if not isinstance(x, int) and not math.isfinite(x):
+            return False
+        above = x > self.lo if self.lo_open else x >= self.lo
+        return above and (x < self.hi if self.hi_open else x <= self.hi)
+
+    def text(self, scale: float = 1.0) -> str:
+        """'[lo, hi]' of the values v with v * scale in the range; round brackets at open or
+        missing bounds."""
+        lo, hi = self.lo / scale, self.hi / scale
+        left = "(" if self.lo_open or math.isinf(lo) else "["
+        right = ")" if self.hi_open or math.isinf(hi) else "]"
+        return f"{left}{lo:g}, {hi:g}{right}"
+
+
+def default_fmu() -> pathlib.Path:
+    """$GEARMESH_FMU, else the installed package's GearMesh.fmu, else the checkout's build
+    (gearmesh.paths)."""
+    return Paths.resolve().require("fmu")
+
+
+def fmu_ranges(fmu: pathlib.Path | str | None = None) -> Mapping[str, Range]:
+    """FMU parameter name -> its Range (SI), for every parameter with a declared min or max.
+    FileNotFoundError names a missing FMU; OSError an FMU without a readable
+    modelDescription.xml."""
+    path = pathlib.Path(fmu) if fmu is not None else default_fmu()
+    try:
+        stat = path.stat()
+    except OSError:
+        raise FileNotFoundError(f"{path}: no FMU; the ranges of the FMU parameters come from its "
+                                "modelDescription.xml (build the 'fmu' target, or name the FMU "
+                                "with --fmu or GEARMESH_FMU)") from None
+    return _read(str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+
+
+def open_bounds(root: ET.Element) -> dict[str, dict[str, str]]:
+    """variable name -> its exclusive-bound flags (minExclusive, maxExclusive), from the model's
+    <VendorAnnotations><Tool name="GearMesh"><Ranges><Range variable=...> (generate_model_description.c)."""
+    return {r.get("variable"): dict(r.attrib)
+            for r in root.findall("VendorAnnotations/Tool[@name='GearMesh']/Ranges/Range")}
+
+
+@functools.lru_cache(maxsize=8)
+def _read(path: str, mtime_ns: int, size: int) -> Mapping[str, Range]:
+    """The ranges of the FMU at path (mtime and size: a rebuilt FMU is read again)."""
+    try:
+        with zipfile.ZipFile(path) as z:
+            root = ET.fromstring(z.read("modelDescription.xml"))
+    except (OSError, KeyError, zipfile.BadZipFile, ET.ParseError) as exc:
+        raise OSError(f"{path}: not an FMU with a readable modelDescription.xml ({exc})") from None
+    out = {}
+    exclusive = open_bounds(root)
+    for sv in root.iter("ScalarVariable"):
+        typ = sv[0]
+        if sv.get("causality") != "parameter" or ("min" not in typ.attrib and "max" not in typ.attrib):
+            continue
+        flags = exclusive.get(sv.get("name"), {})
+        out[sv.get("name")] = Range(float(typ.get("min", "-inf")), float(typ.get("max", "inf")),
+                                    flags.get("minExclusive") == "true",
+                                    flags.get("maxExclusive") == "true")
+    return types.MappingProxyType(out)

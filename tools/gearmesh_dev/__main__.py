@@ -1,0 +1,3 @@
+from gearmesh_dev.cli import main
+
+raise SystemExit(main())
