@@ -18,9 +18,9 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
+from conftest import REPO
 from test_fmu_conformance import LogCapture
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
 PAIRS = 4  # GM_FMU_LOAD_PAIRS
 ELEMENT_BASE = 0x40000000  # model.h, MODEL_ELEMENT_VR
 ARRAYS = ["mesh.slice_position", "mesh.line_load", "mesh.pair_force", "mesh.pair_share", "mesh.pair_position",
