@@ -83,12 +83,12 @@ def test_wheel_is_manylinux_with_the_fmus(built):
     assert "manylinux_2_17_x86_64" in built["shown"], built["shown"]
     with zipfile.ZipFile(wheel) as z:
         names = set(z.namelist())
-        for data in ("GearMesh.fmu", "GearMesh-fmi3.fmu", "GearTrain.so", "train_variables.h"):
+        for data in ("GearMesh.fmu", "GearMesh-fmi3.fmu", "GearTrain.so", "GearTrain3.so", "train_variables.h"):
             assert f"gearmesh/data/{data}" in names, data
         assert not [n for n in names if n.startswith(("tests/", "gearmesh_dev/", "reference_fe/"))]
         with zipfile.ZipFile(z.open("gearmesh/data/GearMesh.fmu")) as fmu:
             assert "binaries/linux64/GearMesh.so" in fmu.namelist()
-    assert wheel.stat().st_size < 8 << 20
+    assert wheel.stat().st_size < 10 << 20  # measured 8.4 MiB: two FMUs and two train binaries
 
 
 @pytest.fixture(scope="module")

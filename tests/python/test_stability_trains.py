@@ -12,6 +12,7 @@ import tomllib
 import numpy as np
 import pytest
 
+from conftest import REPO
 from gearmesh.stability import trains as st
 from gearmesh.stability.suite import ENERGY_TOL, UNDAMPED_GAIN
 
@@ -94,7 +95,7 @@ def test_judge_fails_growth_and_runaway():
 
 
 def test_undamped_copy_drops_mesh_and_inner_shaft_damping(tmp_path):
-    train = st.undamped_copy(st.TRAINS / "back_to_back_set_a.toml", tmp_path)
+    train = st.undamped_copy(REPO / "scenarios" / "trains" / "back_to_back_set_a.toml", tmp_path)
     data = tomllib.loads(train.read_text())
     damping = {s["name"]: s["damping_Nms_per_rad"] for s in data["shaft"]}
     assert damping == {"motor": 10.0, "pinion_shaft": 0.0, "wheel_shaft": 0.0}
@@ -102,6 +103,6 @@ def test_undamped_copy_drops_mesh_and_inner_shaft_damping(tmp_path):
         pair = tomllib.loads((tmp_path / mesh["scene"]).read_text())
         assert pair["model"]["damping_Ns_per_m2"] == 0.0
         assert pair["model"]["friction_coefficient"] == 0.4      # friction stays
-    reducer = st.undamped_copy(st.TRAINS / "two_stage_reducer.toml", tmp_path / "r")
+    reducer = st.undamped_copy(REPO / "scenarios" / "trains" / "two_stage_reducer.toml", tmp_path / "r")
     reducer = tomllib.loads(reducer.read_text())
     assert [m["scene"] for m in reducer["mesh"]] == ["stage1_19_57.toml", "stage2_23_61.toml"]
