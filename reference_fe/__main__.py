@@ -186,7 +186,7 @@ def main(argv=None):
 
     def log(msg):
         print(time.strftime("%H:%M:%S"), msg, flush=True)
-    if a.cmd == "run3d":
+    if a.cmd in ("run3d", "sector3d"):
         run3d.main(a, log)
         return
     if a.cmd == "lineload3d":

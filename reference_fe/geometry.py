@@ -94,6 +94,17 @@ class Gear:
         if not 0 < self.bore < self.rf:
             raise ValueError(f"gear{i}: bore radius {self.bore*1e3:g} mm not below the root "
                              f"radius {self.rf*1e3:g} mm")
+        self.body = g.body
+        bd = g.body
+        if bd.web() and not self.bore < bd.hub < bd.rim_inner < self.rf:
+            raise ValueError(f"gear{i}: a web needs bore < hub < rim inner < root radius")
+        if bd.web() and abs(bd.web_offset) + bd.web_thickness / 2 > self.b / 2:
+            raise ValueError(f"gear{i}: the web reaches beyond the face width")
+        lo, hi = (bd.hub, bd.rim_inner) if bd.web() else (self.bore, self.rf)
+        if bd.holes and not (lo < bd.hole_circle - bd.hole_radius
+                             and bd.hole_circle + bd.hole_radius < hi
+                             and 2 * bd.hole_radius < 2 * bd.hole_circle * math.sin(math.pi / bd.holes)):
+            raise ValueError(f"gear{i}: the holes do not fit between the hub and the rim (or overlap)")
         self._generate(pair, points_flank, points_fillet)
 
     # -- generation by the rack cutter (Litvin & Fuentes, section 6.1 and chapter 10) --

@@ -146,8 +146,9 @@ def add_teeth(occ, g: Gear, prof: HalfProfile, teeth, fine, closed: bool) -> Out
                    centre=centre)
 
 
-def set_size_fields(size: MeshSize, outline: Outline):
-    """The background size field: the minimum of the three graded thresholds (module doc)."""
+def set_size_fields(size: MeshSize, outline: Outline, extra=()):
+    """The background size field: the minimum of the three graded thresholds (module doc) and
+    of `extra` ones, (curves, size on them) growing alike (the 3-D model's lightening holes)."""
     import gmsh
 
     f = gmsh.model.mesh.field
@@ -169,6 +170,7 @@ def set_size_fields(size: MeshSize, outline: Outline):
               graded(outline.fine, 200, size.h_tooth)]
     if outline.far:
         fields.append(graded(outline.far, 60, size.h_far))
+    fields += [graded(curves, 100, h) for curves, h in extra]
     mn = f.add("Min"); f.setNumbers(mn, "FieldsList", fields)
     f.setAsBackgroundMesh(mn)
     for opt in ("Mesh.MeshSizeExtendFromBoundary", "Mesh.MeshSizeFromPoints",

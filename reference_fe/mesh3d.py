@@ -141,17 +141,103 @@ def section(g: Gear, size: Size3D, teeth, fine, hold_cuts=True, verbose=False):
         return xy, blocks, bore, faces, tooth
 
 
-def extrude(xy: np.ndarray, blocks, b: float, layers: int):
+def section_whole(g: Gear, size: Size3D, fine, verbose=False):
+    """Quad8 (and a few tri6) mesh of the whole gear's transverse section (every tooth down to
+    the bore) and its body: a solid disc, or rim / web / hub regions with the lightening holes
+    (g.body). Returns (xy, [quad8, tri6], held node indices (the bore), contact edges,
+    their teeth, the region of every section element in block order: 0 rim or disc, 1 web,
+    2 hub). The regions share their boundary circles, so the mesh is conforming."""
+    import gmsh
+
+    prof = modified_profile(g)
+    bd = g.body
+    with mesh.gmsh_model(f"whole{g.index}", verbose):
+        occ = gmsh.model.occ
+        ol = mesh.add_teeth(occ, g, prof, range(g.z), fine, closed=True)
+        outer = occ.addCurveLoop(ol.curves)
+        bore_c = occ.addCircle(0.0, 0.0, 0.0, g.bore)
+        holes = [occ.addCircle(bd.hole_circle * math.cos(2 * math.pi * k / bd.holes),
+                               bd.hole_circle * math.sin(2 * math.pi * k / bd.holes), 0.0,
+                               bd.hole_radius) for k in range(bd.holes)]
+        hole_loops = [occ.addCurveLoop([h]) for h in holes]
+        if bd.web():
+            rim_c = occ.addCircle(0.0, 0.0, 0.0, bd.rim_inner)
+            hub_c = occ.addCircle(0.0, 0.0, 0.0, bd.hub)
+            surfs = [occ.addPlaneSurface([outer, occ.addCurveLoop([rim_c])]),
+                     occ.addPlaneSurface([occ.addCurveLoop([rim_c]), occ.addCurveLoop([hub_c])]
+                                         + hole_loops),
+                     occ.addPlaneSurface([occ.addCurveLoop([hub_c]), occ.addCurveLoop([bore_c])])]
+            regions = [0, 1, 2]
+        else:
+            surfs = [occ.addPlaneSurface([outer, occ.addCurveLoop([bore_c])] + hole_loops)]
+            regions = [0]
+        occ.synchronize()
+        extra = []
+        if holes:   # at least 16 elements around a hole
+            extra.append((holes, min(size.h_body, 2 * math.pi * bd.hole_radius / 16)))
+        mesh.set_size_fields(size.section(), ol, extra)
+        gmsh.option.setNumber("Mesh.Algorithm", 8)
+        gmsh.option.setNumber("Mesh.RecombinationAlgorithm", RECOMBINATION)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 1)
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.setOrder(2)
+        parts = [mesh.surface_elements(sf, (16, 9)) for sf in surfs]
+        tags = sorted(set().union(*[p[2].keys() for p in parts]))
+        index = {t: i for i, t in enumerate(tags)}
+        xy = np.zeros((len(tags), 2))
+        quads, tris, reg_q, reg_t = [], [], [], []
+        for r, (xy_s, (q, t), idx) in zip(regions, parts):
+            glob = np.empty(len(idx), dtype=np.int64)
+            for tag, i in idx.items():
+                glob[i] = index[tag]
+            xy[glob] = xy_s
+            quads.append(glob[q])
+            tris.append(glob[t])
+            reg_q += [r] * len(q)
+            reg_t += [r] * len(t)
+        blocks = [np.vstack(quads), np.vstack(tris)]
+        region = np.array(reg_q + reg_t, dtype=np.int64)
+        btags, _, _ = gmsh.model.mesh.getNodes(1, bore_c, includeBoundary=True)
+        bore = np.array(sorted({index[int(t)] for t in btags}))
+        faces, tooth = mesh.tooth_faces(blocks, index, ol)
+        return xy, blocks, bore, faces, tooth, region
+
+
+def layer_planes(b: float, layers: int, body=None) -> np.ndarray:
+    """z of the element layers' boundary planes over [-b/2, b/2]: `layers` equal layers, or
+    with a web (body.web()) the web's faces as planes: at least 2 layers through the web and
+    the rest shared by the parts of the rim either side in proportion to their widths."""
+    if body is None or not body.web():
+        return np.linspace(-b / 2, b / 2, layers + 1)
+    lo = body.web_offset - body.web_thickness / 2
+    hi = body.web_offset + body.web_thickness / 2
+    parts = [(-b / 2, lo), (lo, hi), (hi, b / 2)]
+    out = [-b / 2]
+    for j, (a, c) in enumerate(parts):
+        if c - a <= 1e-12:
+            continue
+        n = max(2 if j == 1 else 1, round(layers * (c - a) / b))
+        out += list(np.linspace(a, c, n + 1)[1:])
+    return np.array(out)
+
+
+def extrude(xy: np.ndarray, blocks, b: float, layers: int, planes=None):
     """The section's quad8 / tri6 blocks extruded over z in [-b/2, b/2] in `layers` layers into
     hex20 / wedge15 (CalculiX C3D20 / C3D15 node order: bottom corners, top corners, bottom
     mid-sides, top mid-sides, vertical mid-edges): nodes (n, 3), the element blocks (all
     layers of the first section element first), the node index of (plane k, section node)
     on the full planes (z = -b/2 + k b / layers) and of (section node, layer) on the layers'
-    mid-planes (-1: not a corner node, no copy there)."""
+    mid-planes (-1: not a corner node, no copy there). `planes`: the layers' boundary planes
+    (layers + 1 values of z; default equal layers)."""
     corners = np.unique(np.concatenate([c[:, :c.shape[1] // 2].ravel() for c in blocks]))
     n2 = len(xy)
     per = n2 + len(corners)
-    z = np.linspace(-b / 2, b / 2, 2 * layers + 1)
+    if planes is None:
+        planes = np.linspace(-b / 2, b / 2, layers + 1)
+    z = np.empty(2 * layers + 1)
+    z[0::2] = planes
+    z[1::2] = (planes[:-1] + planes[1:]) / 2
     full = np.arange(layers + 1)[:, None] * per + np.arange(n2)[None, :]
     corner_pos = np.full(n2, -1)
     corner_pos[corners] = np.arange(len(corners))
@@ -210,13 +296,46 @@ def build(g: Gear, size: Size3D, fine: list[int], hand: int, beta_b: float,
     """The sector of gear g (fine teeth and as many teeth each side as fill size.sector),
     extruded, crowned, twisted; held nodes on the bore and (hold_cuts) the radial cut faces."""
     fine = sorted(fine)
-    margin = max(1, round((size.sector / g.tau - len(fine)) / 2))
-    teeth = list(range(fine[0] - margin, fine[-1] + margin + 1))
-    if len(teeth) >= g.z - 1:
-        raise ValueError(f"gear{g.index}: a sector of {len(teeth)} teeth is the whole gear")
-    xy, blocks2, bore2, faces2, tooth2 = section(g, size, teeth, {k % g.z for k in fine},
-                                                 hold_cuts, verbose)
-    nodes, blocks, full, mid_of = extrude(xy, blocks2, g.b, size.layers)
+    whole = is_whole(size)
+    if whole:
+        teeth = list(range(g.z))
+        xy, blocks2, bore2, faces2, tooth2, region = section_whole(
+            g, size, {k % g.z for k in fine}, verbose)
+    else:
+        if not g.body.solid():
+            raise ValueError(f"gear{g.index}: a web or holes need the whole gear (sector 360 deg)")
+        margin = max(1, round((size.sector / g.tau - len(fine)) / 2))
+        teeth = list(range(fine[0] - margin, fine[-1] + margin + 1))
+        if len(teeth) >= g.z - 1:
+            raise ValueError(f"gear{g.index}: a sector of {len(teeth)} teeth is the whole gear "
+                             "(sector 360 deg)")
+        xy, blocks2, bore2, faces2, tooth2 = section(g, size, teeth, {k % g.z for k in fine},
+                                                     hold_cuts, verbose)
+        region = np.zeros(sum(len(c) for c in blocks2), dtype=np.int64)
+    planes = layer_planes(g.b, size.layers, g.body)
+    layers = len(planes) - 1
+    nodes, blocks, full, mid_of = extrude(xy, blocks2, g.b, layers, planes)
+    if g.body.web():   # the web's elements only between the web's faces
+        zc = (planes[:-1] + planes[1:]) / 2
+        in_web = np.abs(zc - g.body.web_offset) < g.body.web_thickness / 2
+        keep_blocks, old_to_new = [], []
+        counts2 = [len(c) for c in blocks2]
+        for i, conn in enumerate(blocks):
+            reg = region[:counts2[0]] if i == 0 else region[counts2[0]:]
+            keep = ((reg[None, :] != 1) | in_web[:, None]).ravel()   # layer-major
+            o2n = np.full(len(conn), -1)
+            o2n[keep] = np.arange(int(keep.sum()))
+            old_to_new.append(o2n)
+            keep_blocks.append(conn[keep])
+        used = np.unique(np.concatenate([c.ravel() for c in keep_blocks]))
+        node_map = np.full(len(nodes), -1)
+        node_map[used] = np.arange(len(used))
+        nodes = nodes[used]
+        blocks = [node_map[c] for c in keep_blocks]
+        full = np.where(full >= 0, node_map[full], -1)
+        mid_of = np.where(mid_of >= 0, node_map[np.maximum(mid_of, 0)], -1)
+    else:
+        old_to_new = None
     if g.mod.lead_crowning:
         nodes = crown_map(g, nodes, lambda z: lead_gap(g, z), beta_b)
     if g.beta:
@@ -230,15 +349,25 @@ def build(g: Gear, size: Size3D, fine: list[int], hand: int, beta_b: float,
     for (e, j), t in zip(faces2, tooth2):
         i = 0 if e < counts[0] else 1
         local = e - (0 if i == 0 else counts[0])
-        faces += [(offs[i] + k * counts[i] + local, j + 2) for k in range(size.layers)]
-        tooth += [t] * size.layers
-        layer += list(range(size.layers))
+        for k in range(layers):
+            e3 = k * counts[i] + local
+            faces.append(((offs[i] + e3) if old_to_new is None
+                          else (offs[i] + old_to_new[i][e3]), j + 2))
+        tooth += [t] * layers
+        layer += list(range(layers))
+    if old_to_new is not None and min(f for f, _ in faces) < 0:
+        raise RuntimeError("a contact face on a removed element")
     return SolidMesh(nodes=nodes, blocks=[(t, c) for t, c in zip(("C3D20R", "C3D15"), blocks)
                                           if len(c)],
                      bore=bore, contact_faces=np.array(faces), contact_teeth=fine,
                      contact_tooth=np.array(tooth), contact_layer=np.array(layer),
                      sector_teeth=teeth, section_nodes=len(xy), section_quads=counts[0],
                      section_triangles=counts[1])
+
+
+def is_whole(size: Size3D) -> bool:
+    """A sector of 360 deg: the whole gear (no cut faces)."""
+    return size.sector >= 2 * math.pi - 1e-9
 
 
 def size_dict(size: Size3D) -> dict:

@@ -5,7 +5,8 @@ one load step per torque, TE = r_b1 times gear 1's rotation past the rigid-body 
 What differs from 2-D:
 
 * the bodies are sectors (the fine teeth and whole teeth each side filling `sector_deg`, rim
-  down to the bore), extruded over
+  down to the bore) or, at `sector_deg` 360, the whole gears with their bodies (web, hub,
+  lightening holes: mesh3d.section_whole), extruded over
   the face width, twisted into helicoids for a helical pair (gear 1 right hand, gear 2 left:
   an external pair has opposite hands; frictionless, the TE of the mirror pair is the same),
   lead crowning mapped onto the flanks;
@@ -74,9 +75,12 @@ class Model3D(analysis.Model):
         self.m1.split_layers = split_layers
         self.cache_tag = (f"3d-v{CODE_VERSION}" + ("" if hold_cuts else "-free-cuts")
                           + ("-layers" if split_layers else ""))
+        self.whole = mesh3d.is_whole(self.size)
+        if self.whole:
+            self.cache_tag += "-whole"
         self.variant = ("helical" if spec.helix_angle else "spur") + (
             "_lead_crowned" if (spec.gear1.mod.lead_crowning or spec.gear2.mod.lead_crowning)
-            else "")
+            else "") + ("_whole" if self.whole else "")
 
     def stats(self) -> dict:
         return {"gear1": self.m1.stats, "gear2": self.m2.stats,

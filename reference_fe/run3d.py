@@ -21,9 +21,11 @@ import time
 from . import analysis, model3d, scene
 from .report import THREADS, _changes, _cost, _g, provenance, write_provenance
 
-SECTOR_DEG = 120.0     # the base sector; the study's larger one: 240 deg
+SECTOR_DEG = 120.0     # the base sector (--sector-deg; 360: whole gears); studies 240, 360 deg
+WHOLE_DEG = 360.0
 STUDIES = (("mesh-1", {"level": -1}), ("penalty_x10", {"penalty_factor": 10.0}),
-           ("sector240", {"sector_deg": 240.0}), ("mesh+1", {"level": 1}))
+           ("sector240", {"sector_deg": 240.0}), ("mesh+1", {"level": 1}),
+           ("whole", {"sector_deg": WHOLE_DEG}))
 
 
 def parse_scene_arg(arg: str, default_torques):
@@ -34,12 +36,13 @@ def parse_scene_arg(arg: str, default_torques):
     return arg, list(default_torques)
 
 
-def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log):
+def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log,
+              sector_deg=SECTOR_DEG):
     spec = scene.load(path, dims=3)
     t_start = time.time()
     models = {}
 
-    def model(level=0, sector=SECTOR_DEG):
+    def model(level=0, sector=sector_deg):
         if (level, sector) not in models:
             models[(level, sector)] = model3d.Model3D(spec, level, sector)
         return models[(level, sector)]
@@ -53,7 +56,7 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log):
     for label, opts in STUDIES:
         if label not in studies or not study_positions:
             continue
-        m = model(opts.get("level", 0), opts.get("sector_deg", SECTOR_DEG))
+        m = model(opts.get("level", 0), opts.get("sector_deg", sector_deg))
         case = model3d.Case3D(level=opts.get("level", 0),
                               penalty=analysis.DEFAULT_PENALTY * opts.get("penalty_factor", 1.0))
         res = analysis.run_case(spec, m, case, study_positions, n, torques, cache, log)
@@ -104,14 +107,18 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log):
     prov = {
         **provenance(spec.name, path),
         "model": {
-            "description": "3-D sectors of both gears (120 deg, rim to the bore), "
-                           "C3D20R hexahedra (C3D15 wedges where the section mesh kept a "
+            "description": ("3-D whole gears with their bodies (web, hub, lightening holes), "
+                            if base_model.whole else
+                            f"3-D sectors of both gears ({sector_deg:g} deg, rim to the bore), ")
+                           + "C3D20R hexahedra (C3D15 wedges where the section mesh kept a "
                            "triangle) extruded over the face width, helicoids by twisting the "
                            "sections, lead crowning mapped onto the flanks; bore and radial cut "
                            "faces of gear 2 clamped, of gear 1 turning rigidly with the torque "
                            "(u_z = 0); surface-to-surface penalty contact, linear "
                            "pressure-overclosure, frictionless (reference_fe/model3d.py, "
                            "mesh3d.py)",
+            "sector_deg": sector_deg,
+            "bodies": [spec.gear1.body.__dict__, spec.gear2.body.__dict__],
             "variant": variant,
             "helix_angle_rad": spec.helix_angle,
             "lead_crowning_m": [spec.gear1.mod.lead_crowning, spec.gear2.mod.lead_crowning],
@@ -155,12 +162,27 @@ def add_parser(sub):
     add_scene_arguments(r)
     r.add_argument("--study-positions", default="0",
                    help="positions of the studies (comma separated; empty: none)")
-    r.add_argument("--studies", default=",".join(s for s, _ in STUDIES))
+    r.add_argument("--studies", default=",".join(s for s, _ in STUDIES if s != "whole"))
+    r.add_argument("--sector-deg", type=float, default=SECTOR_DEG,
+                   help="the base model's sectors (360: whole gears, the only choice for webs "
+                        "and holes)")
+    s = sub.add_parser("sector3d", help="the sector bias of the 3-D TE: sectors against whole "
+                                        "gears at a few positions")
+    add_scene_arguments(s)
+    s.add_argument("--at", default="0", help="positions (comma separated)")
+    s.add_argument("--sectors", default="120,360", help="sector angles, deg (360: whole gears)")
     return r
 
 
 def main(a, log):
     default = [float(t) for t in a.torques.split(",")]
+    if a.cmd == "sector3d":
+        for arg in a.scenes:
+            path, torques = parse_scene_arg(arg, default)
+            run_sector_study(path, torques, a.out, a.positions,
+                             [int(k) for k in a.at.split(",")],
+                             [float(x) for x in a.sectors.split(",")], a.cache, log)
+        return
     study_positions = [int(k) for k in a.study_positions.split(",") if k.strip()]
     studies = [s for s in a.studies.split(",") if s]
     for s in studies:
@@ -168,4 +190,57 @@ def main(a, log):
             raise SystemExit(f"--studies: {s!r}; allowed: {', '.join(x for x, _ in STUDIES)}")
     for arg in a.scenes:
         path, torques = parse_scene_arg(arg, default)
-        run_scene(path, torques, a.out, a.positions, study_positions, studies, a.cache, log)
+        run_scene(path, torques, a.out, a.positions, study_positions, studies, a.cache, log,
+                  a.sector_deg)
+
+
+def run_sector_study(path, torques, out_dir, n, positions, sectors, cache, log):
+    """The TE of the same positions with sectors of each angle (held cut faces; 360: whole
+    gears, no cuts) at mesh level 0: DIR/<scene>.reference_fe3d.sector.csv (every run) and
+    .json (provenance, each sector's TE relative to the whole gears', the cost)."""
+    spec = scene.load(path, dims=3)
+    t_start = time.time()
+    res, models = {}, {}
+    for sd in sectors:
+        models[sd] = model3d.Model3D(spec, 0, sd)
+        res[sd] = analysis.run_case(spec, models[sd], model3d.Case3D(), positions, n, torques,
+                                    cache, log)
+    stem = f"{spec.name}.reference_fe3d.sector"
+    out_dir = pathlib.Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with open(out_dir / f"{stem}.csv", "w", newline="") as f:
+        f.write(f"# 3-D FE TE of {pathlib.Path(path).name} with sectors against whole gears: "
+                "python -m reference_fe sector3d (reference_fe/README.md, '3-D cases'); "
+                "regenerate only on purpose\n")
+        w = csv.writer(f)
+        w.writerow(["scene", "sector_deg", "whole", "sector_teeth_gear1", "sector_teeth_gear2",
+                    "torque_Nm", "position", "n_positions", "gear1_angle_rad", "te_m"])
+        for sd in sectors:
+            m = models[sd]
+            for r in sorted(res[sd], key=lambda r: r.position):
+                for T, te in zip(r.torques, r.te):
+                    w.writerow([spec.name, f"{sd:g}", int(m.whole), len(m.m1.sector_teeth),
+                                len(m.m2.sector_teeth), f"{T:g}", r.position, r.n_positions,
+                                _g(r.dphi1), _g(te)])
+    ref = max(sectors)
+    ratios = {}
+    for sd in sectors:
+        by = {r.position: r for r in res[sd]}
+        ref_by = {r.position: r for r in res[ref]}
+        ratios[f"{sd:g}"] = {str(k): {f"{T:g}": by[k].te[i] / ref_by[k].te[i]
+                                      for i, T in enumerate(torques)} for k in positions}
+    prov = {
+        **provenance(spec.name, path),
+        "model": {"description": "run3d's base model (level 0, penalty 1e16 Pa/m, "
+                                 "frictionless) with sectors of each angle (held cut faces) "
+                                 "and whole gears (360 deg, no cuts)",
+                  "sectors_deg": sectors, "positions": positions, "n_positions": n,
+                  "torques_Nm": list(torques)},
+        "mesh": {f"sector{sd:g}deg": m.stats() for sd, m in models.items()},
+        "te_ratio_to_largest": ratios,
+        "cost": {f"sector{sd:g}deg": _cost(r) for sd, r in res.items()},
+        "elapsed_s_this_invocation": time.time() - t_start,
+        "threads": THREADS,
+    }
+    write_provenance(out_dir / f"{stem}.json", prov)
+    log(f"wrote {out_dir / stem}.csv, .json")

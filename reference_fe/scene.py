@@ -36,6 +36,29 @@ class Modification:
 
 
 @dataclass(frozen=True)
+class Body:
+    """A gear body other than a solid disc (3-D only), SI: a web of `web_thickness` between
+    the hub (radius `hub`) and the rim (inner radius `rim_inner`), its mid-plane `web_offset`
+    from mid-face; the hub and the rim span the face width; `holes` lightening holes of radius
+    `hole_radius` with centres on radius `hole_circle`, hole 0 on tooth 0's centre line, through
+    the web (or, without a web, through the disc). The scene format's keys (repository
+    docs/tooling.md, "Scene format": [gear<i>.body])."""
+    rim_inner: float = 0.0
+    hub: float = 0.0
+    web_thickness: float = 0.0
+    web_offset: float = 0.0
+    holes: int = 0
+    hole_radius: float = 0.0
+    hole_circle: float = 0.0
+
+    def web(self) -> bool:
+        return self.rim_inner > 0
+
+    def solid(self) -> bool:
+        return not self.web() and not self.holes
+
+
+@dataclass(frozen=True)
 class GearSpec:
     teeth: int
     shift: float                 # x
@@ -46,6 +69,7 @@ class GearSpec:
     poisson_ratio: float
     bore_diameter: float         # 0 = default 0.4 d_f
     mod: Modification = field(default_factory=Modification)
+    body: Body = field(default_factory=Body)
 
 
 @dataclass(frozen=True)
@@ -103,6 +127,11 @@ _GEAR_REFUSED = {"axial_offset_mm", "lead_crowning_um", "helix_slope_um", "end_r
 # what the 3-D model (load(..., dims=3)) honours in addition: helix angle, lead crowning
 _PAIR_3D = {"helix_angle_deg": (math.pi / 180, 0.0, 40.0)}
 _GEAR_3D = {"lead_crowning_um": (1e-6, 0.0, 1000.0)}
+# [gear<i>.body] keys besides bore_diameter_mm that the 3-D model honours (whole gears only)
+_BODY_3D = {"rim_inner_diameter_mm": (1e-3, 0.01, 40000.0), "hub_diameter_mm": (1e-3, 0.01, 40000.0),
+            "web_thickness_mm": (1e-3, 0.01, 2000.0), "web_offset_mm": (1e-3, -1000.0, 1000.0),
+            "holes": (1, 1, 500), "hole_diameter_mm": (1e-3, 0.01, 40000.0),
+            "hole_circle_diameter_mm": (1e-3, 0.01, 40000.0)}
 
 
 def _num(where: str, value, spec) -> float:
@@ -113,6 +142,25 @@ def _num(where: str, value, spec) -> float:
         raise SceneError(f"{where} = {value!r}: outside the range this reference handles "
                          f"[{lo:g}, {hi:g}]")
     return float(value) * factor
+
+
+def _body(i: int, body: dict) -> Body:
+    """The [gear<i>.body] web, hub and holes (SI); refused when incomplete or inconsistent."""
+    v = {k: _num(f"gear{i}.body.{k}", body[k], _BODY_3D[k]) for k in _BODY_3D if k in body}
+    web_keys = ("rim_inner_diameter_mm", "hub_diameter_mm", "web_thickness_mm")
+    if any(k in v for k in web_keys) and not all(k in v for k in web_keys):
+        raise SceneError(f"gear{i}.body: a web needs {', '.join(web_keys)} together")
+    if "web_offset_mm" in v and "web_thickness_mm" not in v:
+        raise SceneError(f"gear{i}.body.web_offset_mm needs a web")
+    hole_keys = ("holes", "hole_diameter_mm", "hole_circle_diameter_mm")
+    if any(k in v for k in hole_keys) and not all(k in v for k in hole_keys):
+        raise SceneError(f"gear{i}.body: holes need {', '.join(hole_keys)} together")
+    return Body(rim_inner=v.get("rim_inner_diameter_mm", 0.0) / 2,
+                hub=v.get("hub_diameter_mm", 0.0) / 2,
+                web_thickness=v.get("web_thickness_mm", 0.0),
+                web_offset=v.get("web_offset_mm", 0.0), holes=int(v.get("holes", 0)),
+                hole_radius=v.get("hole_diameter_mm", 0.0) / 2,
+                hole_circle=v.get("hole_circle_diameter_mm", 0.0) / 2)
 
 
 def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
@@ -154,10 +202,14 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
                 g[key] = value
             else:
                 g[key] = _num(f"gear{i}.{key}", value, gear_keys[key])
+        body_keys = {"bore_diameter_mm", *(_BODY_3D if dims == 3 else ())}
         for key in body:
-            if key != "bore_diameter_mm":
-                raise SceneError(f"gear{i}.body.{key}: the reference models a solid disc with a "
-                                 "bore only (allowed: bore_diameter_mm)")
+            if key not in body_keys:
+                raise SceneError(f"gear{i}.body.{key}: the {dims}-D reference models "
+                                 + ("a solid disc with a bore only (allowed: bore_diameter_mm)"
+                                    if dims == 2 else "a bore, a web, a hub and lightening "
+                                    "holes only (allowed: " + ", ".join(sorted(body_keys)) + ")"))
+        bspec = _body(i, body) if dims == 3 else Body()
         for key in ("teeth", "face_width_mm"):
             if key not in g:
                 raise SceneError(f"gear{i}.{key}: missing")
@@ -184,7 +236,8 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
             face_width=g["face_width_mm"], tip_diameter=g.get("tip_diameter_mm", 0.0),
             thickness_allowance=g.get("thickness_allowance_um", 0.0),
             youngs_modulus=g.get("youngs_modulus_GPa", 210e9),
-            poisson_ratio=g.get("poisson_ratio", 0.3), bore_diameter=bore, mod=mod))
+            poisson_ratio=g.get("poisson_ratio", 0.3), bore_diameter=bore, mod=mod,
+            body=bspec))
     run = raw.get("run", {})
     torques = tuple(float(t) for t in run.get("torques_Nm", [50.0, 150.0, 250.0, 350.0]))
     mu = float(raw.get("model", {}).get("friction_coefficient", 0.0))
