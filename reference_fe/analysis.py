@@ -65,7 +65,7 @@ class PositionResult:
 def fine_teeth(pair: Pair, spread: float = 0.0) -> tuple[list[int], list[int]]:
     """Teeth that can touch while gear 1 turns one pitch from position 0 (pairs within the
     path of contact, plus one tooth of margin for tip-corner contact under load): gear 1's
-    tooth j meshes gear 2's tooth -j. spread (m): the roll distance by which the pair's
+    tooth j meshes gear 2's tooth -j (an internal ring's +j). spread (m): the roll distance by which the pair's
     contact moves either way across the face (helical: b/2 tan beta_b; spur 0)."""
     js = []
     ext = 0.15 * pair.pb          # extension of the path under load (margin)
@@ -74,7 +74,7 @@ def fine_teeth(pair: Pair, spread: float = 0.0) -> tuple[list[int], list[int]]:
         hi = lo + pair.pb + 2 * spread
         if hi >= pair.rho_sap1 - ext and lo <= pair.rho_tip1 + ext:
             js.append(j)
-    return js, [-j for j in js]
+    return js, (list(js) if getattr(pair, "internal", False) else [-j for j in js])
 
 
 def place(m, phi: float, cx: float):

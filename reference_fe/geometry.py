@@ -63,6 +63,9 @@ class Gear:
     wide): only the fillet, never in contact, is approximate.
     """
 
+    internal = False
+    contact_flank = "A"
+
     def __init__(self, pair: PairSpec, i: int, points_flank: int = 240, points_fillet: int = 120):
         g: GearSpec = pair.gear(i)
         self.index = i
@@ -197,43 +200,175 @@ class Gear:
         return np.sqrt(np.maximum(np.asarray(R) ** 2 - self.rb ** 2, 0.0))
 
 
+class RingGear:
+    """An internal spur ring (gear 2 of an internal pair), ISO 21771 with the signed convention
+    of internal gears (z < 0, d < 0; the scene's teeth are the magnitude, its profile shift x the
+    signed one): reference radius r = m |z| / 2, tip (inner) radius r_a = r - m (h_aP + x), root
+    radius r_f = r + m (h_fP - x), tooth thickness at r s = m (pi/2 + 2 x tan alpha), so the
+    tooth space e = pi m - s.
+
+    Tooth k of the ring is centred at k 2 pi / z (own frame); its half angle at radius R is
+    pi / z minus the space's half angle e / (2 r) + inv alpha - inv alpha_R (the space is an
+    external involute tooth of thickness e). The space's corners at the root circle are rounded
+    by a circular arc of radius rho_fP m tangent to the flank and the root circle (a choice:
+    a ring is cut by a shaper, whose tip round is not a scene key; the fillet is never in
+    contact). Its flank B (the -psi side) carries the load when the pinion drives on flank A.
+
+    `profile` as for an external gear, from the mid-space root point (R = r_f, psi = pi / z)
+    over the root arc and the fillet to the involute and the tip corner at r_a (R decreasing).
+    `bore` is the clamped outer radius (the housing fit), so the deck's BORE2 is the outer rim.
+    """
+
+    internal = True
+    contact_flank = "B"
+
+    def __init__(self, pair: PairSpec, i: int = 2, points_flank: int = 240,
+                 points_fillet: int = 120):
+        g: GearSpec = pair.gear(i)
+        if pair.helix_angle:
+            raise ValueError("a helical ring: not implemented in the reference")
+        self.index = i
+        self.z = g.teeth
+        self.beta = 0.0
+        self.m = self.mn = pair.module
+        self.alpha = pair.pressure_angle
+        self.allowance = 0.0
+        self.x = g.shift
+        self.b = g.face_width
+        self.E = g.youngs_modulus
+        self.nu = g.poisson_ratio
+        self.mod = g.mod
+        self.body = g.body
+        m, z, a = self.m, self.z, self.alpha
+        self.r = m * z / 2
+        self.rb = self.r * math.cos(a)
+        self.ra = (g.tip_diameter / 2 if g.tip_diameter > 0
+                   else self.r - m * (pair.rack_addendum + self.x))
+        self.rf = self.r + m * (pair.rack_dedendum - self.x)
+        self.s = m * (math.pi / 2 + 2 * self.x * math.tan(a))
+        self.e = math.pi * m - self.s
+        self.tau = 2 * math.pi / z
+        self.bore = g.body.ring_outer
+        if not self.bore > self.rf:
+            raise ValueError(f"gear{i}: the ring's outer radius {self.bore * 1e3:g} mm not "
+                             f"above its root radius {self.rf * 1e3:g} mm")
+        if self.ra <= self.rb:
+            raise ValueError(f"gear{i}: the ring's tip circle inside its base circle")
+        self._generate(pair.rack_tip_radius * m, points_flank, points_fillet)
+
+    def involute_psi(self, R):
+        """Half angle of the ring tooth at radius R (module doc), the involute part."""
+        aR = np.arccos(self.rb / np.asarray(R))
+        return math.pi / self.z - (self.e / (2 * self.r) + inv(self.alpha) - inv(aR))
+
+    def _generate(self, rho: float, nf: int, nr: int):
+        # the fillet circle: centre at radius r_f - rho (tangent to the root circle), at the
+        # polar angle where its distance to the flank is rho (bisection; the flank dense)
+        R = np.linspace(self.ra, self.rf, 4000)
+        fx, fy = R * np.cos(self.involute_psi(R)), R * np.sin(self.involute_psi(R))
+        rc = self.rf - rho
+
+        def dist(theta):
+            return float(np.min(np.hypot(fx - rc * math.cos(theta), fy - rc * math.sin(theta))))
+
+        lo = float(self.involute_psi(rc))            # centre on the flank
+        hi = math.pi / self.z                        # mid-space
+        if dist(hi) < rho:
+            raise ValueError(f"gear{self.index}: the root fillet does not fit the space")
+        for _ in range(80):
+            mid = (lo + hi) / 2
+            lo, hi = (mid, hi) if dist(mid) < rho else (lo, mid)
+        tc = (lo + hi) / 2
+        cx, cy = rc * math.cos(tc), rc * math.sin(tc)
+        k = int(np.argmin(np.hypot(fx - cx, fy - cy)))
+        self.rF = float(R[k])                        # form radius: the fillet's tangency
+        if tc >= math.pi / self.z:
+            raise ValueError(f"gear{self.index}: the root fillets overlap")
+        # root arc (mid-space -> fillet), fillet arc (root circle -> flank), involute (-> tip)
+        root_psi = np.linspace(math.pi / self.z, tc, max(4, nr // 6))[:-1]
+        a0 = tc                                       # direction centre -> root touch point
+        a1 = math.atan2(fy[k] - cy, fx[k] - cx)       # direction centre -> flank touch point
+        if a1 - a0 > math.pi:
+            a1 -= 2 * math.pi
+        if a0 - a1 > math.pi:
+            a1 += 2 * math.pi
+        ang = np.linspace(a0, a1, nr)[:-1]
+        px, py = cx + rho * np.cos(ang), cy + rho * np.sin(ang)
+        Ri = np.linspace(self.rF, self.ra, nf)
+        Rs = np.concatenate([np.full(len(root_psi), self.rf), np.hypot(px, py), Ri])
+        psis = np.concatenate([root_psi, np.arctan2(py, px), self.involute_psi(Ri)])
+        involute = np.arange(len(Rs)) >= len(root_psi) + len(ang)
+        self.profile = HalfProfile(R=Rs, psi=psis, involute=involute)
+        if self.involute_psi(self.ra) <= 0:
+            raise ValueError(f"gear{self.index}: pointed ring tooth")
+
+    def psi_at(self, R: float) -> float:
+        """Half angle of the ring tooth at radius R on its involute."""
+        return float(self.involute_psi(R))
+
+    def rho(self, R):
+        return np.sqrt(np.maximum(np.asarray(R) ** 2 - self.rb ** 2, 0.0))
+
+
 class Pair:
-    """The external spur pair of a scene: both gears and their meshing kinematics."""
+    """The spur pair of a scene: both gears and their meshing kinematics. External, or
+    internal (gear 2 a RingGear, spec.internal): the ring's centre at (a, 0) with the pinion
+    inside, the pitch point on the far side of the pinion from it, at (-r_w1, 0); both turn the
+    same way; the pinion's tooth j meshes the ring's tooth +j (external: gear 2's -j)."""
 
     def __init__(self, spec: PairSpec, **kw):
         self.spec = spec
+        self.internal = getattr(spec, "internal", False)
         self.g1 = Gear(spec, 1, **kw)
-        self.g2 = Gear(spec, 2, **kw)
+        self.g2 = RingGear(spec, 2, **kw) if self.internal else Gear(spec, 2, **kw)
         g1, g2 = self.g1, self.g2
         self.a = spec.center_distance
-        cos_wt = (g1.rb + g2.rb) / self.a
+        cos_wt = ((g2.rb - g1.rb) if self.internal else (g1.rb + g2.rb)) / self.a
         if not 0 < cos_wt < 1:
-            raise ValueError("centre distance below the base circles' sum")
+            raise ValueError("centre distance below the base circles' sum (internal: "
+                             "difference)")
         self.alpha_wt = math.acos(cos_wt)
         self.rw1 = g1.rb / cos_wt
         self.rw2 = g2.rb / cos_wt
         self.pb = 2 * math.pi * g1.rb / g1.z        # base pitch
         self.line = self.a * math.sin(self.alpha_wt)  # T1T2, length of the line of action
-        # roll distances of the path of contact (gear 1 drives, flank A)
+        # roll distances of the path of contact (gear 1 drives, flank A); internal: the ring's
+        # roll distance is the pinion's + T1T2 (T1, T2 on the same side), its tip the inner
+        # circle (the start of the path), the pinion's tip reaching out to rho_tip1 + T1T2
         self.rho_tip1 = float(g1.rho(g1.ra))
         self.rho_tip2 = float(g2.rho(g2.ra))
-        self.rho_sap1 = self.line - self.rho_tip2
-        self.rho_sap2 = self.line - self.rho_tip1
+        if self.internal:
+            self.rho_sap1 = self.rho_tip2 - self.line
+            self.rho_sap2 = self.rho_tip1 + self.line     # the ring's outermost active point
+        else:
+            self.rho_sap1 = self.line - self.rho_tip2
+            self.rho_sap2 = self.line - self.rho_tip1
         self.rho_pitch1 = g1.rb * math.tan(self.alpha_wt)
         self.eps_alpha = (self.rho_tip1 - self.rho_sap1) / self.pb
-        if self.rho_sap1 < float(g1.rho(g1.rF)) or self.rho_sap2 < float(g2.rho(g2.rF)):
+        if self.rho_sap1 < float(g1.rho(g1.rF)) or (
+                self.rho_sap2 > float(g2.rho(g2.rF)) if self.internal
+                else self.rho_sap2 < float(g2.rho(g2.rF))):
             raise ValueError("the mating tip reaches below the form circle (interference)")
         # rigid mesh at position 0: flank A of tooth 0 of both gears through the pitch point
         self.eta1 = g1.psi_at(self.rw1)
         self.eta2 = g2.psi_at(self.rw2)
-        self.phi1_0 = -self.eta1                    # tooth-0 centre of gear 1
-        self.phi2_0 = math.pi - self.eta2           # tooth-0 centre of gear 2 (own frame)
+        if self.internal:   # pitch point at angle pi from both centres; ring flank B there
+            self.phi1_0 = math.pi - self.eta1
+            self.phi2_0 = math.pi + self.eta2
+        else:
+            self.phi1_0 = -self.eta1                    # tooth-0 centre of gear 1
+            self.phi2_0 = math.pi - self.eta2           # tooth-0 centre of gear 2 (own frame)
         for g, rho_sap in ((g1, self.rho_sap1), (g2, self.rho_sap2)):
             g.rho_sap = rho_sap
             g.rho_tip = float(g.rho(g.ra))
 
     def backlash(self) -> float:
-        """j_bt from the generated outlines' thicknesses at the operating pitch circles."""
+        """j_bt from the generated outlines' thicknesses at the operating pitch circles
+        (internal: the ring's space at its operating pitch circle less the pinion's tooth)."""
+        if self.internal:
+            s_w1 = 2 * self.rw1 * self.g1.psi_at(self.rw1)
+            e_w2 = 2 * self.rw2 * (math.pi / self.g2.z - self.g2.psi_at(self.rw2))
+            return (e_w2 - s_w1) * math.cos(self.alpha_wt)
         s_w1 = 2 * self.rw1 * self.g1.psi_at(self.rw1)
         s_w2 = 2 * self.rw2 * self.g2.psi_at(self.rw2)
         j_wt = 2 * math.pi * self.rw1 / self.g1.z - s_w1 - s_w2
@@ -243,7 +378,7 @@ class Pair:
         """Rigid angles of tooth 0's centre of gear 1 and gear 2 when gear 1 has turned dphi1
         from position 0 (conjugate: gear 2 turns -dphi1 z1/z2)."""
         return (self.phi1_0 + dphi1,
-                self.phi2_0 - dphi1 * self.g1.z / self.g2.z)
+                self.phi2_0 + (1 if self.internal else -1) * dphi1 * self.g1.z / self.g2.z)
 
     def unloaded_te(self, dphi1: float, teeth=range(-3, 4)) -> float:
         """Unloaded TE (m, along the line of action) of the modified pair: the smallest gap
@@ -252,6 +387,9 @@ class Pair:
         for j in teeth:
             rho1 = self.rho_pitch1 + self.g1.rb * (dphi1 + j * self.g1.tau)
             if not self.rho_sap1 - 1e-12 <= rho1 <= self.rho_tip1 + 1e-12:
+                continue
+            if self.internal:   # unmodified (scene.load refuses micro-geometry on a ring)
+                best = 0.0
                 continue
             rho2 = self.line - rho1
             best = min(best, gap(self.g1, rho1) + gap(self.g2, rho2))

@@ -135,8 +135,8 @@ def add_teeth(occ, g: Gear, prof: HalfProfile, teeth, fine, closed: bool) -> Out
         inner = [t for pl in (pB_f, pB_i, pA_i, pA_f) for t in pl[1:-1]]
         occ.remove([(0, t) for t in inner])
         loop += curves
-        if is_fine:
-            contact_curves += [c_tip, cA_i]
+        if is_fine:   # the loaded flank: A (+psi), a ring's B (-psi)
+            contact_curves += [c_tip, cB_i if getattr(g, "contact_flank", "A") == "B" else cA_i]
             contact_tooth += [k % g.z] * 2
             fine_curves += curves
         else:
@@ -276,19 +276,26 @@ def gmsh_model(name: str, verbose: bool = False):
 
 def build(g: Gear, size: MeshSize, fine: list[int], verbose: bool = False) -> GearMesh:
     """Mesh the whole gear g; teeth `fine` (indices, tooth k centred at k 2 pi / z) are the
-    refined ones whose flank A and tip form the contact surface."""
+    refined ones whose flank A and tip form the contact surface. An internal ring
+    (geometry.RingGear): the annulus from its teeth out to the clamped outer circle (`bore`
+    nodes), flank B and tips the contact surface, body sizes at most a third of the rim."""
     import gmsh
 
     prof = modified_profile(g)
     z = g.z
     fine = sorted({k % z for k in fine})
+    ring = getattr(g, "internal", False)
+    if ring:   # the ring's body between its root circle and the clamped outer circle
+        size = MeshSize(size.h_contact, size.h_tooth, size.h_far,
+                        min(size.h_body, (g.bore - g.rf) / 3), size.grad)
     with gmsh_model(f"gear{g.index}", verbose):
         occ = gmsh.model.occ
         ol = add_teeth(occ, g, prof, range(z), fine, closed=True)
-        outer = occ.addCurveLoop(ol.curves)
-        bore_c = occ.addCircle(0.0, 0.0, 0.0, g.bore)
-        hole = occ.addCurveLoop([bore_c])
-        surf = occ.addPlaneSurface([outer, hole])
+        teeth_loop = occ.addCurveLoop(ol.curves)
+        bore_c = occ.addCircle(0.0, 0.0, 0.0, g.bore)   # a ring: its clamped outer circle
+        circle_loop = occ.addCurveLoop([bore_c])
+        surf = occ.addPlaneSurface([circle_loop, teeth_loop] if ring
+                                   else [teeth_loop, circle_loop])
         occ.synchronize()
         set_size_fields(size, ol)
         gmsh.option.setNumber("Mesh.Algorithm", 6)

@@ -50,6 +50,7 @@ class Body:
     holes: int = 0
     hole_radius: float = 0.0
     hole_circle: float = 0.0
+    ring_outer: float = 0.0   # an internal ring's clamped outer radius (2-D: the ring's body)
 
     def web(self) -> bool:
         return self.rim_inner > 0
@@ -88,6 +89,7 @@ class PairSpec:
     torques: tuple[float, ...]  # N m, from [run] torques_Nm
     helix_angle: float = 0.0    # beta, rad (3-D only; 2-D: spur)
     slices: int = 0             # the product's slices across the face ([model] slices; 0: unset)
+    internal: bool = False      # gear 2 an internal ring (2-D only: spur, unmodified)
 
     def gear(self, i: int) -> GearSpec:
         return self.gear1 if i == 1 else self.gear2
@@ -99,7 +101,7 @@ _PAIR = {
     "normal_module_mm": (1e-3, 0.1, 100.0),
     "pressure_angle_deg": (math.pi / 180, 10.0, 35.0),
     "helix_angle_deg": (math.pi / 180, 0.0, 0.0),       # 2-D: spur only
-    "internal": (None, None, None),                     # must be false
+    "internal": (None, None, None),                     # true: gear 2 an internal ring (2-D)
     "rack_addendum": (1.0, 0.5, 2.0),
     "rack_dedendum": (1.0, 0.5, 3.0),
     "rack_tip_radius": (1.0, 0.0, 1.0),
@@ -177,8 +179,12 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
     for key in pair:
         if key not in pair_keys:
             raise SceneError(f"pair.{key}: not a key of the scene format this reference knows")
-    if pair.get("internal", False):
-        raise SceneError("pair.internal = true: the 2-D reference models external pairs only")
+    internal = pair.get("internal", False)
+    if not isinstance(internal, bool):
+        raise SceneError(f"pair.internal = {internal!r}: not a Boolean")
+    if internal and dims == 3:
+        raise SceneError("pair.internal = true: the 3-D reference models external pairs only "
+                         "(the 2-D one takes an internal spur ring)")
     p = {k: _num(f"pair.{k}", v, pair_keys[k]) for k, v in pair.items() if k != "internal"}
     for k in ("center_distance_mm", "normal_module_mm"):
         if k not in p:
@@ -202,7 +208,9 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
                 g[key] = value
             else:
                 g[key] = _num(f"gear{i}.{key}", value, gear_keys[key])
-        body_keys = {"bore_diameter_mm", *(_BODY_3D if dims == 3 else ())}
+        ring = internal and i == 2
+        body_keys = ({"ring_outer_diameter_mm"} if ring
+                     else {"bore_diameter_mm", *(_BODY_3D if dims == 3 else ())})
         for key in body:
             if key not in body_keys:
                 raise SceneError(f"gear{i}.body.{key}: the {dims}-D reference models "
@@ -210,6 +218,12 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
                                     if dims == 2 else "a bore, a web, a hub and lightening "
                                     "holes only (allowed: " + ", ".join(sorted(body_keys)) + ")"))
         bspec = _body(i, body) if dims == 3 else Body()
+        if ring:
+            if "ring_outer_diameter_mm" not in body:
+                raise SceneError("gear2.body.ring_outer_diameter_mm: missing (the internal ring's "
+                                 "clamped outer diameter)")
+            bspec = Body(ring_outer=_num("gear2.body.ring_outer_diameter_mm",
+                                         body["ring_outer_diameter_mm"], (1e-3, 0.01, 40000.0)) / 2)
         for key in ("teeth", "face_width_mm"):
             if key not in g:
                 raise SceneError(f"gear{i}.{key}: missing")
@@ -238,6 +252,10 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
             youngs_modulus=g.get("youngs_modulus_GPa", 210e9),
             poisson_ratio=g.get("poisson_ratio", 0.3), bore_diameter=bore, mod=mod,
             body=bspec))
+    if internal and (any(g.mod.any() or g.mod.lead_crowning for g in gears)
+                     or any(g.thickness_allowance for g in gears)):
+        raise SceneError("pair.internal = true with micro-geometry or a thickness allowance: not "
+                         "implemented in the reference (unmodified internal pairs only)")
     run = raw.get("run", {})
     torques = tuple(float(t) for t in run.get("torques_Nm", [50.0, 150.0, 250.0, 350.0]))
     mu = float(raw.get("model", {}).get("friction_coefficient", 0.0))
@@ -247,4 +265,4 @@ def load(path: str | pathlib.Path, dims: int = 2) -> PairSpec:
         rack_addendum=p.get("rack_addendum", 1.0), rack_dedendum=p.get("rack_dedendum", 1.25),
         rack_tip_radius=p.get("rack_tip_radius", 0.38), gear1=gears[0], gear2=gears[1],
         friction=mu, torques=torques, helix_angle=p.get("helix_angle_deg", 0.0),
-        slices=int(raw.get("model", {}).get("slices", 0)))
+        slices=int(raw.get("model", {}).get("slices", 0)), internal=internal)

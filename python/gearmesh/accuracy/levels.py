@@ -16,7 +16,8 @@ from gearmesh.accuracy import iso as accuracy_iso, report as accuracy_report, se
 from gearmesh.accuracy.reference import (KINDS, Reference, ReferenceError, curve_error, errors,
                                          lineload_path, pair_errors, pairs_path, peak_line_load_error,
                                          positions_path, read_lineload, read_pairs, read_positions,
-                                         read_summary, summary_path)
+                                         read_sector, read_summary, sector_path, summary_path,
+                                         WHOLE_SUFFIX, with_sector_correction)
 from gearmesh.accuracy.sweep import sweep
 from gearmesh.accuracy.timing import round_trip
 from gearmesh.paths import Paths
@@ -135,6 +136,9 @@ def references(scene: Scene, reference_dir: pathlib.Path | None) -> list[Referen
             if reference.scene != scene.name:
                 raise ReferenceError(f"{path}: rows of scene {reference.scene!r}, not "
                                      f"{scene.name!r}")
+            if kind == "3d" and not reference.models[0].endswith(WHOLE_SUFFIX):
+                reference = with_sector_correction(reference,
+                                                   read_sector(sector_path(folder, scene.name)))
             found.append(reference)
     return found
 
@@ -150,7 +154,7 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
     peaks = (read_lineload(lineload_path(reference.path.parent, scene.name), reference.n_positions)
              if reference.kind == "3d" else {})
     rows = []
-    for planned in tqdm(plan, desc=f"{scene.name} ({reference.kind})", disable=not progress,
+    for planned in tqdm(plan, desc=f"{scene.name} ({reference.label})", disable=not progress,
                         leave=False):
         setting, db = planned.setting, planned.database
         result = sweep(fmu, planned.values, torques, reference.n_positions, repeats)
@@ -167,7 +171,7 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
             peak = peak_line_load_error(peaks, torque, setting.slices, result.max_line_load[torque])
             for e in (errors(reference, torque, result.summary[torque])
                       + ([curve] if curve else []) + pairs + ([peak] if peak else [])):
-                rows.append({"scene": scene.name, "reference": reference.kind,
+                rows.append({"scene": scene.name, "reference": reference.label,
                              "setting": setting.label, "level": setting.level,
                              "slices": setting.slices,
                              "coupled_teeth": "" if setting.coupled is None else setting.coupled,

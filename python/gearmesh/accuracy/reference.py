@@ -30,11 +30,18 @@ is a bin of the same width); no row where the reference has no such bin count. S
 scored: the sectors that bias the 3-D TE's level (held cut faces, stiffer) also shape the load
 distribution across the face, and the line load has a layer study at one position only.
 
-3-D: `<scene>.reference_fe3d.summary.csv` holds one model (3-D sectors of both gears, a name
-starting with "3d_"); its "band" is that one value, so the band error is the relative error. Its
-mean TE is biased low by the sectors' held cut faces (reference_fe/README.md, "3-D cases"), so a
-3-D reference scores the ripple only (SCORED["3d"]: p-p and mesh orders 1-2; at its 8 positions
-per pitch order 3 aliases with order 5); mean, order 3 and curve are shown, not scored.
+3-D: `<scene>.reference_fe3d.summary.csv` holds one model (3-D sectors of both gears or whole
+gears, a name starting with "3d_"); its "band" is that one value, so the band error is the
+relative error. A sector model's mean TE is biased low by the sectors' held cut faces
+(reference_fe/README.md, "3-D cases"), so such a 3-D reference scores the ripple only
+(SCORED["3d"]: p-p and mesh orders 1-2; at its 8 positions per pitch order 3 aliases with order
+5); mean, order 3 and curve are shown, not scored. A reference of whole gears (model name ending
+in "_whole"), or a sector reference whose bias was measured against whole gears
+(`<scene>.reference_fe3d.sector.csv`, reference_fe/README.md, "Sector bias"), scores the mean
+too (SCORED["3d-whole"]; its rows are labelled "3d-whole"): the sector study's TE difference
+whole - sector, averaged over its positions, is added to the sector reference's mean (the body's
+compliance adds to the TE at every position alike; the spread over the positions is the
+correction's uncertainty, `Reference.mean_correction`).
 """
 from __future__ import annotations
 
@@ -46,6 +53,8 @@ from dataclasses import dataclass
 MODELS = ("plane_stress", "plane_strain")  # of a 2-D reference
 MODEL_3D_PREFIX = "3d_"  # the one model of a 3-D reference: 3d_spur, 3d_helical, ...
 KINDS = ("2d", "3d")
+WHOLE = "3d-whole"  # the label of a 3-D reference whose mean is free of the sector bias
+WHOLE_SUFFIX = "_whole"  # a 3-D model of whole gears (reference_fe run3d --sector-deg 360)
 _FILE_STEM = {"2d": "reference_fe", "3d": "reference_fe3d"}
 QUANTITIES = ("mean", "pp", "order1", "order2", "order3")  # the summary's <q>_te_m / <q>_m columns
 CURVE = "curve"  # the TE position by position against the per-position band (te.csv)
@@ -54,7 +63,8 @@ PAIR_LINE_LOAD = "pair_line_load"  # the most loaded pair's force / face width, 
 PEAK_LINE_LOAD = "peak_line_load"  # the largest bin / slice line load, largest (lineload.csv)
 MIN_POSITIONS = 8  # per pitch: mesh order 3 below the Nyquist order (n/2)
 # The quantities a reference of each kind scores (a setting's score: the largest |band error|).
-SCORED = {"2d": (*QUANTITIES, LOAD_SHARE, PAIR_LINE_LOAD), "3d": ("pp", "order1", "order2")}
+SCORED = {"2d": (*QUANTITIES, LOAD_SHARE, PAIR_LINE_LOAD), "3d": ("pp", "order1", "order2"),
+          WHOLE: ("mean", "pp", "order1", "order2")}
 _COLUMNS = {"mean": "mean_te_m", "pp": "pp_te_m", "order1": "order1_m", "order2": "order2_m",
             "order3": "order3_m"}
 _REQUIRED = ("scene", "model", "torque_Nm", "n_positions", *_COLUMNS.values())
@@ -73,6 +83,15 @@ class Reference:
     values: dict[tuple[str, float], dict[str, float]]
     kind: str = "2d"  # one of KINDS
     models: tuple[str, ...] = MODELS  # 2-D: MODELS; 3-D: its one model
+    # a sector reference's mean corrected to whole gears: torque -> (added offset, uncertainty), m
+    mean_correction: dict[float, tuple[float, float]] | None = None
+
+    @property
+    def label(self) -> str:
+        """The rows' "reference": the kind, or WHOLE for a 3-D mean free of the sector bias."""
+        if self.kind == "3d" and (self.models[0].endswith(WHOLE_SUFFIX) or self.mean_correction):
+            return WHOLE
+        return self.kind
 
     @property
     def torques(self) -> list[float]:
@@ -163,6 +182,61 @@ def _require_positions(path: pathlib.Path, what: str, by_position: dict, n_posit
     if sorted(by_position) != list(range(n_positions)):
         raise ReferenceError(f"{path}: {what} has positions {sorted(by_position)}; required: "
                              f"0..{n_positions - 1}")
+
+
+def sector_path(reference_dir: pathlib.Path, scene_name: str) -> pathlib.Path:
+    return pathlib.Path(reference_dir) / f"{scene_name}.reference_fe3d.sector.csv"
+
+
+def read_sector(path: pathlib.Path) -> dict[float, tuple[float, float]]:
+    """From a sector study (reference_fe sector3d): torque -> (mean over its positions of the TE
+    of whole gears minus that of the smallest sector, the largest deviation of that difference
+    from its mean over the positions); {} when the file does not exist."""
+    path = pathlib.Path(path)
+    if not path.is_file():
+        return {}
+    te: dict[tuple[float, float, int], float] = {}
+    whole: set[float] = set()
+    with path.open(newline="") as fh:
+        reader = csv.DictReader(text for text in fh if not text.lstrip().startswith("#"))
+        for line, row in enumerate(reader, start=2):
+            try:
+                key = (float(row["sector_deg"]), float(row["torque_Nm"]), int(row["position"]))
+                te[key] = float(row["te_m"])
+                if int(row["whole"]):
+                    whole.add(key[0])
+            except (KeyError, ValueError) as exc:
+                raise ReferenceError(f"{path}: row {line}: {exc}") from exc
+    if len(whole) != 1:
+        raise ReferenceError(f"{path}: {len(whole)} whole-gear models; required: one")
+    full = whole.pop()
+    sector = min(sd for sd, _, _ in te)
+    out = {}
+    for torque in sorted({t for _, t, _ in te}):
+        positions = sorted(k for sd, t, k in te if sd == full and t == torque)
+        if not positions or any((sector, torque, k) not in te for k in positions):
+            raise ReferenceError(f"{path}: {torque:g} N m: the sector's TE missing at a "
+                                 "position of the whole gears'")
+        diff = [te[(full, torque, k)] - te[(sector, torque, k)] for k in positions]
+        mean = sum(diff) / len(diff)
+        out[torque] = (mean, max(abs(d - mean) for d in diff))
+    return out
+
+
+def with_sector_correction(reference: Reference, correction: dict[float, tuple[float, float]]) -> Reference:
+    """A sector reference with its mean corrected to whole gears (read_sector), every torque of
+    the reference needing the study's; the other quantities as they are."""
+    if reference.kind != "3d" or not correction:
+        return reference
+    missing = [t for t in reference.torques if t not in correction]
+    if missing:
+        raise ReferenceError(f"{reference.path}: the sector study has no torque "
+                             f"{', '.join(f'{t:g}' for t in missing)} N m")
+    values = {key: dict(v) for key, v in reference.values.items()}
+    for (model, torque), v in values.items():
+        v["mean"] += correction[torque][0]
+    return Reference(reference.scene, reference.path, reference.n_positions, values, reference.kind,
+                     reference.models, {t: correction[t] for t in reference.torques})
 
 
 def positions_path(reference_dir: pathlib.Path, scene_name: str, kind: str = "2d") -> pathlib.Path:

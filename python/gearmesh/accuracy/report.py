@@ -10,7 +10,8 @@ import shlex
 import pathlib
 from collections import defaultdict
 
-from gearmesh.accuracy.reference import CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD, QUANTITIES, SCORED
+from gearmesh.accuracy.reference import (CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD, QUANTITIES, SCORED,
+                                         WHOLE)
 
 # reference: "2d" (plane_* columns filled) or "3d" (fe3d columns filled); the others are empty.
 # product, plane_stress, plane_strain, fe3d: the quantity's values in its unit (SI; "1" for a share)
@@ -28,7 +29,9 @@ DATABASE_COLUMNS = ("db_build_s", "db_peak_MiB")  # level 5: the databases' buil
 # per-tooth or line-load file (or, for PEAK_LINE_LOAD, not the setting's slice count)
 SHOWN = (*QUANTITIES, CURVE, LOAD_SHARE, PAIR_LINE_LOAD, PEAK_LINE_LOAD)
 _REFERENCE_TITLE = {"2d": "2-D band [plane stress, plane strain], whole gears",
-                    "3d": "3-D sectors (ripple scored; the mean is biased low by the sectors)"}
+                    "3d": "3-D sectors (ripple scored; the mean is biased low by the sectors)",
+                    WHOLE: "3-D, the mean of whole gears (measured or corrected to them; mean and "
+                           "ripple scored)"}
 
 
 def write_csv(path: pathlib.Path, rows: list[dict], first_line: str = "",
@@ -126,10 +129,12 @@ def markdown(entries: list[dict], tolerance: float, notes: list[str]) -> str:
              "the band [plane stress, plane strain] of whole gears, 0 inside the band, else the "
              "signed distance to the nearer edge relative to it. 3-D: sectors of both gears, the "
              "relative error; their mean TE is biased low by the sectors' held cut faces, so "
-             "they score the ripple only. Torque: on gear 1, as the references load it (gear 2 "
+             "they score the ripple only, unless the model is of whole gears or the sector bias "
+             "was measured against whole gears and removed from the mean (3d-whole). Torque: on "
+             "gear 1, as the references load it (gear 2 "
              "carries it times z2/z1). Per quantity the worst over the torques. Score: the "
              f"largest |error| over {', '.join(SCORED['2d'])} (2-D) or "
-             f"{', '.join(SCORED['3d'])} (3-D). Cost: median time per fmi2DoStep "
+             f"{', '.join(SCORED['3d'])} (3-D; 3d-whole: {', '.join(SCORED[WHOLE])}). Cost: median time per fmi2DoStep "
              "through fmpy minus the bare fmpy round trip (raw: without the subtraction), plain "
              "mode (prescribed spins) and quasi-static mode. Database build (level 5): compliance_tool's "
              "wall time over the distinct gear databases and its largest peak memory, from the "
