@@ -94,7 +94,12 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
             "description": "2-D, both complete gears to the bore, CPE6 (plane stress by the "
                            "equivalent plane-strain material), gear 2's bore clamped, gear 1's "
                            "bore rigidly turning about its axis with the torque, "
-                           "surface-to-surface penalty contact, linear pressure-overclosure",
+                           "surface-to-surface penalty contact, linear pressure-overclosure"
+                           + ("; gear 2 an internal ring from its teeth out to its outer "
+                              "diameter, clamped there (bore_diameters_m: the ring's outer "
+                              "diameter), its flank B in contact with the pinion's flank A"
+                              if pr.internal else ""),
+            "internal": pr.internal,
             "friction": friction,
             "penalty_Pa_per_m": analysis.DEFAULT_PENALTY,
             "engage_m": analysis.ENGAGE,
