@@ -119,3 +119,48 @@ def test_lead_crowning_on_the_flank():
           f"{removed[np.abs(z) > g.b / 2 - 1e-9].mean() * 1e6:.3f} um")
     assert np.abs(removed - expect).max() < 0.05e-6
     assert removed[np.abs(z) < 1e-9].max() < 0.05e-6
+
+
+def test_whole_lightweight_gear_web_hub_and_holes():
+    """lightweight_vs_solid_fe's gear 1 as a whole gear (sector 360 deg): every node within the
+    face width, the rim and hub over it, the web only between its faces (|z - offset| <= t/2
+    for every node between the hub and the rim), no node inside a lightening hole (hole k
+    centred on tooth 0's centre line turned by k 2 pi / holes), nodes on each hole's wall all
+    round it; the held nodes only on the bore (no cut faces), every bore node held; the
+    contact faces on the fine teeth; gear 2 a solid whole disc. A web over the whole face
+    width, holes misplaced or cut faces held would fail."""
+    spec = scene.load(REPO / "scenarios" / "fe" / "lightweight_vs_solid_fe.toml", dims=3)
+    model = coarse(spec, sector_deg=360.0)
+    g, sm = model.pair.g1, model.m1
+    bd = g.body
+    assert bd.web() and bd.holes == 19
+    assert sm.sector_teeth == list(range(g.z))
+    x, y, z = sm.nodes.T
+    R = np.hypot(x, y)
+    assert z.min() == pytest.approx(-g.b / 2, abs=1e-12) and z.max() == pytest.approx(g.b / 2)
+    web = (R > bd.hub + 1e-9) & (R < bd.rim_inner - 1e-9)
+    assert web.sum() > 100
+    assert np.abs(z[web] - bd.web_offset).max() <= bd.web_thickness / 2 + 1e-12
+    assert np.abs(z[R > bd.rim_inner + 1e-9]).max() == pytest.approx(g.b / 2)
+    assert np.abs(z[R < bd.hub - 1e-9]).max() == pytest.approx(g.b / 2)
+    for k in range(bd.holes):
+        cx = bd.hole_circle * math.cos(2 * math.pi * k / bd.holes)
+        cy = bd.hole_circle * math.sin(2 * math.pi * k / bd.holes)
+        d = np.hypot(x - cx, y - cy)
+        assert d.min() > bd.hole_radius - 1e-9, k
+        wall = np.abs(d - bd.hole_radius) < 1e-9
+        ang = np.arctan2(y[wall] - cy, x[wall] - cx)
+        assert np.diff(np.sort(ang)).max() < 2 * math.pi / 8, k    # nodes all round the hole
+    held = np.zeros(len(R), bool)
+    held[sm.bore] = True
+    on_bore = np.abs(R - g.bore) < 1e-9
+    assert np.array_equal(held, on_bore)
+    teeth = np.round(np.arctan2(y, x) / g.tau).astype(int) % g.z
+    faces_tooth = set(sm.contact_tooth.tolist())
+    assert faces_tooth == {k % g.z for k in sm.contact_teeth}
+    assert len(set(teeth[R > g.rf]) - set(range(g.z))) == 0
+    g2, sm2 = model.pair.g2, model.m2
+    assert g2.body.solid()
+    assert np.abs(sm2.nodes[:, 2]).max() == pytest.approx(g2.b / 2)
+    R2 = np.hypot(sm2.nodes[:, 0], sm2.nodes[:, 1])
+    assert np.all(np.abs(R2[sm2.bore] - g2.bore) < 1e-9)
