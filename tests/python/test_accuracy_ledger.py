@@ -21,8 +21,9 @@ import pytest
 from gearmesh import cli
 from gearmesh.accuracy import levels as accuracy, iso as accuracy_iso, report as accuracy_report
 from gearmesh_dev import ledger as accuracy_ledger
-from gearmesh.accuracy.reference import (QUANTITIES, ReferenceError, band_error, curve_error, errors,
-                                         pair_errors, read_pairs, read_positions, read_summary)
+from gearmesh.accuracy.reference import (QUANTITIES, SCORED, ReferenceError, band_error, curve_error, errors,
+                                         pair_errors, read_pairs, read_positions, read_sector, read_summary,
+                                         with_sector_correction)
 from gearmesh.accuracy.sweep import sweep
 from gearmesh.scene import load_scene
 from gearmesh.scene_fmu import build_scene_fmu
@@ -282,6 +283,44 @@ def test_reference_reader_3d(tmp_path):
     study = tmp_path / "s.reference_fe3d.summary.csv"
     study.write_text("\n".join([*lines, lines[2].replace(",base,", ",mesh+1,")]) + "\n")
     assert read_summary(study).values == ref.values
+
+
+def test_sector_correction_of_the_3d_mean(tmp_path):
+    """A sector study (made-up TE, round numbers): the whole gears' TE less the 120 deg sector's,
+    averaged over the positions, is added to the sector reference's mean at each torque, its
+    largest deviation over the positions the uncertainty; the other quantities stay; the rows'
+    label becomes 3d-whole (mean scored), as for a model of whole gears; a study without one of
+    the reference's torques, or without a whole-gear model, is refused."""
+    path = REPO / "scenarios" / "reference" / "paper_setA_3U4U.reference_fe3d.summary.csv"
+    ref = read_summary(path)
+    assert ref.label == "3d" and ref.mean_correction is None
+    head = ("# made up\nscene,sector_deg,whole,sector_teeth_gear1,sector_teeth_gear2,torque_Nm,"
+            "position,n_positions,gear1_angle_rad,te_m\n")
+    rows = [f"s,{sd},{int(sd == 360)},1,1,{t},{k},8,0,{te}"
+            for sd, t, k, te in ((120, 150, 0, 6e-6), (120, 150, 4, 4e-6), (360, 150, 0, 7e-6),
+                                 (360, 150, 4, 4.8e-6), (120, 350, 0, 14e-6), (360, 350, 0, 16e-6))]
+    study = tmp_path / "s.reference_fe3d.sector.csv"
+    study.write_text(head + "\n".join(rows) + "\n")
+    corr = read_sector(study)
+    assert corr[150.0] == pytest.approx((0.9e-6, 0.1e-6))
+    assert corr[350.0] == pytest.approx((2e-6, 0.0))
+    fixed = with_sector_correction(ref, corr)
+    assert fixed.label == "3d-whole" and fixed.mean_correction == corr
+    for t in (150.0, 350.0):
+        assert fixed.values[("3d_spur", t)]["mean"] == pytest.approx(
+            ref.values[("3d_spur", t)]["mean"] + corr[t][0], rel=1e-15)
+        for q in ("pp", "order1", "order2", "order3"):
+            assert fixed.values[("3d_spur", t)][q] == ref.values[("3d_spur", t)][q]
+    with pytest.raises(ReferenceError, match="no torque 350"):
+        with_sector_correction(ref, {150.0: corr[150.0]})
+    study.write_text(head + "\n".join(r for r in rows if not r.startswith("s,360")) + "\n")
+    with pytest.raises(ReferenceError, match="whole-gear models"):
+        read_sector(study)
+    assert read_sector(tmp_path / "missing.csv") == {}
+    whole = tmp_path / "w.reference_fe3d.summary.csv"
+    whole.write_text(path.read_text().replace("3d_spur", "3d_spur_whole"))
+    assert read_summary(whole).label == "3d-whole"
+    assert SCORED["3d-whole"] == ("mean", "pp", "order1", "order2")
 
 
 def test_positions_reader_3d_skips_studies():
