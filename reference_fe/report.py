@@ -26,6 +26,10 @@ def _git_commit(path: pathlib.Path) -> str:
         return "unknown"
 
 
+# the commit of the code a run starts with (a long run's JSON is written at its end)
+_COMMIT_AT_START = _git_commit(pathlib.Path(__file__).resolve().parent)
+
+
 def _g(x) -> str:
     """A number for the CSV: shortest round-trip text of the float."""
     return repr(float(x))
@@ -60,7 +64,7 @@ def provenance(scene_name: str, scene_path) -> dict:
         "scene_file": pathlib.Path(scene_path).name,
         "command": "python -m reference_fe " + " ".join(_portable_args(sys.argv[1:])),
         "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "git_commit": _git_commit(pathlib.Path(__file__).resolve().parent),
+        "git_commit": _COMMIT_AT_START,
         "ccx_version": ccx.ccx_version(),
         "python": platform.python_version(),
         "gmsh_version": __import__("gmsh").__version__,
