@@ -201,7 +201,57 @@ def section_whole(g: Gear, size: Size3D, fine, verbose=False):
         btags, _, _ = gmsh.model.mesh.getNodes(1, bore_c, includeBoundary=True)
         bore = np.array(sorted({index[int(t)] for t in btags}))
         faces, tooth = mesh.tooth_faces(blocks, index, ol)
+        far = set()
+        for c in ol.far:
+            tags, _, _ = gmsh.model.mesh.getNodes(1, c, includeBoundary=False)
+            far |= {index[int(t)] for t in tags if int(t) in index}
+        straighten_midsides(xy, blocks, far)
+        worst = min(float(section_jacobian(xy, c).min()) for c in blocks if len(c))
+        if worst <= 0:
+            raise RuntimeError(f"gear{g.index}: a section element with a nonpositive Jacobian")
         return xy, blocks, bore, faces, tooth, region
+
+
+def section_jacobian(xy: np.ndarray, conn: np.ndarray, n: int = 7) -> np.ndarray:
+    """Per quad8 / tri6 element the smallest Jacobian determinant over an n x n grid of its
+    natural coordinates, corners and edges included (CalculiX refuses an element whose
+    Jacobian is nonpositive at an integration point; this looks everywhere)."""
+    P = xy[conn]
+    worst = np.full(len(conn), np.inf)
+    for s in np.linspace(-1.0, 1.0, n):
+        for t in np.linspace(-1.0, 1.0, n):
+            if conn.shape[1] == 8:       # serendipity quad8: corners, then mid-sides 01 12 23 30
+                xi, et = np.array([-1, 1, 1, -1]), np.array([-1, -1, 1, 1])
+                ds = np.concatenate([0.25 * xi * (1 + et * t) * (2 * xi * s + et * t),
+                                     [-s * (1 - t), 0.5 * (1 - t * t), -s * (1 + t), -0.5 * (1 - t * t)]])
+                dt = np.concatenate([0.25 * et * (1 + xi * s) * (xi * s + 2 * et * t),
+                                     [-0.5 * (1 - s * s), -t * (1 + s), 0.5 * (1 - s * s), -t * (1 - s)]])
+            else:                        # tri6: corners, then mid-sides 01 12 20
+                a, b = (s + 1) / 2, (t + 1) / 2 * (1 - (s + 1) / 2)
+                l1, l2, l3 = 1 - a - b, a, b
+                ds = np.array([1 - 4 * l1, 4 * l2 - 1, 0, 4 * (l1 - l2), 4 * l3, -4 * l3])
+                dt = np.array([1 - 4 * l1, 0, 4 * l3 - 1, -4 * l2, 4 * l2, 4 * (l1 - l3)])
+            ja = np.einsum("k,ekd->ed", ds, P)
+            jb = np.einsum("k,ekd->ed", dt, P)
+            worst = np.minimum(worst, ja[:, 0] * jb[:, 1] - ja[:, 1] * jb[:, 0])
+    return worst
+
+
+def straighten_midsides(xy: np.ndarray, blocks, nodes: set) -> None:
+    """Move the mid-side nodes among `nodes` to the middle of their edge's corners (in place).
+    For the far teeth of a whole gear (never in contact): gmsh puts a coarse element's mid-side
+    node on the tooth's spline, which inverts some quadratic elements there (a nonpositive
+    Jacobian, refused by CalculiX); a straight edge moves that boundary by microns."""
+    if not nodes:
+        return
+    for conn in blocks:
+        if not len(conn):
+            continue
+        nc = conn.shape[1] // 2
+        for j in range(nc):
+            mid, a, b = conn[:, nc + j], conn[:, j], conn[:, (j + 1) % nc]
+            on = np.fromiter((int(m) in nodes for m in mid), bool, len(mid))
+            xy[mid[on]] = (xy[a[on]] + xy[b[on]]) / 2
 
 
 def layer_planes(b: float, layers: int, body=None) -> np.ndarray:

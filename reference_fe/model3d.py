@@ -77,7 +77,7 @@ class Model3D(analysis.Model):
                           + ("-layers" if split_layers else ""))
         self.whole = mesh3d.is_whole(self.size)
         if self.whole:
-            self.cache_tag += "-whole"
+            self.cache_tag += "-whole-v2"   # v2: the far teeth's mid-side nodes straightened
         self.variant = ("helical" if spec.helix_angle else "spur") + (
             "_lead_crowned" if (spec.gear1.mod.lead_crowning or spec.gear2.mod.lead_crowning)
             else "") + ("_whole" if self.whole else "")
