@@ -37,18 +37,18 @@ def parse_scene_arg(arg: str, default_torques):
 
 
 def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log,
-              sector_deg=SECTOR_DEG):
+              sector_deg=SECTOR_DEG, level=0):
     spec = scene.load(path, dims=3)
     t_start = time.time()
     models = {}
 
-    def model(level=0, sector=sector_deg):
-        if (level, sector) not in models:
-            models[(level, sector)] = model3d.Model3D(spec, level, sector)
-        return models[(level, sector)]
+    def model(lv=level, sector=sector_deg):
+        if (lv, sector) not in models:
+            models[(lv, sector)] = model3d.Model3D(spec, lv, sector)
+        return models[(lv, sector)]
 
     base_model = model()
-    base_case = model3d.Case3D()
+    base_case = model3d.Case3D(level=level)
     runs = {"base": (base_model, base_case,
                      analysis.run_case(spec, base_model, base_case, range(n), n, torques,
                                        cache, log))}
@@ -56,8 +56,8 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log,
     for label, opts in STUDIES:
         if label not in studies or not study_positions:
             continue
-        m = model(opts.get("level", 0), opts.get("sector_deg", sector_deg))
-        case = model3d.Case3D(level=opts.get("level", 0),
+        m = model(level + opts.get("level", 0), opts.get("sector_deg", sector_deg))
+        case = model3d.Case3D(level=level + opts.get("level", 0),
                               penalty=analysis.DEFAULT_PENALTY * opts.get("penalty_factor", 1.0))
         res = analysis.run_case(spec, m, case, study_positions, n, torques, cache, log)
         runs[label] = (m, case, res)
@@ -163,6 +163,8 @@ def add_parser(sub):
     r.add_argument("--study-positions", default="0",
                    help="positions of the studies (comma separated; empty: none)")
     r.add_argument("--studies", default=",".join(s for s, _ in STUDIES if s != "whole"))
+    r.add_argument("--level", type=int, default=0,
+                   help="the base model's mesh level (the mesh studies are relative to it)")
     r.add_argument("--sector-deg", type=float, default=SECTOR_DEG,
                    help="the base model's sectors (360: whole gears, the only choice for webs "
                         "and holes)")
@@ -191,7 +193,7 @@ def main(a, log):
     for arg in a.scenes:
         path, torques = parse_scene_arg(arg, default)
         run_scene(path, torques, a.out, a.positions, study_positions, studies, a.cache, log,
-                  a.sector_deg)
+                  a.sector_deg, a.level)
 
 
 def run_sector_study(path, torques, out_dir, n, positions, sectors, cache, log):

@@ -245,14 +245,15 @@ def positions_path(reference_dir: pathlib.Path, scene_name: str, kind: str = "2d
 
 def read_positions(path: pathlib.Path, n_positions: int) -> dict[tuple[str, float], list[float]]:
     """(model, torque) -> TE at positions 0..n-1 of the base cases (case "base" where the file
-    has the column, mesh level 0, the rows with n_positions = n); {} when the file does not
+    has the column, else mesh level 0; the rows with n_positions = n); {} when the file does not
     exist."""
     path = pathlib.Path(path)
     if not path.is_file():
         return {}
     curves: dict[tuple[str, float], dict[int, float]] = {}
     def parse(row):
-        if row.get("mesh_level", "0") != "0" or row.get("case", "base") != "base":
+        # 3-D files name their base case (whatever its mesh level); 2-D ones: level 0
+        if row.get("case", "base") != "base" or ("case" not in row and row["mesh_level"] != "0"):
             return None
         return (row["model"], float(row["torque_Nm"])), int(row["position"]), float(row["te_m"])
 
