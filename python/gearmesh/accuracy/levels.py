@@ -149,6 +149,9 @@ def compare(scene: Scene, reference: Reference, fmu: pathlib.Path, plan: list, p
     torques = accuracy_settings.torques(preset, reference.torques)
     curves = read_positions(positions_path(reference.path.parent, scene.name, reference.kind),
                             reference.n_positions)
+    if reference.mean_correction:   # the sector bias is a body compliance: alike at every position
+        curves = {key: [te + reference.mean_correction[key[1]][0] for te in values]
+                  for key, values in curves.items()}
     shares, loads = (read_pairs(pairs_path(reference.path.parent, scene.name),
                                 reference.n_positions) if reference.kind == "2d" else ({}, {}))
     peaks = (read_lineload(lineload_path(reference.path.parent, scene.name), reference.n_positions)

@@ -41,7 +41,8 @@ in "_whole"), or a sector reference whose bias was measured against whole gears
 too (SCORED["3d-whole"]; its rows are labelled "3d-whole"): the sector study's TE difference
 whole - sector, averaged over its positions, is added to the sector reference's mean (the body's
 compliance adds to the TE at every position alike; the spread over the positions is the
-correction's uncertainty, `Reference.mean_correction`).
+correction's uncertainty, `Reference.mean_correction`); the per-position TE of the "curve" gets the
+same offset.
 """
 from __future__ import annotations
 
