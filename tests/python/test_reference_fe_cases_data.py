@@ -128,7 +128,8 @@ def test_lightweight_whole_gears():
     exponent 0.95-1.02; the web's bending and twist are linear, and they dominate); at the pitch
     point more than 1.5 x as compliant per N m as set A's whole solid gears (the sector study's
     run; the same teeth, a web instead of a disc); the mesh study at position 0 as the README
-    states it (level -2 -> -1: within 3 %)."""
+    states it (level -1 against -2: -2.1 / -1.9 %, against 0: +1.0 / +0.7 %, so converging
+    from below)."""
     stem = "lightweight_vs_solid_fe.reference_fe3d"
     c = base_curves(stem)
     (model,) = {m for m, _ in c}
@@ -138,5 +139,6 @@ def test_lightweight_whole_gears():
     sector = {(float(r["sector_deg"]), float(r["torque_Nm"]), int(r["position"])): float(r["te_m"])
               for r in rows(REF / "paper_setA_3U4U.reference_fe3d.sector.csv")}
     assert c[(model, 100.0)][0] / 100.0 > 1.5 * sector[(360.0, 150.0, 0)] / 150.0
-    coarse = study(stem, "mesh-1")
-    assert all(abs(v) < 0.03 for v in coarse.values()), coarse
+    coarse, fine = study(stem, "mesh-1"), study(stem, "mesh+1")
+    assert all(-0.03 < v < -0.01 for v in coarse.values()), coarse
+    assert all(0.005 < v < 0.015 for v in fine.values()), fine
