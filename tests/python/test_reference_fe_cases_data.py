@@ -15,8 +15,9 @@ import pathlib
 
 import numpy as np
 import pytest
+from conftest import REPO
 
-REF = pathlib.Path(__file__).resolve().parents[2] / "scenarios" / "reference"
+REF = REPO / "scenarios" / "reference"
 
 
 def rows(path: pathlib.Path) -> list[dict]:
