@@ -1,0 +1,96 @@
+"""FMU output hashes for behaviour-preserving refactors (the FMU side of output_hashes.cpp): one
+SHA-256 per case of every output (Real, Integer) after each of a few communication steps and of
+the directional derivative of every Real output along each input, through FMPy, and one of
+modelDescription.xml with its GUID blanked (the GUID hashes the source tables; what they generate
+must not move; also GearMesh-fmi3.fmu's beside it). Compared before and after within one build (`diff`), never stored.
+
+    python tests/hash/fmu_hashes.py [GearMesh.fmu]
+"""
+from __future__ import annotations
+
+import hashlib
+import re
+import shutil
+import struct
+import sys
+import tempfile
+import zipfile
+
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+CASES = []
+for level in (0, 2, 3, 4):
+    for mode in ("prescribed", "quasi_static", "large_step"):
+        for friction in (0.0, 0.05):
+            for helical in (False, True):
+                CASES.append((level, mode, friction, helical))
+
+
+def run_case(path, unzip, md, level, mode, friction, helical):
+    vr = {v.name: v for v in md.modelVariables}
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="hash")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    reals = {"model.friction_coefficient": friction, "pair.helix_angle": 0.2 if helical else 0.0,
+             "pair.center_distance": 0.1531 if helical else 0.150, "model.damping": 1e3}
+    ints = {"model.stiffness": level, "model.slices": 5, "model.dynamics": 1 if mode == "large_step" else 0}
+    bools = {"model.quasi_static": mode == "quasi_static"}
+    fmu.setReal([vr[n].valueReference for n in reals], list(reals.values()))
+    fmu.setInteger([vr[n].valueReference for n in ints], list(ints.values()))
+    fmu.setBoolean([vr[n].valueReference for n in bools], list(bools.values()))
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    h = hashlib.sha256()
+    outputs = [v for v in md.modelVariables if v.causality in ("output", "calculatedParameter")]
+    real_out = [v.valueReference for v in outputs if v.type == "Real"]
+    int_out = [v.valueReference for v in outputs if v.type == "Integer"]
+    deriv_out = [v.valueReference for v in outputs if v.type == "Real" and v.causality == "output"]
+    inputs = [v.valueReference for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
+    t, step = 0.0, 1e-4
+    rb = 0.5 * 57 * 2.6e-3 * 0.94  # about r_b of set A
+    for k in range(6):
+        phi1 = 1e-3 + 0.02 * k
+        u = {"gear1.phi": phi1, "gear2.phi": -phi1 + 5e-6 / rb,
+             "gear1.omega": 100.0, "gear2.omega": -100.0, "mesh.load_torque": 300.0 - 100 * k,
+             "gear1.torque": 200.0, "gear2.torque": 200.0, "gear2.ux": 1e-6 * k, "gear1.vy": 1e-3}
+        fmu.setReal([vr[n].valueReference for n in u], list(u.values()))
+        fmu.doStep(currentCommunicationPoint=t, communicationStepSize=step)
+        t += step
+        h.update(struct.pack(f"{len(real_out)}d", *fmu.getReal(real_out)))
+        h.update(struct.pack(f"{len(int_out)}i", *fmu.getInteger(int_out)))
+        if mode != "large_step" or k == 5:
+            for known in inputs[:: 3 if mode == "large_step" else 1]:
+                h.update(struct.pack(f"{len(deriv_out)}d",
+                                     *fmu.getDirectionalDerivative(deriv_out, [known], [1.0])))
+    fmu.terminate()
+    fmu.freeInstance()
+    return h.hexdigest()[:16]
+
+
+def main() -> int:
+    path = sys.argv[1] if len(sys.argv) > 1 else "build/GearMesh.fmu"
+    fmi3 = path.replace("GearMesh.fmu", "GearMesh-fmi3.fmu")
+    for label, fmu in (("", path), (" FMI 3.0", fmi3)):
+        with zipfile.ZipFile(fmu) as z:
+            xml = z.read("modelDescription.xml").decode()
+        blank = re.sub(r'(guid|instantiationToken)="[^"]*"', 'guid=""', xml)
+        name = f"modelDescription.xml{label} (GUID blanked)"
+        print(f"{name:48s} {hashlib.sha256(blank.encode()).hexdigest()[:16]}")
+    unzip = tempfile.mkdtemp(prefix="gm-hash-")
+    try:
+        extract(path, unzip)
+        md = read_model_description(path)
+        for case in CASES:
+            level, mode, friction, helical = case
+            name = f"level {level} {mode} friction {friction:g}{' helical' if helical else ''}"
+            print(f"{name:48s} {run_case(path, unzip, md, *case)}")
+    finally:
+        shutil.rmtree(unzip, True)
+    print(f"cases: {len(CASES)} FMU settings")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
