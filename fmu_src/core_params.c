@@ -69,21 +69,19 @@ static int resolve_resource(const char* resources, const char* parameter, const 
   return 0;
 }
 
-/* The String parameters that name a file inside resources/: FMU name and the field of the
- * core's parameters that gets the file's path. */
+/* The String parameters that name a file inside resources/ (GM_PARAM_FILE rows): FMU name and the
+ * field of the core's parameters that gets the file's path. */
+#define RESOURCE_ROW(_, name, kind, type, where, field, unit, dunit, lo, hi, bounds, levels, modes, group, flags, \
+                     desc)                                                                                    \
+  RESOURCE_ROW_##where(name, field, flags)
+#define RESOURCE_ROW_MODEL(name, field, flags) \
+  {((flags) & GM_PARAM_FILE) ? name : NULL, offsetof(gm_model_params, field)},
+#define RESOURCE_ROW_DYNAMICS(name, field, flags)
+#define RESOURCE_ROW_HOST(name, field, flags)
 static const struct {
-  const char* name;
+  const char* name; /* NULL: not a file */
   size_t offset;
-} resource_parameters[] = {
-    {"gear1.deviations", offsetof(gm_model_params, gear[0].deviations)},
-    {"gear2.deviations", offsetof(gm_model_params, gear[1].deviations)},
-    {"model.stiffness_table", offsetof(gm_model_params, stiffness_table)},
-    {"model.te_table", offsetof(gm_model_params, te_table)},
-    {"gear1.compliance", offsetof(gm_model_params, compliance[0])},
-    {"gear2.compliance", offsetof(gm_model_params, compliance[1])},
-};
-_Static_assert(sizeof resource_parameters / sizeof resource_parameters[0] == CORE_PARAMS_FILES,
-               "core_params.h counts the file parameters");
+} parameter_rows[] = {GM_PARAMETERS(RESOURCE_ROW, _)};
 
 /* The core's parameters for the FMU's p: the FMU has one micro-geometry per gear (bound to
  * flank A), which flank B gets too; each String parameter naming a file inside resources/
@@ -93,10 +91,12 @@ int core_params(const char* resources, const gm_model_params* p, gm_model_params
   *q = *p;
   for (int k = 0; k < CORE_PARAMS_FILES; k++) paths[k] = NULL;
   for (int i = 0; i < 2; i++) q->gear[i].flank[1] = q->gear[i].flank[0];
-  for (int k = 0; k < CORE_PARAMS_FILES; k++) {
-    const char** field = (const char**)((char*)q + resource_parameters[k].offset);
-    if (resolve_resource(resources, resource_parameters[k].name, *field, &paths[k], msg, n)) return 1;
-    *field = paths[k];
+  int k = 0;
+  for (size_t r = 0; r < sizeof parameter_rows / sizeof parameter_rows[0]; r++) {
+    if (!parameter_rows[r].name) continue;
+    const char** field = (const char**)((char*)q + parameter_rows[r].offset);
+    if (resolve_resource(resources, parameter_rows[r].name, *field, &paths[k], msg, n)) return 1;
+    *field = paths[k++];
   }
   return 0;
 }

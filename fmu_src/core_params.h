@@ -7,9 +7,13 @@
 
 #include <stddef.h>
 
-#include "gearmesh/gearmesh.h"
+#include "gearmesh/parameters.h"
 
-enum { CORE_PARAMS_FILES = 6 };
+/* How many String parameters name a file (GM_PARAM_FILE rows of gearmesh/parameters.h). */
+#define CORE_PARAMS_FILE_ROW(_, name, kind, type, where, field, unit, dunit, lo, hi, bounds, levels, modes, group, \
+                             flags, desc)                                                                         \
+  +(((flags) & GM_PARAM_FILE) != 0)
+enum { CORE_PARAMS_FILES = 0 GM_PARAMETERS(CORE_PARAMS_FILE_ROW, _) };
 
 /* q = p with flank B's micro-geometry from flank A and file names resolved against resources
  * (ending in '/', or NULL: then any file name is an error); paths[k] hold the absolute paths (the

@@ -10,7 +10,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "gearmesh/param_ranges.h"
 #include "model.h"
 #include "core_params.h"
 #include "values.h"
@@ -275,7 +274,7 @@ static void install_core(fmu_model* m, gm_model* core, gm_data* data, double add
   m->params_changed = 0;
 }
 
-/* Every parameter with a static range (core/src/param_ranges.cpp, modelDescription.xml's min and
+/* Every parameter with a static range (gearmesh/parameters.h, modelDescription.xml's min and
  * max) inside it, whether or not the current mode uses it. */
 static int check_ranges(const fmu_model* m, char* msg, size_t n) {
   for (unsigned vr = 0; vr < GM_FMU_VARIABLE_COUNT; vr++) {

@@ -1,8 +1,9 @@
 /* Writes modelDescription.xml from the variable table (variables.h). Built and run by CMake.
  *
- * Start values of parameters come from gm_default_params() and min/max from the core's range
- * table (gearmesh/param_ranges.h), so the defaults and the ranges live in the core only. The table is checked here (unique names, legal causality/variability/initial, units
- * defined) so that a bad row fails the build instead of producing an FMU that importers reject.
+ * Start values of parameters come from gm_default_params() and min/max from the core's parameter
+ * table (gearmesh/parameters.h), so the defaults and the ranges live in the core only. The table
+ * is checked here (unique names, legal causality/variability/initial, units defined) so that a
+ * bad row fails the build instead of producing an FMU that importers reject.
  *
  * Usage: generate_model_description <output.xml> [<source file>...]
  *        generate_model_description --fmi3 <output.xml>
@@ -17,7 +18,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gearmesh/param_ranges.h"
 #include "model.h"
 #include "variables.h"
 
@@ -80,7 +80,7 @@ static void check_row(const gm_fmu_variable* v, size_t index) {
   const gm_param_range* r = gm_param_range_find(v->name);
   if (!r) return;
   if (v->type != GM_FMU_Real && v->type != GM_FMU_Integer) fail("only Real and Integer variables have a range", v->name);
-  if (strcmp(r->unit, v->unit) != 0) fail("unit differs from its row in core/src/param_ranges.cpp", v->name);
+  if (strcmp(r->unit, v->unit) != 0) fail("unit differs from its range's", v->name);
   if (v->type == GM_FMU_Integer && (r->lo != floor(r->lo) || r->hi != floor(r->hi)))
     fail("an Integer's range has whole-number bounds", v->name);
 }
@@ -92,10 +92,11 @@ static void check_ranges(void) {
   for (size_t i = 0; i < count; i++) {
     int found = 0;
     for (size_t j = 0; j < N_VARIABLES; j++) found |= strcmp(gm_fmu_variables[j].name, ranges[i].name) == 0;
-    if (!found) fail("row of core/src/param_ranges.cpp names no variable", ranges[i].name);
+    if (!found) fail("a static range (gearmesh/parameters.h) names no variable", ranges[i].name);
     for (size_t j = 0; j < i; j++)
-      if (strcmp(ranges[j].name, ranges[i].name) == 0) fail("two rows in core/src/param_ranges.cpp", ranges[i].name);
-    if (!(ranges[i].lo < ranges[i].hi)) fail("range with lo >= hi in core/src/param_ranges.cpp", ranges[i].name);
+      if (strcmp(ranges[j].name, ranges[i].name) == 0)
+        fail("two static ranges (gearmesh/parameters.h)", ranges[i].name);
+    if (!(ranges[i].lo < ranges[i].hi)) fail("range with lo >= hi (gearmesh/parameters.h)", ranges[i].name);
   }
 }
 
@@ -205,7 +206,52 @@ static void put_open_annotations(FILE* f) {
   }
   fputs("      </Ranges>\n    </Tool>\n", f);
   put_array_annotations(f);
-  fputs("  </VendorAnnotations>\n", f);
+}
+
+/* What the tooling needs of a parameter beyond FMI (gearmesh/parameters.h): the stiffness levels
+ * and the modes that read it, and its flags, in <Tool name="GearMesh.parameters"><Parameters>
+ * <Parameter variable="NAME" levels="0 1" modes="large_step" body="true" file="true"/>; an
+ * attribute only where the row differs from every level, every mode, no flag. */
+static void put_parameter_annotations(FILE* f) {
+  static const char* const modes[] = {"prescribed", "quasi_static", "large_step"};
+  fputs("    <Tool name=\"GearMesh.parameters\">\n      <Parameters>\n", f);
+  size_t count;
+  const gm_param_info* rows = gm_parameters(&count);
+  for (size_t i = 0; i < count; i++) {
+    const gm_param_info* r = &rows[i];
+    if (r->levels == GM_ALL_LEVELS && r->modes == GM_ALL_MODES && !(r->flags & (GM_PARAM_BODY | GM_PARAM_FILE)))
+      continue;
+    fputs("        <Parameter variable=\"", f);
+    put_escaped(f, r->name);
+    fputc('"', f);
+    if (r->levels != GM_ALL_LEVELS) {
+      fputs(" levels=\"", f);
+      for (int l = 0, first = 1; l < GM_STIFFNESS_LEVELS; l++)
+        if (r->levels & GM_LEVEL(l)) fprintf(f, first ? "%d" : " %d", l), first = 0;
+      fputc('"', f);
+    }
+    if (r->modes != GM_ALL_MODES) {
+      fputs(" modes=\"", f);
+      for (int m = 0, first = 1; m < 3; m++)
+        if (r->modes & (1u << m)) fprintf(f, first ? "%s" : " %s", modes[m]), first = 0;
+      fputc('"', f);
+    }
+    if (r->flags & GM_PARAM_BODY) fputs(" body=\"true\"", f);
+    if (r->flags & GM_PARAM_FILE) fputs(" file=\"true\"", f);
+    fputs("/>\n", f);
+  }
+  fputs("      </Parameters>\n    </Tool>\n  </VendorAnnotations>\n", f);
+}
+
+/* Every row of the parameter table is a variable of the table (variables.h binds them all). */
+static void check_parameters(void) {
+  size_t count;
+  const gm_param_info* rows = gm_parameters(&count);
+  for (size_t i = 0; i < count; i++) {
+    int found = 0;
+    for (size_t j = 0; j < N_VARIABLES; j++) found |= strcmp(gm_fmu_variables[j].name, rows[i].name) == 0;
+    if (!found) fail("a row of gearmesh/parameters.h names no variable", rows[i].name);
+  }
 }
 
 static void put_start(FILE* f, const gm_fmu_variable* v, const gm_fmu_values* start) {
@@ -522,6 +568,7 @@ int main(int argc, char** argv) {
   start.mesh_damping_ratio = GM_MESH_DAMPING_RATIO;
   for (size_t i = 0; i < N_VARIABLES; i++) check_row(&gm_fmu_variables[i], i);
   check_ranges();
+  check_parameters();
   if (failures) return 1;
   if (fmi3) return write_fmi3(argv[2], &start);
 
@@ -557,6 +604,7 @@ int main(int argc, char** argv) {
   put_common(f, 0);
 
   put_open_annotations(f);
+  put_parameter_annotations(f);
   fputs("  <ModelVariables>\n", f);
   for (size_t i = 0; i < N_VARIABLES; i++) {
     const gm_fmu_variable* v = &gm_fmu_variables[i];

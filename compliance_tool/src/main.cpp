@@ -34,7 +34,7 @@
 
 #include "compliance_build.hpp"
 #include "gearmesh/internal/compliance_db.hpp"
-#include "gearmesh/gearmesh.h"
+#include "gearmesh/parameters.h"
 
 namespace {
 
@@ -83,50 +83,28 @@ bool parse_int(const std::string& s, int& v) {
   return true;
 }
 
-// Set one parameter by its FMU name. 1 set, 0 known but irrelevant (ignored), -1 unknown/bad.
+// Set one parameter by its FMU name (gearmesh/parameters.h): 1 set (a parameter of the gear body,
+// GM_PARAM_BODY), 0 known but not the body's (ignored), -1 unknown or not a number.
 int set_param(gm_model_params& p, const std::string& name, const std::string& value, std::string& err) {
+  const gm_param_info* info = gm_parameter_find(name.c_str());
+  if (!info) {
+    err = "unknown parameter '" + name + "' (expected FMU parameter names: pair.*, gear1.*, gear2.*, model.*)";
+    return -1;
+  }
+  if (!(info->flags & GM_PARAM_BODY)) return 0;
   double d = 0;
   int i = 0;
-  auto real = [&](double& f) {
-    if (!parse_double(value, d)) return err = name + " = " + value + ": not a finite number", -1;
-    f = d;
-    return 1;
-  };
-  auto integer = [&](int& f) {
-    if (!parse_int(value, i)) return err = name + " = " + value + ": not an integer", -1;
-    f = i;
-    return 1;
-  };
-  if (name == "pair.center_distance") return real(p.pair.center_distance);
-  if (name == "pair.normal_module") return real(p.pair.normal_module);
-  if (name == "pair.pressure_angle") return real(p.pair.pressure_angle);
-  if (name == "pair.helix_angle") return real(p.pair.helix_angle);
-  if (name == "pair.internal") return integer(p.pair.internal);
-  if (name == "pair.rack_addendum") return real(p.pair.rack_addendum);
-  if (name == "pair.rack_dedendum") return real(p.pair.rack_dedendum);
-  if (name == "pair.rack_tip_radius") return real(p.pair.rack_tip_radius);
-  if (name == "model.coupled_teeth") return integer(p.coupled_teeth);
-  for (int n = 0; n < 2; ++n) {
-    const std::string g = "gear" + std::to_string(n + 1) + ".";
-    if (name.compare(0, g.size(), g) != 0) continue;
-    const std::string f = name.substr(g.size());
-    gm_gear_params& gp = p.gear[n];
-    if (f == "teeth") return integer(gp.teeth);
-    if (f == "profile_shift") return real(gp.profile_shift);
-    if (f == "face_width") return real(gp.face_width);
-    if (f == "tip_diameter") return real(gp.tip_diameter);
-    if (f == "thickness_allowance") return real(gp.thickness_allowance);
-    if (f == "axial_offset") return real(gp.axial_offset);
-    if (f == "youngs_modulus") return real(gp.youngs_modulus);
-    if (f == "poisson_ratio") return real(gp.poisson_ratio);
-    return 0;  // micro-geometry, deviations, compliance file: not the body
+  if (info->type == GM_PARAM_Real ? !parse_double(value, d) : !parse_int(value, i)) {
+    err = name + " = " + value + (info->type == GM_PARAM_Real ? ": not a finite number" : ": not an integer");
+    return -1;
   }
-  for (const char* prefix : {"model.", "solver.", "pair."})
-    if (name.compare(0, std::strlen(prefix), prefix) == 0) return 0;
-  err = "unknown parameter '" + name + "' (expected FMU names: pair.*, gear1.*, gear2.*, model.*)";
-  return -1;
+  char msg[256];
+  if (gm_parameter_set(&p, nullptr, name.c_str(), info->type == GM_PARAM_Real ? d : i, msg, sizeof msg) != GM_OK) {
+    err = msg;
+    return -1;
+  }
+  return 1;
 }
-
 
 // A bad flag value: name it, its value and the allowed range.
 int bad_value(const std::string& flag, const std::string& value, const std::string& allowed) {

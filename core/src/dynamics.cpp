@@ -442,16 +442,7 @@ std::string check_dynamics(const gm_model& m, const gm_dynamics_params& p) {
     return "model.quasi_static = true with the large-step dynamics: the dynamics integrate gear 2's spin "
            "themselves; allowed: one of the two";
   std::string msg;
-  for (int i = 0; i < 2; ++i) {
-    const std::string g = "gear" + std::to_string(i + 1);
-    if (!check_range((g + ".inertia").c_str(), p.inertia[i], msg) ||
-        !check_range((g + ".shaft_stiffness").c_str(), p.shaft_stiffness[i], msg) ||
-        !check_range((g + ".shaft_damping").c_str(), p.shaft_damping[i], msg))
-      return msg;
-  }
-  if (!check_range("dynamics.tolerance", p.tolerance, msg) || !check_range("dynamics.max_step", p.max_step, msg) ||
-      !check_range("dynamics.min_step", p.min_step, msg) || !check_range("dynamics.order_cycles", p.order_cycles, msg))
-    return msg;
+  if (!check_rows(GM_PARAM_IN_DYNAMICS, &p, msg)) return msg;
   if (!(p.min_step <= p.max_step))
     return "dynamics.min_step = " + number(p.min_step) + " s: allowed <= dynamics.max_step = " + number(p.max_step) +
            " s";

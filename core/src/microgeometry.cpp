@@ -321,18 +321,6 @@ class ModChecker {
     std::snprintf(buf, sizeof buf, "%s.%s = %.9g m: allowed range (0, %.9g] m%s", prefix_, name, v, hi, note);
     fail(buf);
   }
-  // v inside the static range of <prefix>.<name> (param_ranges.cpp).
-  void range(const char* name, double v) {
-    std::string text;
-    if (ok_ && !check_range((std::string(prefix_) + "." + name).c_str(), v, text)) fail(text.c_str());
-  }
-  void flag(const char* name, int v) {
-    if (!ok_ || v == 0 || v == 1) return;
-    char buf[200];
-    std::snprintf(buf, sizeof buf, "%s.%s = %d: allowed 0 (linear) or 1 (parabolic)", prefix_, name,
-                  v);
-    fail(buf);
-  }
 
  private:
   void fail(const char* text) {
@@ -575,15 +563,6 @@ gm_status validate_modification(const char* prefix, const gm_flank_modification&
   const double L = std::fabs(active.rho_tip - active.rho_start);
   const double half_b = 0.5 * active.face_width;
   const double slack = 1e-9;
-  const std::pair<const char*, double> fields[] = {
-      {"profile_crowning", mod.profile_crowning}, {"tip_relief", mod.tip_relief},
-      {"tip_relief_length", mod.tip_relief_length}, {"root_relief", mod.root_relief},
-      {"root_relief_length", mod.root_relief_length}, {"profile_slope", mod.profile_slope},
-      {"lead_crowning", mod.lead_crowning}, {"helix_slope", mod.helix_slope},
-      {"end_relief", mod.end_relief}, {"end_relief_length", mod.end_relief_length}};
-  for (const auto& [name, v] : fields) c.range(name, v);
-  c.flag("tip_relief_parabolic", mod.tip_relief_parabolic);
-  c.flag("root_relief_parabolic", mod.root_relief_parabolic);
   // A relief length reaches its limit only while its relief is on.
   if (mod.tip_relief != 0)
     c.length("tip_relief_length", mod.tip_relief_length, L * (1 + slack), " (the active profile length)");

@@ -142,11 +142,11 @@ double flank_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, d
 double flank_gap_slope(const GearMicrogeometry& m, int flank, int tooth, double rho, double y,
                        double& d_rho, double& d_y);
 
-// Check one flank's modification against its allowed ranges. prefix is the FMU name of the gear
-// ("gear1"). On failure returns GM_ERR_PARAMETER and msg = "<prefix>.<parameter> = <value> m:
-// allowed range ...". Every field within its static range (core/src/param_ranges.cpp); relief
-// lengths also > 0 when their relief is nonzero, tip + root <= the active profile length, end
-// relief length <= b/2; shape flags 0 or 1.
+// Check one flank's modification against the bounds that depend on the gear (its static ranges
+// and shape flags are the parameter table's, checked by validate_params). prefix is the FMU name
+// of the gear ("gear1"). On failure returns GM_ERR_PARAMETER and msg = "<prefix>.<parameter> =
+// <value> m: allowed range ...": relief lengths > 0 when their relief is nonzero, tip + root <=
+// the active profile length, end relief length <= b/2.
 gm_status validate_modification(const char* prefix, const gm_flank_modification& mod,
                                  const ActiveFlank& active, std::string& msg);
 

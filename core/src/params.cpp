@@ -1,11 +1,10 @@
-// Parameter defaults and range validation (the one place a bad parameter is named); the static
-// ranges are the table of param_ranges.cpp, the bounds that depend on other parameters are here.
+// Parameter defaults and validation (the one place a bad parameter is named): the static ranges
+// of the parameter table (gearmesh/parameters.h, checked by check_rows), then the bounds that
+// depend on other parameters, here.
 #include "params.hpp"
 
 #include <cmath>
 #include <cstdio>
-#include <initializer_list>
-#include <utility>
 
 namespace gm {
 namespace {
@@ -18,28 +17,16 @@ std::string number(double x) {
   return buf;
 }
 
-// Range checks that stop at the first failure and name the FMU variable.
+// The bounds that depend on other parameters, after the static ranges (check_rows): stop at the
+// first failure and name the FMU variable.
 class Checker {
  public:
   explicit Checker(std::string& msg) : msg_(msg) {}
   bool ok() const { return ok_; }
 
-  // v inside the static range of the FMU variable `name` (param_ranges.cpp).
-  void range(const std::string& name, double v) {
-    std::string text;
-    if (ok_ && !check_range(name.c_str(), v, text)) fail(text);
-  }
-  // Each field inside the static range of prefix + its name.
-  void ranges(const std::string& prefix, std::initializer_list<std::pair<const char*, double>> fields) {
-    for (const auto& [name, v] : fields) range(prefix + name, v);
-  }
   // A bound that depends on other parameters: holds says whether v meets it.
   void bound(const std::string& name, double v, const char* unit, bool holds, const std::string& allowed) {
     if (ok_ && !holds) fail(name + " = " + number(v) + unit + ": allowed " + allowed);
-  }
-  // A Boolean: 0 or 1.
-  void flag(const char* name, int v) {
-    if (ok_ && v != 0 && v != 1) fail(std::string(name) + " = " + std::to_string(v) + ": allowed 0 (false) or 1 (true)");
   }
 
  private:
@@ -52,11 +39,6 @@ class Checker {
 };
 
 void check_pair(Checker& c, const gm_pair_params& pr) {
-  c.ranges("pair.", {{"center_distance", pr.center_distance}, {"normal_module", pr.normal_module},
-                     {"pressure_angle", pr.pressure_angle}, {"helix_angle", pr.helix_angle},
-                     {"rack_addendum", pr.rack_addendum}, {"rack_dedendum", pr.rack_dedendum},
-                     {"rack_tip_radius", pr.rack_tip_radius}});
-  c.flag("pair.internal", pr.internal);
   c.bound("pair.rack_dedendum", pr.rack_dedendum, "", pr.rack_dedendum > pr.rack_addendum,
           "> pair.rack_addendum = " + number(pr.rack_addendum));
   const double full_round = (pr.rack_dedendum - pr.rack_addendum) / (1 - std::sin(pr.pressure_angle));
@@ -66,10 +48,6 @@ void check_pair(Checker& c, const gm_pair_params& pr) {
 
 void check_gear(Checker& c, const gm_gear_params& g, double normal_module, int i) {
   const std::string n = "gear" + std::to_string(i + 1) + ".";
-  c.ranges(n, {{"teeth", g.teeth}, {"profile_shift", g.profile_shift}, {"face_width", g.face_width},
-              {"tip_diameter", g.tip_diameter}, {"thickness_allowance", g.thickness_allowance},
-              {"axial_offset", g.axial_offset}, {"youngs_modulus", g.youngs_modulus},
-              {"poisson_ratio", g.poisson_ratio}});
   c.bound(n + "thickness_allowance", g.thickness_allowance, " m", g.thickness_allowance >= -0.5 * normal_module,
           ">= " + number(-0.5 * normal_module) + " m (-0.5 pair.normal_module)");
 }
@@ -77,15 +55,10 @@ void check_gear(Checker& c, const gm_gear_params& g, double normal_module, int i
 }  // namespace
 
 gm_status validate_params(const gm_model_params& p, std::string& msg) {
+  if (!check_rows(GM_PARAM_IN_MODEL, &p, msg)) return GM_ERR_PARAMETER;
   Checker c(msg);
   check_pair(c, p.pair);
   for (int i = 0; i < 2; ++i) check_gear(c, p.gear[i], p.pair.normal_module, i);
-  c.ranges("model.", {{"stiffness", p.stiffness_level}, {"user_stiffness", p.user_stiffness}, {"slices", p.slices},
-                      {"coupled_teeth", p.coupled_teeth}, {"friction_coefficient", p.friction_coefficient},
-                      {"friction_velocity", p.friction_velocity}, {"damping", p.damping},
-                      {"rated_line_load", p.rated_line_load}});
-  c.ranges("solver.", {{"tolerance", p.solver_tolerance}, {"max_iterations", p.solver_max_iterations}});
-  c.flag("model.quasi_static", p.quasi_static);
   return c.ok() ? GM_OK : GM_ERR_PARAMETER;
 }
 

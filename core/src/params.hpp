@@ -3,19 +3,25 @@
 
 #include <string>
 
-#include "gearmesh/gearmesh.h"
+#include "gearmesh/parameters.h"
 
 namespace gm {
 
-// Check every field of p against its static range (param_ranges.cpp) and the bounds that depend
+// Check every field of p against its static range (gearmesh/parameters.h) and the bounds that depend
 // on other fields. On failure returns GM_ERR_PARAMETER and
 // msg = "<fmu variable name> = <value> <unit>: <allowed range>". Geometric feasibility is
 // checked afterwards by compute_pair_geometry.
 gm_status validate_params(const gm_model_params& p, std::string& msg);
 
-// True when v lies in the static range of FMU variable `name` (param_ranges.cpp); else false
+// True when v lies in the static range of FMU variable `name` (gearmesh/parameters.h); else false
 // with msg = "<name> = <v> <unit>: allowed range [lo, hi] <unit>" (or, for a name without a
 // range, a message saying so).
 bool check_range(const char* name, double v, std::string& msg);
+
+// The one loop of the range checks: every row of the parameter table whose value lives in
+// `values` (a gm_model_params for GM_PARAM_IN_MODEL, a gm_dynamics_params for
+// GM_PARAM_IN_DYNAMICS) inside its static range, a Boolean 0 or 1 (a flank modification on both
+// flanks), in table order; false with msg naming the first that is not.
+bool check_rows(gm_param_where where, const void* values, std::string& msg);
 
 }  // namespace gm

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "microgeometry.hpp"
+#include "params.hpp"
 
 namespace {
 
@@ -574,10 +575,16 @@ TEST(ValidateModification, NamesTheBadParameter) {
       {[](gm_flank_modification& m, double) { m.end_relief_length = NAN; }, "gear2.end_relief_length = nan"},
   };
   for (const Case& c : cases) {
+    // the static ranges and flags on either flank (the parameter table's, validate_params), then
+    // the bounds that depend on the gear (validate_modification)
     gm_flank_modification m{};
     c.set(m, L);
+    gm_model_params p;
+    gm_default_params(&p);
+    p.gear[1].flank[1] = m;
     std::string msg;
-    EXPECT_EQ(gm::validate_modification("gear2", m, kSetA, msg), GM_ERR_PARAMETER) << c.name;
+    const gm_status st = gm::validate_params(p, msg);
+    EXPECT_EQ(st == GM_OK ? gm::validate_modification("gear2", m, kSetA, msg) : st, GM_ERR_PARAMETER) << c.name;
     EXPECT_EQ(msg.rfind(c.name, 0), 0u) << "message: " << msg << "\nexpected start: " << c.name;
   }
 }

@@ -32,7 +32,8 @@ typedef enum gm_stiffness_level {
   GM_STIFFNESS_ISO6336 = 2,
   GM_STIFFNESS_CONTACT_LINE = 3,
   GM_STIFFNESS_ANALYTICAL = 4,
-  GM_STIFFNESS_FE = 5
+  GM_STIFFNESS_FE = 5,
+  GM_STIFFNESS_LEVELS /* how many */
 } gm_stiffness_level;
 
 /* Micro-geometry of one flank (docs/physics.md §2): material removed, positive = gap, along the flank
