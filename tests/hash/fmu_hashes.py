@@ -1,19 +1,19 @@
 """FMU output hashes for behaviour-preserving refactors (the FMU side of output_hashes.cpp): one
 SHA-256 per case of every output (Real, Integer) after each of a few communication steps and of
-the directional derivative of every Real output along each input, through FMPy, and one of
-modelDescription.xml with its GUID blanked (the GUID hashes the source tables; what they generate
-must not move; also GearMesh-fmi3.fmu's beside it). Compared before and after within one build (`diff`), never stored.
+the directional derivative of every Real output along each input, through FMPy, all by name (a
+value reference may move), and one of what modelDescription.xml says of each variable
+(`canonical`; also GearMesh-fmi3.fmu's beside it). Compared before and after within one build (`diff`), never stored.
 
     python tests/hash/fmu_hashes.py [GearMesh.fmu]
 """
 from __future__ import annotations
 
 import hashlib
-import re
 import shutil
 import struct
 import sys
 import tempfile
+import xml.etree.ElementTree as ET
 import zipfile
 
 from fmpy import extract, read_model_description
@@ -43,11 +43,12 @@ def run_case(path, unzip, md, level, mode, friction, helical):
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
     h = hashlib.sha256()
-    outputs = [v for v in md.modelVariables if v.causality in ("output", "calculatedParameter")]
+    by_name = sorted(md.modelVariables, key=lambda v: v.name)  # value references may move
+    outputs = [v for v in by_name if v.causality in ("output", "calculatedParameter")]
     real_out = [v.valueReference for v in outputs if v.type == "Real"]
     int_out = [v.valueReference for v in outputs if v.type == "Integer"]
     deriv_out = [v.valueReference for v in outputs if v.type == "Real" and v.causality == "output"]
-    inputs = [v.valueReference for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
+    inputs = [v.valueReference for v in by_name if v.causality == "input" and v.type == "Real"]
     t, step = 0.0, 1e-4
     rb = 0.5 * 57 * 2.6e-3 * 0.94  # about r_b of set A
     for k in range(6):
@@ -69,15 +70,49 @@ def run_case(path, unzip, md, level, mode, friction, helical):
     return h.hexdigest()[:16]
 
 
+def canonical(xml: str) -> str:
+    """A hash of what modelDescription.xml says of each variable, by name: its attributes and
+    those of its type element (value reference and GUID left out), its ModelStructure entries
+    with dependencies by name, the unit definitions and the Ranges annotation; the order of the
+    variables and other vendor annotations do not count."""
+    root = ET.fromstring(xml)
+    variables = root.find("ModelVariables")
+    fmi3 = root.get("fmiVersion", "").startswith("3")
+    elements = [el for el in variables if (el.tag == "ScalarVariable") or fmi3]
+    names = {}
+    for n, el in enumerate(elements):
+        names[str(n + 1)] = el.get("name")  # FMI 2.0 index
+        names["vr" + str(el.get("valueReference"))] = el.get("name")
+    rows = []
+    for el in elements:
+        attrs = {k: v for k, v in el.attrib.items() if k != "valueReference"}
+        children = [(c.tag, sorted(c.attrib.items())) for c in el]
+        rows.append((el.get("name"), sorted(attrs.items()), children))
+    structure = []
+    for section in root.find("ModelStructure"):
+        for u in ([section] if fmi3 else section):
+            key = "vr" + u.get("valueReference") if fmi3 else u.get("index")
+            deps = (u.get("dependencies") or "").split()
+            kinds = (u.get("dependenciesKind") or "").split()
+            dep_names = [names["vr" + d] if fmi3 else names[d] for d in deps]
+            structure.append((section.tag if not fmi3 else u.tag, names[key],
+                              sorted(zip(dep_names, kinds or [""] * len(deps))), u.get("dependencies") is None))
+    units = ET.tostring(root.find("UnitDefinitions")) if root.find("UnitDefinitions") is not None else b""
+    ranges = root.find("VendorAnnotations/Tool[@name='GearMesh']")
+    if ranges is not None:
+        ranges.tail = None
+    text = repr((sorted(rows), sorted(structure), units, ET.tostring(ranges) if ranges is not None else b""))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
 def main() -> int:
     path = sys.argv[1] if len(sys.argv) > 1 else "build/GearMesh.fmu"
     fmi3 = path.replace("GearMesh.fmu", "GearMesh-fmi3.fmu")
     for label, fmu in (("", path), (" FMI 3.0", fmi3)):
         with zipfile.ZipFile(fmu) as z:
             xml = z.read("modelDescription.xml").decode()
-        blank = re.sub(r'(guid|instantiationToken)="[^"]*"', 'guid=""', xml)
-        name = f"modelDescription.xml{label} (GUID blanked)"
-        print(f"{name:48s} {hashlib.sha256(blank.encode()).hexdigest()[:16]}")
+        name = f"modelDescription.xml{label} (canonical)"
+        print(f"{name:48s} {canonical(xml)}")
     unzip = tempfile.mkdtemp(prefix="gm-hash-")
     try:
         extract(path, unzip)
