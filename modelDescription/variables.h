@@ -256,21 +256,6 @@ typedef enum {
     D_AT_INIT(D_SET | D_DYN | D_PHI(n) | D_OMEGA(n) | D_SHAFT_PHI(n) | D_SHAFT_OMEGA(n)),                         \
     "large-step mode: torque of the shaft on the gear, mean over the last step (its far end's impulse / step)")
 
-/* Outputs of gear i. */
-#define GM_FMU_GEAR_OUTPUTS(X, i, n)                                                                               \
-  X("gear" #i ".fx", Real, output, continuous, calculated, "N", "kN", y.force[n][0], D_CONTACT,                    \
-    "contact force on the gear, x in H")                                                                           \
-  X("gear" #i ".fy", Real, output, continuous, calculated, "N", "kN", y.force[n][1], D_CONTACT,                    \
-    "contact force on the gear, y in H")                                                                           \
-  X("gear" #i ".fz", Real, output, continuous, calculated, "N", "kN", y.force[n][2], D_CONTACT,                    \
-    "contact force on the gear, z in H")                                                                           \
-  X("gear" #i ".mx", Real, output, continuous, calculated, "N.m", "", y.moment[n][0], D_CONTACT,                   \
-    "contact moment about the gear centre, x in H")                                                                \
-  X("gear" #i ".my", Real, output, continuous, calculated, "N.m", "", y.moment[n][1], D_CONTACT,                   \
-    "contact moment about the gear centre, y in H")                                                                \
-  X("gear" #i ".mz", Real, output, continuous, calculated, "N.m", "", y.moment[n][2], D_CONTACT,                   \
-    "contact moment about the gear centre, z in H")
-
 /* The parameters: the rows of the core's parameter table (gearmesh/parameters.h) as rows of this
  * table: MODEL fields in p, DYNAMICS fields in dp, HOST fields in gm_fmu_values itself; the
  * dependency class is the row's group (D_GEO, D_SET, D_DYN are the GM_GROUP_* bits). */
@@ -285,6 +270,26 @@ typedef enum {
   GM_FMU_APPLY(X, name, type, GM_FMU_CAUSALITY_##kind, unit, dunit, GM_FMU_ROOT_##where field, group, desc)
 _Static_assert((int)D_GEO == (int)GM_GROUP_GEOMETRY && (int)D_SET == (int)GM_GROUP_SETTING && (int)D_DYN == (int)GM_GROUP_DYNAMICS,
                "a parameter's dependency class is its group");
+
+/* The outputs of one evaluation: the rows of the core's output table (gearmesh/outputs.h) as rows
+ * of this table, bound to y (a GEAR_AXES row: gear<i>.<stem>x, y, z); the dependency class from
+ * the row's depends. */
+#define GM_FMU_VARIABILITY_Real continuous
+#define GM_FMU_VARIABILITY_Integer discrete
+#define GM_FMU_FROM_OUTPUT(X, member, type, shape, source, name, unit, dunit, lo, hi, bounds, depends, desc) \
+  GM_FMU_OUTPUT_##shape(X, member, type, name, unit, dunit, D_##depends, desc)
+#define GM_FMU_OUTPUT_SCALAR(X, member, type, name, unit, dunit, deps, desc) \
+  GM_FMU_APPLY(X, name, type, output, GM_FMU_VARIABILITY_##type, calculated, unit, dunit, y.member, deps, desc)
+#define GM_FMU_OUTPUT_AXIS(X, member, type, name, i, a, axis, unit, dunit, deps, desc)                              \
+  GM_FMU_APPLY(X, "gear" #i "." name axis, type, output, GM_FMU_VARIABILITY_##type, calculated, unit, dunit,      \
+               y.member[i - 1][a], deps, desc ", " axis " in H")
+#define GM_FMU_OUTPUT_GEAR_AXES(X, member, type, name, unit, dunit, deps, desc) \
+  GM_FMU_OUTPUT_AXIS(X, member, type, name, 1, 0, "x", unit, dunit, deps, desc)  \
+  GM_FMU_OUTPUT_AXIS(X, member, type, name, 1, 1, "y", unit, dunit, deps, desc)  \
+  GM_FMU_OUTPUT_AXIS(X, member, type, name, 1, 2, "z", unit, dunit, deps, desc)  \
+  GM_FMU_OUTPUT_AXIS(X, member, type, name, 2, 0, "x", unit, dunit, deps, desc)  \
+  GM_FMU_OUTPUT_AXIS(X, member, type, name, 2, 1, "y", unit, dunit, deps, desc)  \
+  GM_FMU_OUTPUT_AXIS(X, member, type, name, 2, 2, "z", unit, dunit, deps, desc)
 
 /* Mesh order k (1 ... GM_MESH_ORDERS) of the TE and the normal force in the large-step mode
  * (gm_mesh_orders; docs/dynamics.md, "Mesh orders"). */
@@ -330,14 +335,7 @@ _Static_assert(GM_MESH_ORDERS == 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3")
   GM_FMU_GEAR_DYNAMICS_INPUTS(X, 2, 1)                                                                             \
   GM_FMU_PORT_INPUTS(X, "drive", 0)                                                                                \
   GM_FMU_PORT_INPUTS(X, "load", 1)                                                                                 \
-  GM_FMU_GEAR_OUTPUTS(X, 1, 0)                                                                                     \
-  GM_FMU_GEAR_OUTPUTS(X, 2, 1)                                                                                     \
-  X("mesh.te", Real, output, continuous, calculated, "m", "um", y.te, D_TE,                                        \
-    "transmission error along the line of action")                                                                 \
-  X("mesh.te_angle", Real, output, continuous, calculated, "rad", "deg", y.te_angle, D_TE,                         \
-    "transmission error as an angle of gear 2")                                                                    \
-  X("mesh.normal_force", Real, output, continuous, calculated, "N", "kN", y.normal_force, D_CONTACT,                \
-    "sum of the normal slice forces")                                                                              \
+  GM_OUTPUTS(GM_FMU_FROM_OUTPUT, X)                                                                                \
   X("mesh.te_mean", Real, output, continuous, calculated, "m", "um", ds.step_aggregates.te_mean, D_TE,            \
     "mesh.te, mean over the last step (large-step mode: over its internal steps' stage points; else its value)")    \
   X("mesh.te_min", Real, output, continuous, calculated, "m", "um", ds.step_aggregates.te_min, D_TE,              \
@@ -353,26 +351,6 @@ _Static_assert(GM_MESH_ORDERS == 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3")
   GM_FMU_MESH_ORDER(X, 3, 2)                                                                                       \
   X("mesh.order_cycles", Integer, output, discrete, calculated, "", "", ds.orders.cycles, 0,                       \
     "large-step mode: whole mesh cycles the mesh orders are over (0: none completed yet; other modes: 0)")          \
-  X("mesh.stiffness", Real, output, continuous, calculated, "N/m", "N/um", y.stiffness, D_TE,              \
-    "tangent mesh stiffness along the line of action")                                                             \
-  X("mesh.pairs_in_contact", Integer, output, discrete, calculated, "", "", y.pairs_in_contact, D_CONTACT,         \
-    "loaded tooth pairs")                                                                                          \
-  X("mesh.flank", Integer, output, discrete, calculated, "", "", y.flank, D_CONTACT,                               \
-    "flank in contact: 0 none, 1 flank A, 2 flank B, 3 both")                                                      \
-  X("mesh.friction_power", Real, output, continuous, calculated, "W", "", y.friction_power, D_CONTACT,             \
-    "power dissipated by friction")                                                                                \
-  X("mesh.max_line_load", Real, output, continuous, calculated, "N/m", "N/mm", y.max_line_load, D_CONTACT,         \
-    "largest slice line load")                                                                                     \
-  X("mesh.max_load_share", Real, output, continuous, calculated, "", "", y.max_load_share, D_CONTACT,              \
-    "share of mesh.normal_force carried by the most loaded tooth pair (0 without contact)")                       \
-  X("solver.iterations", Integer, output, discrete, calculated, "", "", y.solver_iterations, D_TE,         \
-    "iterations of the last force solve (0 = closed form)")                                                        \
-  X("solver.residual", Real, output, continuous, calculated, "m", "um", y.solver_residual, D_TE,           \
-    "residual of the last force solve")                                                                            \
-  X("mesh.elastic_energy", Real, output, continuous, calculated, "J", "", y.elastic_energy, D_TE,          \
-    "elastic energy stored in the loaded slices")                                                                  \
-  X("mesh.damping_power", Real, output, continuous, calculated, "W", "", y.damping_power, D_CONTACT,               \
-    "power dissipated by the contact damping")                                                                     \
   GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, 1, 0)                                                                            \
   GM_FMU_GEAR_DYNAMICS_OUTPUTS(X, 2, 1)                                                                            \
   GM_FMU_PORT_OUTPUTS(X, "drive", 0)                                                                               \

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include <Eigen/Cholesky>
 
@@ -356,20 +357,9 @@ gm_status quasi_static_dual(const gm_model& m, gm_data& d, Derivative& g) {
   } else if (a.has_touch && b.touch.d != 0) {
     dte = -a.touch.d / b.touch.d;
   }
-  const auto combine = [dte](Dual& x, const Dual& y) { x.d += dte * y.d; };
-  for (int i = 0; i < 2; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      combine(a.r.force[i][c], b.r.force[i][c]);
-      combine(a.r.moment[i][c], b.r.moment[i][c]);
-    }
-  }
-  combine(a.r.normal_force, b.r.normal_force);
-  combine(a.r.stiffness, b.r.stiffness);
-  combine(a.r.friction_power, b.r.friction_power);
-  combine(a.r.max_line_load, b.r.max_line_load);
-  combine(a.r.max_load_share, b.r.max_load_share);
-  combine(a.r.elastic_energy, b.r.elastic_energy);
-  combine(a.r.damping_power, b.r.damping_power);
+  each_resultant(a.r, b.r, [dte](auto& x, const auto& y) {
+    if constexpr (std::is_same_v<std::decay_t<decltype(y)>, Dual>) x.d += dte * y.d;
+  });
   p = a;
   te = Dual(r0.te, dte);
   return GM_OK;
@@ -377,23 +367,11 @@ gm_status quasi_static_dual(const gm_model& m, gm_data& d, Derivative& g) {
 
 // The derivatives of the outputs from the pass and the TE.
 gm_result derivative_outputs(const DualPass& p, const Dual& te, double rb2) {
-  gm_result out{};
+  gm_result out{};  // the SOLVER outputs' derivative: 0
+  store_derivative(p.r, out);
   const Dual te_angle = te / rb2;
-  for (int i = 0; i < 2; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      out.force[i][c] = p.r.force[i][c].d;
-      out.moment[i][c] = p.r.moment[i][c].d;
-    }
-  }
   out.te = te.d;
   out.te_angle = te_angle.d;
-  out.normal_force = p.r.normal_force.d;
-  out.stiffness = p.r.stiffness.d;
-  out.friction_power = p.r.friction_power.d;
-  out.max_line_load = p.r.max_line_load.d;
-  out.max_load_share = p.r.max_load_share.d;
-  out.elastic_energy = p.r.elastic_energy.d;
-  out.damping_power = p.r.damping_power.d;
   return out;
 }
 

@@ -84,24 +84,9 @@ void store_resultants(const gm_model& m, gm_data& d, Evaluation& e) {
   const int n = e.n;
   gm_result& r = e.r;
   ResultT<double> rt;
-  r.elastic_energy = std::isnan(d.fe_energy)
-                         ? elastic_energy<double>(d, n)
-                         : d.fe_energy;
+  rt.elastic_energy = std::isnan(d.fe_energy) ? elastic_energy<double>(d, n) : d.fe_energy;  // before damping
   resultants(m, d, e.kin, n, rt);
-  for (int i = 0; i < 2; ++i) {
-    for (int a = 0; a < 3; ++a) {
-      r.force[i][a] = rt.force[i][a];
-      r.moment[i][a] = rt.moment[i][a];
-    }
-  }
-  r.normal_force = rt.normal_force;
-  r.stiffness = rt.stiffness;
-  r.friction_power = rt.friction_power;
-  r.damping_power = rt.damping_power;
-  r.max_line_load = rt.max_line_load;
-  r.max_load_share = rt.max_load_share;
-  r.pairs_in_contact = rt.pairs_in_contact;
-  r.flank = rt.flank;
+  store_result(rt, r);
   int loaded = 0;  // the loaded slices, for gm_data_load_distribution
   for (int i = 0; i < n; ++i) {
     const ContactSlice& s = d.slices[i];

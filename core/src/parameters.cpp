@@ -50,11 +50,14 @@ constexpr size_t kRowCount = sizeof kRows / sizeof kRows[0];
   +((bounds) != GM_NO_RANGE)
 constexpr size_t kParamRanges = 0 GM_PARAMETERS(RANGE, _);
 #undef RANGE
-constexpr gm_param_range kOutputRanges[] = {
-    // the values mesh.flank takes: 0 none, 1 flank A, 2 flank B, 3 both
-    {"mesh.flank", 0, 3, 0, 0, ""},
-};
-constexpr size_t kRangeCount = kParamRanges + sizeof kOutputRanges / sizeof kOutputRanges[0];
+#define OUTPUT_RANGE(_, member, type, shape, source, name, unit, dunit, lo, hi, bounds, depends, desc) \
+  +((bounds) != GM_NO_RANGE)
+constexpr size_t kOutputRanges = 0 GM_OUTPUTS(OUTPUT_RANGE, _);
+#undef OUTPUT_RANGE
+#define OUTPUT_RANGE(_, member, type, shape, source, name, unit, dunit, lo, hi, bounds, depends, desc) \
+  if ((bounds) != GM_NO_RANGE)                                                                     \
+    rows[k++] = {name, lo, hi, ((bounds) & GM_LO_OPEN) != 0, ((bounds) & GM_HI_OPEN) != 0, unit};
+constexpr size_t kRangeCount = kParamRanges + kOutputRanges;
 
 struct Ranges {
   gm_param_range rows[kRangeCount];
@@ -62,7 +65,7 @@ struct Ranges {
     size_t k = 0;
     for (const gm_param_info& r : kRows)
       if (r.has_range) rows[k++] = {r.name, r.lo, r.hi, r.lo_open, r.hi_open, r.unit};
-    for (const gm_param_range& r : kOutputRanges) rows[k++] = r;
+    GM_OUTPUTS(OUTPUT_RANGE, _)  // the outputs that declare the values they take
   }
 };
 const Ranges kRanges;

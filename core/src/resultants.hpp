@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <type_traits>
 
 #include <Eigen/Geometry>
@@ -13,15 +14,55 @@
 
 namespace gm {
 
-// The Real outputs of gm_result over a scalar type, and the integer ones.
+// The outputs resultants() computes (the RESULTANT rows of gearmesh/outputs.h): the Real ones over
+// a scalar type T (double, or Dual for the derivative), the Integer ones as int.
+#define GM_RESULT_T_TYPE_Real(T) T
+#define GM_RESULT_T_TYPE_Integer(T) int
+#define GM_RESULT_T_RESULTANT(T, type, member, dims) GM_RESULT_T_TYPE_##type(T) member dims = {};
+#define GM_RESULT_T_TE(T, type, member, dims)
+#define GM_RESULT_T_SOLVER(T, type, member, dims)
+#define GM_RESULT_T_ROW(T, member, type, shape, source, name, unit, dunit, lo, hi, bounds, depends, desc) \
+  GM_RESULT_T_##source(T, type, member, GM_OUTPUT_DIMS_##shape)
 template <class T>
 struct ResultT {
-  T force[2][3] = {};
-  T moment[2][3] = {};
-  T normal_force = 0, stiffness = 0, friction_power = 0, max_line_load = 0, max_load_share = 0;
-  T elastic_energy = 0, damping_power = 0;
-  int pairs_in_contact = 0, flank = 0;
+  GM_OUTPUTS(GM_RESULT_T_ROW, T)
 };
+
+// Every RESULTANT row of `to` and `from` (gearmesh/outputs.h) through f(to member element, from
+// member element): the copies of ResultT into gm_result and the derivative's combination.
+namespace result_rows {
+template <class D, class S, class F>
+void each(D& to, S& from, F f) {
+  f(to, from);
+}
+template <class D, class S, std::size_t N, class F>
+void each(D (&to)[N], S (&from)[N], F f) {
+  for (std::size_t i = 0; i < N; ++i) each(to[i], from[i], f);
+}
+}  // namespace result_rows
+
+#define GM_RESULT_EACH_RESULTANT(member) result_rows::each(to.member, from.member, f);
+#define GM_RESULT_EACH_TE(member)
+#define GM_RESULT_EACH_SOLVER(member)
+#define GM_RESULT_EACH_ROW(_, member, type, shape, source, name, unit, dunit, lo, hi, bounds, depends, desc) \
+  GM_RESULT_EACH_##source(member)
+template <class To, class From, class F>
+void each_resultant(To& to, From& from, F f) {
+  GM_OUTPUTS(GM_RESULT_EACH_ROW, _)
+}
+
+// gm_result's RESULTANT outputs from r.
+inline void store_result(const ResultT<double>& r, gm_result& out) {
+  each_resultant(out, r, [](auto& to, const auto& from) { to = from; });
+}
+
+// gm_result's RESULTANT outputs as the derivatives in r (an Integer output's is 0).
+inline void store_derivative(const ResultT<Dual>& r, gm_result& out) {
+  each_resultant(out, r, [](auto& to, const auto& from) {
+    if constexpr (std::is_same_v<std::decay_t<decltype(from)>, Dual>) to = from.d;
+    else to = 0;
+  });
+}
 
 
 namespace resultants_detail {

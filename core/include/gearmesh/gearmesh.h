@@ -12,6 +12,8 @@
 
 #include <stddef.h>
 
+#include "gearmesh/outputs.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -164,25 +166,9 @@ typedef struct gm_kinematics {
                          (positive loads flank A, negative flank B), N*m; phi[1] is then ignored */
 } gm_kinematics;
 
-/* Outputs of one evaluation. */
+/* Outputs of one evaluation: the rows of gearmesh/outputs.h (names, units, meaning). */
 typedef struct gm_result {
-  double force[2][3];     /* contact force on gear i, in H, N */
-  double moment[2][3];    /* contact moment on gear i about its centre, in H, N*m */
-  double te;              /* transmission error along the line of action, m (docs/physics.md §0) */
-  double te_angle;        /* te as an angle of gear 2, rad */
-  double normal_force;    /* sum of normal slice forces, N */
-  double stiffness;       /* tangent mesh stiffness along the line of action, N/m */
-  int pairs_in_contact;   /* loaded tooth pairs */
-  int flank;              /* 0 none, 1 flank A, 2 flank B, 3 both */
-  double friction_power;  /* power dissipated by friction, W */
-  double max_line_load;   /* largest slice line load, N/m */
-  double max_load_share;  /* share of normal_force carried by the most loaded tooth pair, 0..1
-                             (0 without contact; the load sharing ratio's upper branch) */
-  int solver_iterations;  /* iterations of the last force solve (0 = closed form) */
-  double solver_residual; /* KKT residual of the last solve, m */
-  double elastic_energy;  /* elastic potential of the loaded slices, J: sum of int F dDelta at the
-                             solved forces (docs/physics.md §6) */
-  double damping_power;   /* power dissipated by the contact damping, W */
+  GM_OUTPUTS(GM_OUTPUT_MEMBER, _)
 } gm_result;
 
 typedef struct gm_model gm_model;
