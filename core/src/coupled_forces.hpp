@@ -26,7 +26,7 @@
 // answer (m = 0): results do not depend on the call history. The workspace is sized at
 // gm_data_create (no allocation); more tooth pairs than it holds, or no convergence within
 // solver.max_iterations, return converged = false with `fallback` set, and the caller
-// solves with the dense coupled solver instead (fe_solve.cpp).
+// solves with the dense coupled solver instead (dense_solve.cpp).
 #pragma once
 
 #include <vector>

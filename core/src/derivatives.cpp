@@ -139,25 +139,25 @@ bool same_candidates(const gm_data& d, int nv, int n) {
   return same;
 }
 
-// The loaded set's system: H = C_AA + diag f'_A (in d.fe_tangent), dC_AA (d.fe_dual_c) and the
-// right-hand side dDelta_A - dC_AA F_A - (df/dp)_A dp (d.fe_delta).
-void fe_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int na) {
+// The loaded set's system: H = C_AA + diag f'_A (in d.dense_tangent), dC_AA (d.dense_dual_c) and the
+// right-hand side dDelta_A - dC_AA F_A - (df/dp)_A dp (d.dense_delta).
+void coupled_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int na) {
   const ContactSliceT<Dual>* S = d.dual_slices.data();
   const Dual uz[2] = {kin.u[0][2], kin.u[1][2]};
-  auto H = d.fe_tangent.topLeftCorner(na, na);
-  auto dC = d.fe_dual_c.topLeftCorner(na, na);
-  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
-    d.fe_dual_assembly.assemble(fe_view(m), S, d.fe_index.data(), na, uz, d.fe_tangent, d.fe_dual_c);
+  auto H = d.dense_tangent.topLeftCorner(na, na);
+  auto dC = d.dense_dual_c.topLeftCorner(na, na);
+  if (m.level.database) {
+    d.fe_dual_assembly.assemble(fe_view(m), S, d.dense_index.data(), na, uz, d.dense_tangent, d.dense_dual_c);
   } else {
     for (int p = 0; p < na; ++p) {
-      const ContactSliceT<Dual>& sp = S[d.fe_index[p]];
+      const ContactSliceT<Dual>& sp = S[d.dense_index[p]];
       Dual hp[2];
       for (int g = 0; g < 2; ++g) hp[g] = coupling_height(m.coupling.gear[g], sp.roll[g]);
       for (int q = 0; q <= p; ++q) {
-        const ContactSliceT<Dual>& sq = S[d.fe_index[q]];
+        const ContactSliceT<Dual>& sq = S[d.dense_index[q]];
         Dual c;
         if (p == q) {  // level 4 coupled: the slice's own law, no self-coupling
-          c = d.dual_laws[d.fe_index[p]].compliance;
+          c = d.dual_laws[d.dense_index[p]].compliance;
         } else {
           Dual hq[2];
           for (int g = 0; g < 2; ++g) hq[g] = coupling_height(m.coupling.gear[g], sq.roll[g]);
@@ -168,9 +168,9 @@ void fe_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
       }
     }
   }
-  auto rhs = d.fe_delta.head(na);
+  auto rhs = d.dense_delta.head(na);
   for (int p = 0; p < na; ++p) {
-    const int i = d.fe_index[p];
+    const int i = d.dense_index[p];
     double fd = 0;
     if (has_local_law(d.laws[i].local)) {
       Dual f, fp;
@@ -179,18 +179,18 @@ void fe_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
       fd = f.d;
     }
     double dcf = 0;
-    for (int q = 0; q < na; ++q) dcf += dC(p, q) * d.forces[d.fe_index[q]];
+    for (int q = 0; q < na; ++q) dcf += dC(p, q) * d.forces[d.dense_index[q]];
     rhs[p] = S[i].approach.d - dcf - fd;
   }
 }
 
-// The loaded set's dF_A and tangent stiffnesses from the system of fe_dual_system.
-gm_status fe_dual_solve(gm_data& d, int na) {
-  auto H = d.fe_tangent.topLeftCorner(na, na);
-  auto dC = d.fe_dual_c.topLeftCorner(na, na);
-  auto rhs = d.fe_delta.head(na);
-  auto x = d.fe_work.head(na);
-  auto dx = d.fe_weights.head(na);
+// The loaded set's dF_A and tangent stiffnesses from the system of coupled_dual_system.
+gm_status coupled_dual_solve(gm_data& d, int na) {
+  auto H = d.dense_tangent.topLeftCorner(na, na);
+  auto dC = d.dense_dual_c.topLeftCorner(na, na);
+  auto rhs = d.dense_delta.head(na);
+  auto x = d.dense_work.head(na);
+  auto dx = d.dense_weights.head(na);
   Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(H);
   if (llt.info() != Eigen::Success) {
     d.message = "level 5 (FE): C + diag(f') is not positive definite on the loaded slices";
@@ -200,7 +200,7 @@ gm_status fe_dual_solve(gm_data& d, int na) {
   x.setOnes();
   llt.solveInPlace(x);
   for (int p = 0; p < na; ++p) {
-    const int i = d.fe_index[p];
+    const int i = d.dense_index[p];
     d.dual_forces[i] = Dual(d.forces[i], rhs[p]);
     double dfp = 0;
     if (has_local_law(d.laws[i].local)) {
@@ -212,12 +212,12 @@ gm_status fe_dual_solve(gm_data& d, int na) {
     for (int q = 0; q < na; ++q) dx[p] += dC(p, q) * x[q];
   }
   llt.solveInPlace(dx);
-  for (int p = 0; p < na; ++p) d.dual_stiffness[d.fe_index[p]] = Dual(x[p], -dx[p]);
+  for (int p = 0; p < na; ++p) d.dual_stiffness[d.dense_index[p]] = Dual(x[p], -dx[p]);
   return GM_OK;
 }
 
-gm_status fe_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int n,
-                         bool all) {
+gm_status coupled_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int n,
+                              bool all) {
   const gm_kinematics kv = values_of(kin);
   const int nv = prepare_slices(m, d, kv, all);
   if (nv < 0) return GM_ERR_INPUT;
@@ -239,11 +239,11 @@ gm_status fe_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>&
   for (int i = 0; i < n; ++i) {
     d.dual_forces[i] = Dual(0);
     d.dual_stiffness[i] = Dual(0);
-    if (d.forces[i] > 0) d.fe_index[na++] = i;
+    if (d.forces[i] > 0) d.dense_index[na++] = i;
   }
   if (na == 0) return GM_OK;
-  fe_dual_system(m, d, kin, na);
-  return fe_dual_solve(d, na);
+  coupled_dual_system(m, d, kin, na);
+  return coupled_dual_solve(d, na);
 }
 
 gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
@@ -251,8 +251,8 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
   const int n = prepare_slices(m, d, kin, all);
   if (n < 0) return GM_ERR_INPUT;
   ContactSliceT<Dual>* slices = d.dual_slices.data();
-  if (coupled_solve(m)) {
-    const gm_status st = fe_dual_forces(m, d, kin, n, all);
+  if (m.level.coupled) {
+    const gm_status st = coupled_dual_forces(m, d, kin, n, all);
     if (st != GM_OK) return st;
   } else {
     const gm_status st = separable_dual_forces(m, d, n);
@@ -282,24 +282,24 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
 
 // Level 5: saves the coupled solve's warm start (previous forces and candidates) and restores
 // it when the derivative returns, so that gm_evaluate's next result does not depend on it.
-class FeWarmStartGuard {
+class CoupledWarmStartGuard {
  public:
-  FeWarmStartGuard(gm_data& d, bool active) : d_(d), active_(active), n_(d.fe_prev_n) {
+  CoupledWarmStartGuard(gm_data& d, bool active) : d_(d), active_(active), n_(d.dense_prev_n) {
     for (int a = 0; active_ && a < n_; ++a) {
-      d_.fe_saved_force[a] = d_.fe_force[a];
-      d_.fe_saved_key[a] = d_.fe_prev_key[a];
+      d_.dense_saved_force[a] = d_.dense_force[a];
+      d_.dense_saved_key[a] = d_.dense_prev_key[a];
     }
   }
-  ~FeWarmStartGuard() {
+  ~CoupledWarmStartGuard() {
     if (!active_) return;
     for (int a = 0; a < n_; ++a) {
-      d_.fe_force[a] = d_.fe_saved_force[a];
-      d_.fe_prev_key[a] = d_.fe_saved_key[a];
+      d_.dense_force[a] = d_.dense_saved_force[a];
+      d_.dense_prev_key[a] = d_.dense_saved_key[a];
     }
-    d_.fe_prev_n = n_;
+    d_.dense_prev_n = n_;
   }
-  FeWarmStartGuard(const FeWarmStartGuard&) = delete;
-  FeWarmStartGuard& operator=(const FeWarmStartGuard&) = delete;
+  CoupledWarmStartGuard(const CoupledWarmStartGuard&) = delete;
+  CoupledWarmStartGuard& operator=(const CoupledWarmStartGuard&) = delete;
 
  private:
   gm_data& d_;
@@ -385,7 +385,7 @@ gm_status directional_derivative(const gm_model& m, gm_data& d, const gm_kinemat
     return GM_ERR_INPUT;
   }
   // level 5: the coupled solve's warm start is the evaluation's, left as it was
-  const FeWarmStartGuard guard(d, coupled_solve(m));
+  const CoupledWarmStartGuard guard(d, m.level.coupled);
   const MeshLayout& L = m.layout;
   Derivative g(L, at_in, seed);
   if (!m.params.quasi_static) {

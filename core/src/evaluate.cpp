@@ -7,7 +7,7 @@
 #include <cmath>
 #include <limits>
 
-#include "fe_solve.hpp"
+#include "dense_solve.hpp"
 #include "inputs.hpp"
 #include "pipeline.hpp"
 #include "resultants.hpp"
@@ -50,7 +50,7 @@ constexpr int kMaxPasses = 6;  // quasi-static passes per evaluation
 // e.kin: gear 2's spin is set to the solved TE's; e.te: the solved TE, m.
 gm_status quasi_static_solve(const gm_model& m, gm_data& d, Evaluation& e) {
   const MeshLayout& L = m.layout;
-  const bool fe = coupled_solve(m);
+  const bool coupled = m.level.coupled;
   const double s = L.sign, rb1 = L.base_radius[0], rb2 = L.base_radius[1];
   gm_kinematics& kin = e.kin;
   double& te = e.te;
@@ -59,7 +59,7 @@ gm_status quasi_static_solve(const gm_model& m, gm_data& d, Evaluation& e) {
   problem.all = problem.quasi = true;
   problem.load = kin.load_torque / rb2;  // the TE coordinate's force, N
   const double settled = std::max(m.params.solver_tolerance, 1e-12 * L.base_pitch);  // m
-  te = fe ? predicted_te(d, e.phi1_in, kin.load_torque) : d.te_estimate;
+  te = coupled ? predicted_te(d, e.phi1_in, kin.load_torque) : d.te_estimate;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
     kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + e.phi2_offset;
     problem.next_pass_above = pass + 1 < kMaxPasses ? settled : std::numeric_limits<double>::infinity();
@@ -73,7 +73,7 @@ gm_status quasi_static_solve(const gm_model& m, gm_data& d, Evaluation& e) {
   }
   kin.phi[1] = (te - rb1 * kin.phi[0]) / (s * rb2) + e.phi2_offset;
   d.te_estimate = te;
-  if (fe) record_te(d, e.phi1_in, te, kin.load_torque);
+  if (coupled) record_te(d, e.phi1_in, te, kin.load_torque);
   // The last pass ends at the solved pose; its slice forces belong to approach + gain lambda.
   for (int i = 0; i < e.n; ++i) d.slices[i].approach = d.approach[i];
   return GM_OK;
@@ -84,7 +84,7 @@ void store_resultants(const gm_model& m, gm_data& d, Evaluation& e) {
   const int n = e.n;
   gm_result& r = e.r;
   ResultT<double> rt;
-  rt.elastic_energy = std::isnan(d.fe_energy) ? elastic_energy<double>(d, n) : d.fe_energy;  // before damping
+  rt.elastic_energy = std::isnan(d.dense_energy) ? elastic_energy<double>(d, n) : d.dense_energy;  // before damping
   resultants(m, d, e.kin, n, rt);
   store_result(rt, r);
   int loaded = 0;  // the loaded slices, for gm_data_load_distribution

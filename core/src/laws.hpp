@@ -1,28 +1,21 @@
 // The law stage of the evaluation: per-slice compliance laws per stiffness level and the TE
 // excitation, templates over double and dual numbers (the directional derivative), defined
-// here so that the evaluation inlines them; the capability check of the levels in laws.cpp.
+// here so that the evaluation inlines them.
 #pragma once
 
 #include <cmath>
 #include <string>
 
+#include "levels.hpp"
 #include "model.hpp"
 
 namespace gm {
 
-// Check that m can be evaluated by this build (levels and effects implemented so far);
-// returns GM_ERR_PARAMETER with msg naming the parameter otherwise.
-gm_status check_capabilities(const gm_model_params& p, std::string& msg);
-
 // Per-slice laws (docs/physics.md §5) and the TE excitation, over double and dual numbers.
 namespace laws_detail {
 
-// Table lookups over the scalar type: the double ones as they are; for dual numbers the value
-// and the table's slope.
-inline double table_stiffness(const StiffnessTable& t, double angle) { return stiffness_at(t, angle); }
-inline Dual table_stiffness(const StiffnessTable& t, const Dual& angle) {
-  return {stiffness_at(t, angle.v), stiffness_slope_at(t, angle.v) * angle.d};
-}
+// Lookups over the scalar type: the double ones as they are; for dual numbers the value and the
+// slope.
 inline double tooth_compliance_t(const ToothSection& s, double rho) { return tooth_compliance(s, rho); }
 inline Dual tooth_compliance_t(const ToothSection& s, const Dual& rho) {
   return {tooth_compliance(s, rho.v), tooth_compliance_slope(s, rho.v) * rho.d};
@@ -34,76 +27,61 @@ inline Dual tooth_contact_depth_s(const ToothSection& s, const Dual& rho) {
   return tooth_contact_depth_t<Dual>(s, rho);
 }
 
-// Transverse stiffness per unit face width of one slice's tooth pair, N/m^2 (the levels that
-// have one; docs/physics.md §5).
-template <class T>
-T pair_stiffness(const gm_model& m, const ContactSliceT<T>& s) {
-  switch (m.params.stiffness_level) {
-    case GM_STIFFNESS_ISO6336: {
-      // c' at the middle of the path, falling parabolically towards its ends so that the mean
-      // mesh stiffness is ISO's c_gamma_alpha = c'(0.75 eps_alpha + 0.25).
-      using std::fmax;
-      using std::fmin;
-      const T u = fmin(fmax(s.path_position, T(0.0)), T(1.0)) * 2 - 1;
-      return m.iso_c_prime * (1 - m.iso_shape * u * u);
-    }
-    case GM_STIFFNESS_USER_VARIABLE:
-      // the user's table over gear 1's roll angle at the contact point (user_tables.hpp)
-      return table_stiffness(m.stiffness_table, T(s.roll[0] / m.layout.base_radius[0]));
-    case GM_STIFFNESS_CONTACT_LINE:
-      // contact-line-length model: constant per unit contact line, c_gamma_alpha / eps_alpha
-      return T(m.iso_c_gamma / m.geometry.eps_alpha);
-    default:
-      return T(m.params.user_stiffness);
-  }
-}
-
 }  // namespace laws_detail
 
-// Per-slice compliance laws along the normal (docs/physics.md §5). Linear levels: k' L / cos^2(beta_b).
-// Analytical level: both teeth's Weber/Sainsot compliance (per unit face width on the
-// transverse line of action) plus the exact local Hertz law of docs/physics.md §4 over the contact line
-// L / cos(beta_b), its approach referred to each tooth's centre line.
-template <class T>
-void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>* laws, int n,
-                bool all) {
+// Per-slice compliance laws along the normal (docs/physics.md §5), for the level `Level`
+// (core/src/levels/). A linear level: its pair stiffness k', k' L / cos^2(beta_b). A tooth law
+// (levels 4, 5): both teeth's Weber/Sainsot compliance (per unit face width on the transverse line
+// of action; level 5: none, its coupled C is the databases') plus the exact local Hertz law of
+// docs/physics.md §4 over the contact line L / cos(beta_b), its approach referred to each tooth's
+// centre line (level 5: at the databases' depth).
+template <class Level, class T>
+void build_level_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>* laws, int n, bool all) {
   using namespace laws_detail;
   const MeshLayout& L = m.layout;
   const double cb = L.cos_beta_b, cb2 = cb * cb;
-  const bool fe = m.params.stiffness_level == GM_STIFFNESS_FE;
-  const bool analytical = m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL || fe;
+  constexpr bool database = Level::traits.database;
   const double rho_floor = 1e-3 * m.params.pair.normal_module;  // degenerate curvature guard
   for (int i = 0; i < n; ++i) {
     const ContactSliceT<T>& s = slices[i];
     SliceLawT<T>& law = laws[i];
     law.local = LocalLawT<T>{};
     if (!all && s.approach <= 0) continue;  // an open slice carries nothing whatever its law
-    if (!analytical) {
-      law.compliance = cb2 / (pair_stiffness(m, s) * s.width);
+    if constexpr (!Level::traits.tooth_law) {
+      law.compliance = cb2 / (Level::pair_stiffness(m, s) * s.width);
       continue;
-    }
-    if (i > 0 && identical(s.roll[0], slices[i - 1].roll[0]) &&
-        identical(s.roll[1], slices[i - 1].roll[1]) && identical(s.width, slices[i - 1].width) &&
-        (all || slices[i - 1].approach > 0)) {
-      law = laws[i - 1];  // the next slice of an aligned spur pair: the same law
-      continue;
-    }
-    using std::fmax;
-    const T rho1 = fmax(s.roll[0], T(rho_floor)), rho2 = fmax(s.roll[1], T(rho_floor));
+    } else {
+      if (i > 0 && identical(s.roll[0], slices[i - 1].roll[0]) &&
+          identical(s.roll[1], slices[i - 1].roll[1]) && identical(s.width, slices[i - 1].width) &&
+          (all || slices[i - 1].approach > 0)) {
+        law = laws[i - 1];  // the next slice of an aligned spur pair: the same law
+        continue;
+      }
+      using std::fmax;
+      const T rho1 = fmax(s.roll[0], T(rho_floor)), rho2 = fmax(s.roll[1], T(rho_floor));
     // FE: the global part is the coupled C of fe_assemble, not a per-slice compliance
-    law.compliance = fe ? T(0.0)
-                        : (tooth_compliance_t(m.tooth[0], rho1) +
-                           tooth_compliance_t(m.tooth[1], rho2)) * cb2 / s.width;
-    law.local.width = s.width / cb;
-    law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
-    for (int g = 0; g < 2; ++g) {
-      law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
-      law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;
+      law.compliance = database ? T(0.0)
+                                : (tooth_compliance_t(m.tooth[0], rho1) +
+                                   tooth_compliance_t(m.tooth[1], rho2)) *
+                                      cb2 / s.width;
+      law.local.width = s.width / cb;
+      law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
+      for (int g = 0; g < 2; ++g) {
+        law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
+        law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;
       // FE: the database's depth h (along the normal), the depth its displacements were taken at
-      law.local.body[g].depth = fe ? T(m.compliance[g].depth)
-                                   : tooth_contact_depth_s(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
+        law.local.body[g].depth = database ? T(m.compliance[g].depth)
+                                           : tooth_contact_depth_s(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
+      }
     }
   }
+}
+
+// The laws of m's level: the one dispatch of the laws stage (levels.hpp).
+template <class T>
+void build_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLawT<T>* laws, int n, bool all) {
+  with_level(m.params.stiffness_level,
+             [&](auto level) { build_level_laws<decltype(level)>(m, slices, laws, n, all); });
 }
 
 

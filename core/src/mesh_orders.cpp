@@ -81,9 +81,9 @@ void orders_add(gm_mesh_orders& o, int z1, const OrderPoint& a, const OrderPoint
     double boundary = kTwoPi * (std::floor(u0 / kTwoPi) + 1.0);
     if (!(boundary > u0)) boundary += kTwoPi;  // u0 on a boundary that the division rounded down
     const double end = std::min(u1, boundary);
-    double fe[2];
-    for (int sig = 0; sig < 2; ++sig) fe[sig] = f0[sig] + (f1[sig] - f0[sig]) * (end - u0) / (u1 - u0);
-    if (o.open) add_piece(o, u0, end, f0, fe);
+    double f_end[2];
+    for (int sig = 0; sig < 2; ++sig) f_end[sig] = f0[sig] + (f1[sig] - f0[sig]) * (end - u0) / (u1 - u0);
+    if (o.open) add_piece(o, u0, end, f0, f_end);
     if (end == boundary) {  // a cycle ends here: closed if it began at a boundary, and a new one opens
       if (o.open) close_cycle(o);
       o.open = 1;
@@ -91,8 +91,8 @@ void orders_add(gm_mesh_orders& o, int z1, const OrderPoint& a, const OrderPoint
       clear_sums(o);
     }
     u0 = end;
-    f0[0] = fe[0];
-    f0[1] = fe[1];
+    f0[0] = f_end[0];
+    f0[1] = f_end[1];
   }
 }
 

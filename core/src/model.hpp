@@ -23,8 +23,25 @@
 #include "user_tables.hpp"
 #include "gearmesh/gearmesh.h"
 
+namespace gm {
+
+// What the stages need to know of the stiffness level (its file in core/src/levels/, levels.hpp):
+// its traits, copied into the model at creation, so that no stage tests the level's number.
+struct LevelTraits {
+  int id = 0;                 // gm_stiffness_level
+  const char* name = "";      // e.g. "analytical"
+  bool merges_slices = true;  // repeated slices merged before the laws (slice_merge.hpp)
+  bool tooth_law = false;     // the slice law: both teeth's compliance and the local Hertz law
+                              // (laws.hpp); false: the level's pair stiffness
+  bool database = false;      // the coupled compliance from the gears' databases (fe_compliance.hpp)
+  bool coupled = false;       // the coupled force solve (dense_solve.cpp): set at creation
+};
+
+}  // namespace gm
+
 struct gm_model {
   gm_model_params params;      // as given (validated)
+  gm::LevelTraits level;       // of params.stiffness_level
   gm_pair_geometry geometry;   // derived at the nominal centre distance
   gm::MeshLayout layout;       // what detection needs, derived once
   int slice_capacity = 0;      // most candidate slices one evaluation can produce
@@ -49,31 +66,32 @@ struct gm_data {
   double te_estimate = 0;                // quasi-static: last solved TE (warm start), m
   // Level 5 quasi-static: the last three solved (gear 1 angle, TE, load torque), newest first, from
   // which the next call's TE estimate is extrapolated. Derived data: valid only while the
-  // coupled solve's warm start is (fe_prev_n >= 0), so a reset or restored state starts from
+  // coupled solve's warm start is (dense_prev_n >= 0), so a reset or restored state starts from
   // te_estimate alone.
   struct TeHistory {
     double phi[3] = {0, 0, 0}, te[3] = {0, 0, 0}, load[3] = {0, 0, 0};  // rad, m, N m
     int n = 0;                                                // entries held
   } te_history;
-  // level 5 (FE): the coupled solve's workspace, sized to the slice capacity at creation
+  // the dense coupled solve (dense_solve.cpp; levels 5 and 4 with tooth coupling): its workspace,
+  // sized to the slice capacity at creation
   std::unique_ptr<gm::NlcpSolver> nlcp;
-  Eigen::MatrixXd fe_compliance;         // C = C1 + C2 between the solved slices, m/N
-  Eigen::MatrixXd fe_tangent;            // C_AA + diag f'_A, factorized in place (stiffness)
-  Eigen::VectorXd fe_delta, fe_force, fe_weights, fe_work;
-  std::vector<gm::LocalLaw> fe_laws;     // local Hertz laws of the solved slices
-  std::vector<int> fe_index;             // candidate index of each solved slice
-  std::vector<double> fe_height;         // level 4 coupled: heights of the solved slices (gear 1, 2)
+  Eigen::MatrixXd dense_c;         // C = C1 + C2 between the solved slices, m/N
+  Eigen::MatrixXd dense_tangent;            // C_AA + diag f'_A, factorized in place (stiffness)
+  Eigen::VectorXd dense_delta, dense_force, dense_weights, dense_work;
+  std::vector<gm::LocalLaw> dense_laws;     // local Hertz laws of the solved slices
+  std::vector<int> dense_index;             // candidate index of each solved slice
+  std::vector<double> dense_height;         // level 4 coupled: heights of the solved slices (gear 1, 2)
   gm::CoupledWorkspace coupled;          // level 4 coupled: the low-rank solve (coupled_forces.hpp)
-  std::vector<long long> fe_key, fe_prev_key;  // slice identities (warm start if unchanged)
-  int fe_prev_n = -1;                    // solved slices of the previous call (-1: none)
-  // elastic energy of the coupled solve's answer from the laws it holds there (fe_solve.cpp),
+  std::vector<long long> dense_key, dense_prev_key;  // slice identities (warm start if unchanged)
+  int dense_prev_n = -1;                    // solved slices of the previous call (-1: none)
+  // elastic energy of the coupled solve's answer from the laws it holds there (dense_solve.cpp),
   // J; NaN: this evaluation has none (resultants.hpp's elastic_energy computes it)
-  double fe_energy = std::numeric_limits<double>::quiet_NaN();
+  double dense_energy = std::numeric_limits<double>::quiet_NaN();
   gm::FeAssembly fe_assembly;            // cached face sums of the databases (derived data)
-  Eigen::MatrixXd fe_dual_c;             // derivative: dC between the loaded slices, m/N
+  Eigen::MatrixXd dense_dual_c;             // derivative: dC between the loaded slices, m/N
   gm::FeDualAssembly fe_dual_assembly;   // derivative: level 5's C and dC (its scratch)
-  Eigen::VectorXd fe_saved_force;        // derivative: the warm start, restored afterwards
-  std::vector<long long> fe_saved_key;
+  Eigen::VectorXd dense_saved_force;        // derivative: the warm start, restored afterwards
+  std::vector<long long> dense_saved_key;
   // gm_directional_derivative's scratch: the same per slice, over dual numbers
   std::vector<gm::ContactSliceT<gm::Dual>> dual_slices;
   std::vector<gm::SliceLawT<gm::Dual>> dual_laws;
@@ -123,11 +141,5 @@ inline FeView fe_view(const gm_model& m) {
   return FeView{m.compliance, m.layout, m.params.coupled_teeth};
 }
 
-// Whether the force solve is the coupled one (NlcpSolver over a dense compliance C between the
-// candidates, fe_solve.cpp): level 5, and level 4 with its tooth coupling (tooth_coupling.hpp).
-inline bool coupled_solve(const gm_model& m) {
-  return m.params.stiffness_level == GM_STIFFNESS_FE ||
-         (m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL && m.coupling.offsets > 0);
-}
 
 }  // namespace gm

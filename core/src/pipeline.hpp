@@ -1,7 +1,7 @@
 // The stages of one evaluation pass (docs/design.md "core"), shared by gm_evaluate's plain and
 // quasi-static modes (evaluate.cpp) and by the directional derivative (derivatives.cpp):
 //   detect (detection.cpp) -> TE excitation, slice laws (laws.hpp) -> [load-balance weights]
-//   -> force solve (contact_forces.cpp; coupled_forces.cpp or fe_solve.cpp for the coupled
+//   -> force solve (contact_forces.cpp; coupled_forces.cpp or dense_solve.cpp for the coupled
 //   levels) -> resultants (resultants.hpp). A force stage takes the model, the data and one
 //   ForceProblem (contact_forces.hpp): the candidates are d's arrays, not arguments. The pass
 //   functions are inline: gm_evaluate is the hot path.
@@ -12,7 +12,7 @@
 
 #include "contact_forces.hpp"
 #include "coupled_forces.hpp"
-#include "fe_solve.hpp"
+#include "dense_solve.hpp"
 #include "laws.hpp"
 #include "model.hpp"
 #include "resultants.hpp"
@@ -30,7 +30,7 @@ int prepare_slices(const gm_model& m, gm_data& d, const K& kin, bool all) {
   // without `all` only the slices that can carry load: those closer than the TE excitation opens
   const double emit_above = all ? -kEmitAll : te_excitation_gap(m, val(kin.phi[0]));
   // levels 0-4: repeated slices merged (slice_merge.hpp), an aligned spur pair's by detection
-  const bool merge = m.params.stiffness_level != GM_STIFFNESS_FE;
+  const bool merge = m.level.merges_slices;
   int n = detect_contacts(m.layout, kin, c.slices, m.slice_capacity, d.message, emit_above, merge);
   if (n < 0) return n;
   apply_te_excitation(m, c.slices, kin, n);
@@ -43,20 +43,20 @@ int prepare_slices(const gm_model& m, gm_data& d, const K& kin, bool all) {
 // d.forces and d.slice_stiffness, and d.approach (quasi: moved by the solved rigid approach).
 // The one dispatch between the stages: solve_separable (contact_forces.cpp), solve_coupled
 // (coupled_forces.cpp, level 4 with tooth coupling; the dense solve where it cannot) and
-// fe_solve (fe_solve.cpp), each called with (model, data, problem).
+// solve_dense (dense_solve.cpp), each called with (model, data, problem).
 inline ForceSolve solve_forces(const gm_model& m, gm_data& d, const ForceProblem& p) {
-  const bool fe = coupled_solve(m);  // level 5, level 4 with tooth coupling
+  const bool coupled = m.level.coupled;  // level 5, level 4 with tooth coupling
   const int n = p.n;
-  d.fe_energy = std::numeric_limits<double>::quiet_NaN();  // fe_solve's answer sets it
-  if (fe || !p.quasi)  // the separable quasi-static solve writes the approaches itself
+  d.dense_energy = std::numeric_limits<double>::quiet_NaN();  // solve_dense's answer sets it
+  if (coupled || !p.quasi)  // the separable quasi-static solve writes the approaches itself
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
-  if (fe && m.params.stiffness_level == GM_STIFFNESS_ANALYTICAL) {
+  if (coupled && !m.level.database) {
     // level 4 with tooth coupling: the low-rank solve; the dense one where it cannot
     const CoupledSolveResult r = solve_coupled(m, d, p);
     if (!r.fallback) return r.solve;
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
   }
-  if (fe) return fe_solve(m, d, p);
+  if (coupled) return solve_dense(m, d, p);
   return solve_separable(m, d, p);
 }
 

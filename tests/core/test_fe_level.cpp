@@ -14,7 +14,7 @@
 
 #include "gearmesh/internal/compliance_db.hpp"
 #include "fe_compliance.hpp"
-#include "fe_solve.hpp"
+#include "dense_solve.hpp"
 #include "fe_synthetic.hpp"
 #include "tooth_coupling.hpp"
 #include "gearmesh/gearmesh.h"
@@ -318,7 +318,7 @@ TEST(FeLevel, RestoredStateIsDeterministicAndWithinToleranceOfTheWarmRun) {
 }
 
 // Level 5 quasi-static: a run over poses starts each pass loop from the TE extrapolated from
-// the last two solves (fe_solve.cpp, predicted_te). The answer is the pass loop's fixed point
+// the last two solves (dense_solve.cpp, predicted_te). The answer is the pass loop's fixed point
 // whatever the start: an instance reset before every pose (starting from TE = 0, no history)
 // gives the same TE and forces within the solver's tolerance, in more solver iterations; a load
 // change drops the extrapolation (the two runs then agree as well).
@@ -539,7 +539,7 @@ TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
   EXPECT_NE(msg.find("at least 1e-09 m after the previous value"), std::string::npos) << msg;
 }
 
-// The quasi-static start TE (fe_solve.cpp, predicted_te) from the solved history: exact for a
+// The quasi-static start TE (dense_solve.cpp, predicted_te) from the solved history: exact for a
 // parabola in gear 1's angle once three solves at the same torque are held (steps alike within
 // 4x), the line through the last two otherwise (two solves, unequal steps, another torque
 // before), the last TE after a step more than twice the last one or a restored state.
@@ -554,7 +554,7 @@ TEST(FeLevel, QuasiStaticStartTeIsTheParabolaThroughTheLastThreeSolves) {
     d.te_estimate = te_of(phi);
     gm::record_te(d, phi, d.te_estimate, torque);
   };
-  d.fe_prev_n = 0;  // a warm solver: the history is valid
+  d.dense_prev_n = 0;  // a warm solver: the history is valid
   record(0.010, 300);
   record(0.011, 300);
   const double line = te_of(0.011) + (te_of(0.011) - te_of(0.010)) / 0.001 * 0.001;
@@ -572,7 +572,7 @@ TEST(FeLevel, QuasiStaticStartTeIsTheParabolaThroughTheLastThreeSolves) {
   record(0.0128, 250);
   EXPECT_NEAR(gm::predicted_te(d, 0.0129, 250),
               te_of(0.0128) + (te_of(0.0128) - te_of(0.0127)) / 0.0001 * 0.0001, 1e-18);
-  d.fe_prev_n = -1;  // reset or restored state
+  d.dense_prev_n = -1;  // reset or restored state
   EXPECT_EQ(gm::predicted_te(d, 0.0129, 250), te_of(0.0128));
 }
 
@@ -593,7 +593,7 @@ TEST(FeLevel, QuasiStaticAgreesWithThePlainSolveAtItsTeOpenAndWedged) {
 }
 
 // Level 5's elastic energy comes from the laws the coupled solve holds at its answer
-// (fe_solve.cpp, fe_store), not from the laws evaluated again: it equals
+// (dense_solve.cpp, dense_store), not from the laws evaluated again: it equals
 // U = sum_i [F_i (Delta_i + f_i(F_i))/2 - P_i(F_i)] (resultants.hpp) recomputed here from the
 // solved slices with hertz.cpp's evaluate_local_law, plain and quasi-static (final approaches),
 // at poses with one and with two pairs in contact. (The potential property dU/dphi = -M of
@@ -606,8 +606,8 @@ TEST(FeLevel, QuasiStaticAgreesWithThePlainSolveAtItsTeOpenAndWedged) {
 // error is below 6e-7 (against 1600 intervals).
 double recomputed_energy(const gm_data& d) {
   double u = 0;
-  for (int a = 0; a < d.fe_prev_n; ++a) {
-    const int i = d.fe_index[std::size_t(a)];
+  for (int a = 0; a < d.dense_prev_n; ++a) {
+    const int i = d.dense_index[std::size_t(a)];
     const double F = d.forces[std::size_t(i)];
     if (!(F > 0)) continue;
     const gm::LocalLawValue law = gm::evaluate_local_law(d.laws[std::size_t(i)].local, F);

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "fe_solve.hpp"
+#include "dense_solve.hpp"
 #include "model.hpp"
 #include "pipeline.hpp"
 #include "test_support.hpp"
@@ -226,7 +226,7 @@ void compare_with_dense(gm_model_params p, const char* what) {
     // the dense solve on the same prepared candidates
     for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
     problem.n = n;
-    const gm::ForceSolve dense = gm::fe_solve(m, d, problem);
+    const gm::ForceSolve dense = gm::solve_dense(m, d, problem);
     ASSERT_TRUE(dense.converged) << dense.message;
     double fmax = 0;
     for (int i = 0; i < n; ++i) fmax = std::max(fmax, F[i]);

@@ -1,5 +1,5 @@
 // fuzz_fe_model: a compliance database through the FE level (stiffness level 5,
-// core/src/fe_compliance.cpp, fe_solve.cpp): gm_model_create on set A with the database in the
+// core/src/fe_compliance.cpp, dense_solve.cpp): gm_model_create on set A with the database in the
 // input as both gears' (set A's two gears are the same gear, tests/fuzz/fuzz_gcdb.h), then
 // evaluations at a few poses and directional derivatives, through the C API. The first 32
 // bytes are the pose (fuzz_bytes.h), the rest is the database, whose CRC-32 is recomputed so

@@ -1,4 +1,4 @@
-// The force-solve stage of level 5 (fe_solve.cpp): the coupled solve over the candidates with
+// The force-solve stage of level 5 (dense_solve.cpp): the coupled solve over the candidates with
 // the compliance C of the databases (docs/physics.md §5), and the quasi-static TE history that
 // predicts its first pass.
 #pragma once
@@ -14,7 +14,7 @@ namespace gm {
 // d.forces and d.slice_stiffness for all n candidates (0 where not loaded); a quasi-static
 // |lambda| above p.next_pass_above is followed by another pass (evaluate.cpp), so this answer's
 // slice stiffness is not computed (left 0). p.pose: the pose detected at.
-ForceSolve fe_solve(const gm_model& m, gm_data& d, const ForceProblem& p);
+ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p);
 
 // Level 5 quasi-static: the TE to detect at first (extrapolated from the last three solves).
 double predicted_te(gm_data& d, double phi, double load_torque);

@@ -1,7 +1,7 @@
 // The force-solve stage of level 5: the coupled solve over the candidates (NlcpSolver on the
 // compliance C of the databases, assembled by FeAssembly), plain and quasi-static, and the
 // quasi-static TE history.
-#include "fe_solve.hpp"
+#include "dense_solve.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,29 +12,29 @@ namespace {
 
 constexpr double kNlcpRelativeTolerance = 1e-10;  // NlcpOptions' default
 
-// The solved set (every candidate with `all`, else those with Delta > 0) in d.fe_index; its
+// The solved set (every candidate with `all`, else those with Delta > 0) in d.dense_index; its
 // number. Zeroes d.forces and d.slice_stiffness of all n candidates.
-int fe_select(gm_data& d, int n, bool all) {
+int dense_select(gm_data& d, int n, bool all) {
   int na = 0;
   for (int i = 0; i < n; ++i) {
     d.forces[i] = 0;
     d.slice_stiffness[i] = 0;
-    if (all || d.approach[i] > 0) d.fe_index[na++] = i;
+    if (all || d.approach[i] > 0) d.dense_index[na++] = i;
   }
   return na;
 }
 
-// Quasi-static under load at level 5: keep in d.fe_index only the candidates of the flank that
+// Quasi-static under load at level 5: keep in d.dense_index only the candidates of the flank that
 // the load closes (te_gain * load > 0); their flank, or 0 (nothing left out) when both flanks
 // have such candidates. The databases never couple flank A with flank B (fe_compliance.hpp), so
 // a candidate of the other flank that stays open at the solved approach carries no force and
 // changes nothing of the solve (its gap is its approach, -Delta_i >= 0): the answer on the
-// smaller system is the answer on all of them, which fe_others_open confirms after the solve.
-int fe_loaded_flank(gm_data& d, int& na, double load) {
+// smaller system is the answer on all of them, which dense_others_open confirms after the solve.
+int dense_loaded_flank(gm_data& d, int& na, double load) {
   const ContactSlice* S = d.slices.data();
   int flank = 0;
   for (int a = 0; a < na; ++a) {
-    const ContactSlice& s = S[d.fe_index[a]];
+    const ContactSlice& s = S[d.dense_index[a]];
     if (s.te_gain * load > 0) {
       if (flank != 0 && s.flank != flank) return 0;
       flank = s.flank;
@@ -42,13 +42,13 @@ int fe_loaded_flank(gm_data& d, int& na, double load) {
   }
   int kept = 0;
   for (int a = 0; a < na && flank != 0; ++a)
-    if (S[d.fe_index[a]].flank == flank) d.fe_index[kept++] = d.fe_index[a];
+    if (S[d.dense_index[a]].flank == flank) d.dense_index[kept++] = d.dense_index[a];
   if (flank != 0) na = kept;
   return flank;
 }
 
 // Whether every candidate off `flank` is open (Delta <= 0) at the solved approaches d.approach.
-bool fe_others_open(const gm_data& d, int n, int flank) {
+bool dense_others_open(const gm_data& d, int n, int flank) {
   for (int i = 0; i < n; ++i)
     if (d.slices[i].flank != flank && d.approach[i] > 0) return false;
   return true;
@@ -58,63 +58,65 @@ bool fe_others_open(const gm_data& d, int n, int flank) {
 // (Weber/Sainsot of both teeth) and the tooth coupling between slices of different tooth pairs.
 void coupled_assemble(const gm_model& m, gm_data& d, int na) {
   const ContactSlice* S = d.slices.data();
-  double* h = d.fe_height.data();
+  double* h = d.dense_height.data();
   for (int a = 0; a < na; ++a)
-    for (int g = 0; g < 2; ++g) h[2 * a + g] = coupling_height(m.coupling.gear[g], S[d.fe_index[a]].roll[g]);
-  auto& C = d.fe_compliance;
+    for (int g = 0; g < 2; ++g) h[2 * a + g] = coupling_height(m.coupling.gear[g], S[d.dense_index[a]].roll[g]);
+  auto& C = d.dense_c;
   for (int a = 0; a < na; ++a) {
-    const ContactSlice& sa = S[d.fe_index[a]];
-    C(a, a) = d.laws[d.fe_index[a]].compliance;
+    const ContactSlice& sa = S[d.dense_index[a]];
+    C(a, a) = d.laws[d.dense_index[a]].compliance;
     for (int b = 0; b < a; ++b)
-      C(a, b) = C(b, a) = coupling_compliance(m.coupling, sa, h + 2 * a, S[d.fe_index[b]], h + 2 * b);
+      C(a, b) = C(b, a) = coupling_compliance(m.coupling, sa, h + 2 * a, S[d.dense_index[b]], h + 2 * b);
   }
 }
 
 // The solved set's identities, local laws, approaches and TE gains, its compliance C (cached
 // assembly), and the warm start: the previous call's forces when the candidates are the same.
-void fe_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na) {
+void dense_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na) {
   const ContactSlice* S = d.slices.data();
   for (int a = 0; a < na; ++a) {
-    const ContactSlice& sa = S[d.fe_index[a]];
-    d.fe_key[a] = ((static_cast<long long>(sa.tooth[0]) * 100003 + sa.tooth[1]) * 2 +
-                   (sa.flank > 0)) * 4099 + a;
-    d.fe_laws[a] = d.laws[d.fe_index[a]].local;
-    d.fe_delta[a] = d.approach[d.fe_index[a]];
-    d.fe_weights[a] = sa.te_gain;
+    const ContactSlice& sa = S[d.dense_index[a]];
+    d.dense_key[a] = ((static_cast<long long>(sa.tooth[0]) * 100003 + sa.tooth[1]) * 2 +
+                      (sa.flank > 0)) *
+                         4099 +
+                     a;
+    d.dense_laws[a] = d.laws[d.dense_index[a]].local;
+    d.dense_delta[a] = d.approach[d.dense_index[a]];
+    d.dense_weights[a] = sa.te_gain;
   }
-  if (m.params.stiffness_level == GM_STIFFNESS_FE) {
+  if (m.level.database) {
     const double uz[2] = {kin.u[0][2], kin.u[1][2]};
-    d.fe_assembly.assemble(fe_view(m), S, d.fe_index.data(), na, uz, d.fe_compliance);
+    d.fe_assembly.assemble(fe_view(m), S, d.dense_index.data(), na, uz, d.dense_c);
   } else {
     coupled_assemble(m, d, na);
   }
-  bool same = d.fe_prev_n == na;
-  for (int a = 0; same && a < na; ++a) same = d.fe_key[a] == d.fe_prev_key[a];
-  if (m.params.stiffness_level != GM_STIFFNESS_FE) {
+  bool same = d.dense_prev_n == na;
+  for (int a = 0; same && a < na; ++a) same = d.dense_key[a] == d.dense_prev_key[a];
+  if (!m.level.database) {
     // Level 4: start from the uncoupled answer (each slice alone under its own law), not from
     // the previous call's forces, so that a result does not depend on the call history (FMU
     // get/set state, dynamics state copies stay bit for bit, as the separable levels' do)
     for (int a = 0; a < na; ++a) {
-      const int i = d.fe_index[a];
-      const double delta = std::max(d.fe_delta[a], 0.0);
+      const int i = d.dense_index[a];
+      const double delta = std::max(d.dense_delta[a], 0.0);
       SeparableProblem sp;
       sp.laws = &d.laws[i];
       sp.approach = &delta;
       sp.n = 1;
       sp.tol = m.params.solver_tolerance;
       sp.max_iterations = m.params.solver_max_iterations;
-      const ForceSolve one = solve_separable(sp, SeparableAnswer{d.fe_force.data() + a, d.fe_work.data() + a});
-      if (!one.converged) d.fe_force[a] = 0;
+      const ForceSolve one = solve_separable(sp, SeparableAnswer{d.dense_force.data() + a, d.dense_work.data() + a});
+      if (!one.converged) d.dense_force[a] = 0;
     }
   } else if (!same) {
-    d.fe_force.head(na).setZero();
+    d.dense_force.head(na).setZero();
   }
-  for (int a = 0; a < na; ++a) d.fe_prev_key[a] = d.fe_key[a];
-  d.fe_prev_n = na;
+  for (int a = 0; a < na; ++a) d.dense_prev_key[a] = d.dense_key[a];
+  d.dense_prev_n = na;
 }
 
 // The solver's options for this call.
-void fe_set_options(const gm_model& m, gm_data& d, int na) {
+void dense_set_options(const gm_model& m, gm_data& d, int na) {
   NlcpOptions opt = d.nlcp->options();
   // NlcpSolver's own tolerances (1e-15 m + 1e-10 |Delta|): model.solver_tolerance (1e-10 m by
   // default) on the rigid approach would leave the load balance ~1e-5 off
@@ -124,21 +126,21 @@ void fe_set_options(const gm_model& m, gm_data& d, int na) {
   // model.solver_tolerance below the absolute part (1e-15 m) tightens it in proportion.
   double closing = 0, all_max = 0;
   for (int a = 0; a < na; ++a) {
-    closing = std::max(closing, d.fe_delta[a]);
-    all_max = std::max(all_max, std::fabs(d.fe_delta[a]));
+    closing = std::max(closing, d.dense_delta[a]);
+    all_max = std::max(all_max, std::fabs(d.dense_delta[a]));
   }
   double rel = kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-15);
   // Level 4 (tooth coupling): model.solver_tolerance as the separable solve of the uncoupled
   // levels reads it, relative to its default 1e-10 m, down to the rounding floor of the gap
   // (directional derivatives are compared with finite differences at a 1e-15 m tolerance)
-  if (m.params.stiffness_level != GM_STIFFNESS_FE) {
+  if (!m.level.database) {
     rel = std::max(1e-14, kNlcpRelativeTolerance * std::min(1.0, m.params.solver_tolerance / 1e-10));
     opt.tolerance = std::min(1e-15, 1e-3 * m.params.solver_tolerance);
   }
   opt.relative_tolerance = all_max > 0 && closing > 0 ? rel * closing / all_max : rel;
   opt.max_iterations = m.params.solver_max_iterations;
   // level 4: no factorization carried over from the previous call (history independence)
-  opt.reuse_tangent = m.params.stiffness_level == GM_STIFFNESS_FE;
+  opt.reuse_tangent = m.level.database;
   // C is symmetric by construction (FeAssembly and coupled_assemble mirror every entry)
   opt.check_symmetry = false;
   d.nlcp->set_options(opt);
@@ -146,32 +148,32 @@ void fe_set_options(const gm_model& m, gm_data& d, int na) {
 
 // Quasi-static at zero load: the rigid approach at which the first slice a positive load would
 // close touches; no force.
-double fe_touch_lambda(gm_data& d, int na) {
+double dense_touch_lambda(gm_data& d, int na) {
   double lambda = std::numeric_limits<double>::infinity();
   for (int a = 0; a < na; ++a)
-    if (d.fe_weights[a] > 0) lambda = std::min(lambda, -d.fe_delta[a] / d.fe_weights[a]);
+    if (d.dense_weights[a] > 0) lambda = std::min(lambda, -d.dense_delta[a] / d.dense_weights[a]);
   if (!std::isfinite(lambda)) lambda = 0;
-  d.fe_force.head(na).setZero();
+  d.dense_force.head(na).setZero();
   return lambda;
 }
 
 // Quasi-static under load: w^T F = total with w = sign(load) te_gain; the balance b (with
 // friction) differs from w, so total is rescaled until sum b_i F_i = load. out.lambda is the
 // rigid approach.
-NlcpResult fe_solve_balanced(gm_data& d, int na, double load, ForceSolve& out) {
-  const auto Cn = d.fe_compliance.topLeftCorner(na, na);
+NlcpResult dense_solve_balanced(gm_data& d, int na, double load, ForceSolve& out) {
+  const auto Cn = d.dense_c.topLeftCorner(na, na);
   const double sgn = load > 0 ? 1.0 : -1.0;
-  d.fe_weights.head(na) *= sgn;
+  d.dense_weights.head(na) *= sgn;
   double total = std::fabs(load), lambda = 0;
   NlcpResult res;
   for (int outer = 0; outer < 30; ++outer) {
     lambda = 0;
-    res = d.nlcp->solve_total(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_weights.head(na),
-                              total, d.fe_force.head(na), lambda);
+    res = d.nlcp->solve_total(Cn, d.dense_delta.head(na), d.dense_laws.data(), d.dense_weights.head(na),
+                              total, d.dense_force.head(na), lambda);
     out.iterations += res.iterations;
     if (res.status != NlcpStatus::converged) break;
     double bal = 0;
-    for (int a = 0; a < na; ++a) bal += d.balance[d.fe_index[a]] * d.fe_force[a];
+    for (int a = 0; a < na; ++a) bal += d.balance[d.dense_index[a]] * d.dense_force[a];
     if (!(bal * sgn > 0)) break;
     if (std::fabs(bal - load) <= 1e-12 * std::fabs(load)) break;
     total *= load / bal;
@@ -181,25 +183,25 @@ NlcpResult fe_solve_balanced(gm_data& d, int na, double load, ForceSolve& out) {
 }
 
 // Level 4 quasi-static at zero load on a wedged mesh (a flank overlaps at the touch position
-// lambda_0 of fe_touch_lambda, so no free position exists): the preloaded balance
+// lambda_0 of dense_touch_lambda, so no free position exists): the preloaded balance
 // sum_i b_i F_i(Delta + lambda w) = 0 (w = te_gain), increasing in lambda, bracketed by lambda_0
 // (no flank-A force: the sum is < 0) and the lambda where every flank-B slice opens (>= 0);
-// Illinois regula falsi over plain coupled solves. d.fe_delta holds Delta + lambda w on return;
+// Illinois regula falsi over plain coupled solves. d.dense_delta holds Delta + lambda w on return;
 // out.lambda is lambda.
-NlcpResult fe_solve_wedged(gm_data& d, int na, double lambda0, ForceSolve& out) {
-  const auto Cn = d.fe_compliance.topLeftCorner(na, na);
-  auto base = d.fe_work.head(na);
-  base = d.fe_delta.head(na);
+NlcpResult dense_solve_wedged(gm_data& d, int na, double lambda0, ForceSolve& out) {
+  const auto Cn = d.dense_c.topLeftCorner(na, na);
+  auto base = d.dense_work.head(na);
+  base = d.dense_delta.head(na);
   double hi = lambda0;
   for (int a = 0; a < na; ++a)
-    if (d.fe_weights[a] < 0) hi = std::max(hi, -base[a] / d.fe_weights[a]);
+    if (d.dense_weights[a] < 0) hi = std::max(hi, -base[a] / d.dense_weights[a]);
   NlcpResult res;
   const auto balance_at = [&](double lambda) {
-    for (int a = 0; a < na; ++a) d.fe_delta[a] = base[a] + lambda * d.fe_weights[a];
-    res = d.nlcp->solve(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_force.head(na));
+    for (int a = 0; a < na; ++a) d.dense_delta[a] = base[a] + lambda * d.dense_weights[a];
+    res = d.nlcp->solve(Cn, d.dense_delta.head(na), d.dense_laws.data(), d.dense_force.head(na));
     out.iterations += res.iterations;
     double bal = 0;
-    for (int a = 0; a < na; ++a) bal += d.balance[d.fe_index[a]] * d.fe_force[a];
+    for (int a = 0; a < na; ++a) bal += d.balance[d.dense_index[a]] * d.dense_force[a];
     return bal;
   };
   double lo = lambda0, f_lo = balance_at(lo), f_hi = balance_at(hi), lambda = hi, f = f_hi;
@@ -228,77 +230,77 @@ NlcpResult fe_solve_wedged(gm_data& d, int na, double lambda0, ForceSolve& out) 
 // Forces, and (tangent) each loaded slice's tangent stiffness: row sums of
 // (C_AA + diag f'_A)^-1, so that their sum is the mesh stiffness under a uniform approach.
 // Without: the solve's last factorization is kept for the next solve instead, where it has one.
-void fe_store(gm_data& d, int na, bool tangent) {
-  const auto Cn = d.fe_compliance.topLeftCorner(na, na);
-  if (!tangent && d.nlcp->keep_last_factorization(d.fe_force.head(na)))
-    d.fe_work.head(na).setZero();
+void dense_store(gm_data& d, int na, bool tangent) {
+  const auto Cn = d.dense_c.topLeftCorner(na, na);
+  if (!tangent && d.nlcp->keep_last_factorization(d.dense_force.head(na)))
+    d.dense_work.head(na).setZero();
   else
-    d.nlcp->loaded_row_sums(Cn, d.fe_force.head(na), d.fe_work.head(na));
+    d.nlcp->loaded_row_sums(Cn, d.dense_force.head(na), d.dense_work.head(na));
   // U = sum_i [F_i (Delta_i + f_i)/2 - P_i] (resultants.hpp, elastic_energy) from the laws the
   // solve holds at its answer, at the final approaches
   double energy = 0;
   for (int a = 0; a < na; ++a) {
-    const int i = d.fe_index[a];
-    const double F = d.fe_force[a];
+    const int i = d.dense_index[a];
+    const double F = d.dense_force[a];
     d.forces[i] = F;
-    d.slice_stiffness[i] = d.fe_work[a];
+    d.slice_stiffness[i] = d.dense_work[a];
     if (F > 0) {
       const LocalLawJet& law = d.nlcp->law_at_answer(a);
       energy += 0.5 * F * (d.approach[i] + law.approach) - law.energy;
     }
   }
-  d.fe_energy = energy;
+  d.dense_energy = energy;
 }
 
 }  // namespace
 
-ForceSolve fe_solve(const gm_model& m, gm_data& d, const ForceProblem& p) {
+ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p) {
   const gm_kinematics& kin = *p.pose;
   const int n = p.n;
   const bool all = p.all, quasi = p.quasi;
   const double load = p.load;
   ForceSolve out;
   const ContactSlice* S = d.slices.data();
-  int na = fe_select(d, n, all);
+  int na = dense_select(d, n, all);
   if (na == 0) {
     if (quasi) {  // no candidate: nothing to balance
       out.converged = false;
       out.message = "no candidate slice to carry the load";
     }
-    d.fe_prev_n = 0;
+    d.dense_prev_n = 0;
     return out;
   }
-  const int flank = quasi && load != 0 && m.params.stiffness_level == GM_STIFFNESS_FE
-                        ? fe_loaded_flank(d, na, load)
+  const int flank = quasi && load != 0 && m.level.database
+                        ? dense_loaded_flank(d, na, load)
                         : 0;
-  fe_gather(m, d, kin, na);
-  fe_set_options(m, d, na);
+  dense_gather(m, d, kin, na);
+  dense_set_options(m, d, na);
   NlcpResult res;
   if (!quasi) {
-    const auto Cn = d.fe_compliance.topLeftCorner(na, na);
-    res = d.nlcp->solve(Cn, d.fe_delta.head(na), d.fe_laws.data(), d.fe_force.head(na));
+    const auto Cn = d.dense_c.topLeftCorner(na, na);
+    res = d.nlcp->solve(Cn, d.dense_delta.head(na), d.dense_laws.data(), d.dense_force.head(na));
     out.iterations = res.iterations;
   } else if (load == 0) {
-    out.lambda = fe_touch_lambda(d, na);
+    out.lambda = dense_touch_lambda(d, na);
     bool wedged = false;  // level 4: a flank overlaps at the touch position
-    for (int a = 0; a < na && m.params.stiffness_level != GM_STIFFNESS_FE; ++a)
-      wedged = wedged || d.fe_delta[a] + out.lambda * d.fe_weights[a] > 0;
+    for (int a = 0; a < na && !m.level.database; ++a)
+      wedged = wedged || d.dense_delta[a] + out.lambda * d.dense_weights[a] > 0;
     if (!wedged) {
       for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
       return out;
     }
-    res = fe_solve_wedged(d, na, out.lambda, out);
+    res = dense_solve_wedged(d, na, out.lambda, out);
     for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
   } else {
-    res = fe_solve_balanced(d, na, load, out);
+    res = dense_solve_balanced(d, na, load, out);
     for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
-    if (flank != 0 && res.status == NlcpStatus::converged && !fe_others_open(d, n, flank)) {
+    if (flank != 0 && res.status == NlcpStatus::converged && !dense_others_open(d, n, flank)) {
       // the other flank closes (wedging): solve over every candidate
       for (int i = 0; i < n; ++i) d.approach[i] = S[i].approach;
-      na = fe_select(d, n, all);
-      fe_gather(m, d, kin, na);
-      fe_set_options(m, d, na);
-      res = fe_solve_balanced(d, na, load, out);
+      na = dense_select(d, n, all);
+      dense_gather(m, d, kin, na);
+      dense_set_options(m, d, na);
+      res = dense_solve_balanced(d, na, load, out);
       for (int i = 0; i < n; ++i) d.approach[i] += out.lambda * S[i].te_gain;
     }
   }
@@ -306,11 +308,11 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const ForceProblem& p) {
   if (res.status != NlcpStatus::converged) {
     out.converged = false;
     out.message = res.message && *res.message ? res.message
-                                               : "level 5 (FE): the coupled force solve did not "
-                                                 "converge; raise solver.max_iterations";
+                                              : "level 5 (FE): the coupled force solve did not "
+                                                "converge; raise solver.max_iterations";
     return out;
   }
-  fe_store(d, na, !(quasi && std::fabs(out.lambda) > p.next_pass_above));
+  dense_store(d, na, !(quasi && std::fabs(out.lambda) > p.next_pass_above));
   return out;
 }
 
@@ -322,7 +324,7 @@ ForceSolve fe_solve(const gm_model& m, gm_data& d, const ForceProblem& p) {
 // pass loop's tolerance), reached with fewer solver iterations and passes.
 double predicted_te(gm_data& d, double phi, double load_torque) {
   gm_data::TeHistory& h = d.te_history;
-  if (d.fe_prev_n < 0) h.n = 0;  // reset or restored state: cold
+  if (d.dense_prev_n < 0) h.n = 0;  // reset or restored state: cold
   if (h.n < 2 || h.load[0] != load_torque || h.load[1] != load_torque) return d.te_estimate;
   const double step = h.phi[0] - h.phi[1];
   if (step == 0 || std::fabs(phi - h.phi[0]) > 2 * std::fabs(step)) return d.te_estimate;
