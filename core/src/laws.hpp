@@ -30,7 +30,7 @@ inline Dual tooth_contact_depth_s(const ToothSection& s, const Dual& rho) {
 }  // namespace laws_detail
 
 // Per-slice compliance laws along the normal (docs/physics.md §5), for the level `Level`
-// (core/src/levels/). A linear level: its pair stiffness k', k' L / cos^2(beta_b). A tooth law
+// (core/src/level<k>_<name>.hpp). A linear level: its pair stiffness k', k' L / cos^2(beta_b). A tooth law
 // (levels 4, 5): both teeth's Weber/Sainsot compliance (per unit face width on the transverse line
 // of action; level 5: none, its coupled C is the databases') plus the exact local Hertz law of
 // docs/physics.md §4 over the contact line L / cos(beta_b), its approach referred to each tooth's

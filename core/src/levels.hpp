@@ -1,4 +1,4 @@
-// The stiffness levels (docs/design.md, "Add a level"): one file each in core/src/levels/, and
+// The stiffness levels (docs/design.md, "Add a level"): one file each, core/src/level<k>_<name>.hpp, and
 // the one dispatch point from model.stiffness to them. Static: the level's struct is a type, so
 // that its law inlines into the laws stage over double and dual numbers alike.
 #pragma once
@@ -6,12 +6,12 @@
 #include <string>
 #include <type_traits>
 
-#include "levels/level0_user_constant.hpp"
-#include "levels/level1_user_table.hpp"
-#include "levels/level2_iso6336.hpp"
-#include "levels/level3_contact_line.hpp"
-#include "levels/level4_analytical.hpp"
-#include "levels/level5_fe.hpp"
+#include "level0_user_constant.hpp"
+#include "level1_user_table.hpp"
+#include "level2_iso6336.hpp"
+#include "level3_contact_line.hpp"
+#include "level4_analytical.hpp"
+#include "level5_fe.hpp"
 
 namespace gm {
 

@@ -25,7 +25,7 @@
 
 namespace gm {
 
-// What the stages need to know of the stiffness level (its file in core/src/levels/, levels.hpp):
+// What the stages need to know of the stiffness level (its file core/src/level<k>_<name>.hpp, levels.hpp):
 // its traits, copied into the model at creation, so that no stage tests the level's number.
 struct LevelTraits {
   int id = 0;                 // gm_stiffness_level

@@ -6,7 +6,7 @@
 
 #include <string>
 
-#include "../model.hpp"
+#include "model.hpp"
 
 namespace gm {
 

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <string>
 
-#include "../model.hpp"
+#include "model.hpp"
 
 namespace gm {
 

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "../model.hpp"
+#include "model.hpp"
 
 namespace gm {
 
