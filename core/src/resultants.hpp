@@ -14,6 +14,12 @@
 
 namespace gm {
 
+// What a build adds to resultants() for its added outputs (the recipe's test, tests/recipe/): per
+// loaded slice, r the result, F its normal force after damping, s the slice.
+#ifndef GM_RESULTANTS_EXTRA
+#define GM_RESULTANTS_EXTRA(r, F, s)
+#endif
+
 // The outputs resultants() computes (the RESULTANT rows of gearmesh/outputs.h): the Real ones over
 // a scalar type T (double, or Dual for the derivative), the Integer ones as int.
 #define GM_RESULT_T_TYPE_Real(T) T
@@ -155,6 +161,7 @@ void resultants(const gm_model& m, gm_data& d, const K& kin, int n, ResultT<T>& 
     mom[1] += (s.point - c[1]).cross(on2);
     mom[0] -= (s.point - c[0]).cross(on2);
     r.normal_force += F;
+    GM_RESULTANTS_EXTRA(r, F, s);  // a build's added outputs (outputs.h, GM_OUTPUTS_EXTRA)
     r.stiffness += slice_stiffness[i] * cb2;  // along the transverse line of action
     r.flank |= s.flank > 0 ? 1 : 2;
     r.max_line_load = fmax(r.max_line_load, T(F / s.width));

@@ -23,6 +23,11 @@
 #ifndef GEARMESH_OUTPUTS_H
 #define GEARMESH_OUTPUTS_H
 
+/* Rows a build adds (the test of docs/design.md's "Add an output" recipe, tests/recipe/). */
+#ifndef GM_OUTPUTS_EXTRA
+#define GM_OUTPUTS_EXTRA(X, A)
+#endif
+
 #define GM_OUTPUTS(X, A)                                                                                           \
   X(A, force, Real, GEAR_AXES, RESULTANT, "f", "N", "kN", 0, 0, GM_NO_RANGE, CONTACT, "contact force on the gear") \
   X(A, moment, Real, GEAR_AXES, RESULTANT, "m", "N.m", "", 0, 0, GM_NO_RANGE, CONTACT,                            \
@@ -56,7 +61,8 @@
   X(A, elastic_energy, Real, SCALAR, RESULTANT, "mesh.elastic_energy", "J", "", 0, 0, GM_NO_RANGE, TE,            \
     "elastic energy stored in the loaded slices")                                                                 \
   X(A, damping_power, Real, SCALAR, RESULTANT, "mesh.damping_power", "W", "", 0, 0, GM_NO_RANGE, CONTACT,         \
-    "power dissipated by the contact damping")
+    "power dissipated by the contact damping")                                                                    \
+  GM_OUTPUTS_EXTRA(X, A)
 
 /* A row as a member of a C struct (gm_result). */
 #define GM_OUTPUT_CTYPE_Real double
