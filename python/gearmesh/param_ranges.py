@@ -1,5 +1,6 @@
 """The FMU parameters' ranges as the FMU declares them: min and max in its modelDescription.xml,
-written from the core's one range table (core/src/param_ranges.cpp) that the binary enforces.
+written from the core's parameter table (core/include/gearmesh/parameters.h), whose ranges the
+binary enforces.
 Open bounds, which FMI 2.0 cannot state, are marked in the model's vendor annotation
 <Tool name="GearMesh"><Ranges><Range variable="..." minExclusive="true" .../>
 (modelDescription/generate_model_description.c).

@@ -176,8 +176,8 @@ def fmu_variables_page(root: ET.Element) -> str:
         groups.setdefault(_prefix(v.name), []).append(v)
     out = [_generated("the generic FMU's modelDescription.xml (build/GearMesh.fmu, written by "
                       "modelDescription/generate_model_description.c from modelDescription/"
-                      "variables.h, the core's gm_default_params and its range table "
-                      "core/src/param_ranges.cpp)"),
+                      "variables.h, the core's gm_default_params and its parameter and output "
+                      "tables core/include/gearmesh/parameters.h, outputs.h)"),
            "# FMU variables\n",
            f"Every variable of the generic `GearMesh.fmu` ({len(all_vars)} in all), grouped by the "
            "prefix of its name; within a group parameters, calculated parameters, inputs and "
