@@ -432,8 +432,9 @@ static void put_type_definitions(FILE* f) {
 /* The value reference of the structural parameter named by dimension length GM_FMU_DIM_SLICES. */
 static size_t slices_vr(void) {
   for (size_t i = 0; i < N_VARIABLES; i++)
-    if (strcmp(gm_fmu_variables[i].name, "model.slices") == 0 && gm_fmu_structural("model.slices")) return i;
-  fail("no structural parameter model.slices for the arrays' dimensions", "model.slices");
+    if (gm_fmu_variables[i].offset == offsetof(gm_fmu_values, p.slices) && gm_fmu_structural(gm_fmu_variables[i].name))
+      return i;
+  fail("no structural parameter bound to p.slices for the arrays' dimensions", "GM_FMU_DIM_SLICES");
   return 0;
 }
 

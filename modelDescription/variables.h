@@ -385,10 +385,10 @@ _Static_assert(GM_MESH_ORDERS == 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3")
   X("dynamics.rejected", Integer, output, discrete, calculated, "", "", ds.rejected, 0,                    \
     "large-step mode: internal steps rejected in the last fmi2DoStep (error, Newton, contact changes)")
 
-/* The structural parameters: what the arrays' dimensions are (FMI 3.0 declares them as UInt64
- * structuralParameter, settable in Configuration Mode and, like every fixed parameter, before
- * initialization; FMI 2.0 as the Integer parameters they are in the table). */
-#define GM_FMU_STRUCTURAL(S) S("model.slices")
+/* The structural parameters (GM_PARAM_STRUCTURAL rows of gearmesh/parameters.h): what the arrays'
+ * dimensions are (FMI 3.0 declares them as UInt64 structuralParameter, settable in Configuration
+ * Mode and, like every fixed parameter, before initialization; FMI 2.0 as the Integer parameters
+ * they are in the table). */
 
 /* The arrays: Real variables with one or two dimensions, each GM_FMU_DIM_SLICES (model.slices)
  * or a constant: name, causality, variability, initial, unit, display unit, dimensions (0: none),
@@ -470,12 +470,10 @@ static inline size_t gm_fmu_array_length(const gm_fmu_array* a, int slices) {
   return gm_fmu_array_dim(a, 0, slices) * gm_fmu_array_dim(a, 1, slices);
 }
 
-/* 1 if the variable is a structural parameter (GM_FMU_STRUCTURAL). */
+/* 1 if the variable is a structural parameter. */
 static inline int gm_fmu_structural(const char* name) {
-#define GM_FMU_IS_STRUCTURAL(n) if (strcmp(name, n) == 0) return 1;
-  GM_FMU_STRUCTURAL(GM_FMU_IS_STRUCTURAL)
-#undef GM_FMU_IS_STRUCTURAL
-  return 0;
+  const gm_param_info* r = gm_parameter_find(name);
+  return r && (r->flags & GM_PARAM_STRUCTURAL);
 }
 
 /* 1 if the field at `offset` lies in gm_fmu_values' member [member_offset, + size). */

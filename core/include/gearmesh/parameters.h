@@ -52,10 +52,12 @@ enum { GM_GROUP_GEOMETRY = 1,
 
 /* Flags: BODY, compliance_tool reads it (the gear body and its validation); FILE, a String naming
  * a file (read at gm_model_create; the FMU's resources/); FLANK, a flank modification bound to
- * flank A's field (gm_model_create checks flank B's alike; the FMU gives flank B flank A's). */
+ * flank A's field (gm_model_create checks flank B's alike; the FMU gives flank B flank A's);
+ * STRUCTURAL, it sets the dimensions of the FMU's arrays (FMI 3.0 structural parameter). */
 enum { GM_PARAM_BODY = 1,
        GM_PARAM_FILE = 2,
-       GM_PARAM_FLANK = 4 };
+       GM_PARAM_FLANK = 4,
+       GM_PARAM_STRUCTURAL = 8 };
 
 /* Where a row's value lives: MODEL, in gm_model_params; DYNAMICS, in gm_dynamics_params; HOST, a
  * setting of the program that runs the core (the FMU: the mode switch and the large-step mesh
@@ -183,8 +185,9 @@ enum { GM_PARAM_BODY = 1,
     GM_GROUP_SETTING, GM_PARAM_FILE,                                                                              \
     "any level: file name of a TE excitation table (over gear 1's angle within one pitch; opens both flanks by "  \
     "it) inside the FMU's resources/ folder, \"\" = none; relative, without \"..\" or backslashes")              \
-  X(A, "model.slices", parameter, Integer, MODEL, slices, "", "", 1, GM_MAX_SLICES, GM_CLOSED, GM_ALL_LEVELS, GM_ALL_MODES,    \
-    GM_GROUP_SETTING, 0, "slices across the axial overlap")                                                       \
+  X(A, "model.slices", parameter, Integer, MODEL, slices, "", "", 1, GM_MAX_SLICES, GM_CLOSED, GM_ALL_LEVELS,    \
+    GM_ALL_MODES, GM_GROUP_SETTING, GM_PARAM_STRUCTURAL,                                                          \
+    "slices across the axial overlap")                                                       \
   X(A, "model.coupled_teeth", parameter, Integer, MODEL, coupled_teeth, "", "", 0, 10, GM_CLOSED,                    \
     GM_LEVEL(4) | GM_LEVEL(5), GM_ALL_MODES, GM_GROUP_SETTING, GM_PARAM_BODY,                                     \
     "levels 4 and 5: neighbouring teeth coupled on each side (level 4: at most 3, 0 = uncoupled)")                \
