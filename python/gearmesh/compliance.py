@@ -27,14 +27,13 @@ import time
 from collections import deque
 from dataclasses import dataclass
 
+from gearmesh.levels import Level
+from gearmesh.param_ranges import parameter_use
 from gearmesh.paths import Paths
 from gearmesh.scene import BODY_SCHEMA, FE_SCHEMA, SCHEMA, Scene
 
 TOOL_ENV = "GEARMESH_COMPLIANCE_TOOL"
 CACHE_ENV = "GEARMESH_COMPLIANCE_CACHE"
-# FMU parameters the tool reads (the body and its validation); the rest does not change the body.
-_GEAR_BODY_PARAMETERS = ("teeth", "profile_shift", "face_width", "tip_diameter",
-                         "thickness_allowance", "axial_offset", "youngs_modulus", "poisson_ratio")
 _SUMMARY = re.compile(r"^compliance_tool:\s+(nodes=.*)$")
 
 
@@ -88,20 +87,16 @@ def tool_hash(tool: pathlib.Path) -> str:
 
 def needs_build(scene: Scene) -> list[int]:
     """The gears whose database the tool has to make (level 5, no prebuilt compliance_file)."""
-    if scene.parameters.get("model.stiffness", 0) != 5:
+    if scene.parameters.get("model.stiffness", 0) != Level.FE:
         return []
     return [i for i in (1, 2) if f"gear{i}.compliance" not in scene.parameters]
 
 
 def _body_parameters(scene: Scene) -> dict:
-    """The scene's FMU parameters that the tool reads (pair.*, the gears' body, coupled teeth)."""
-    keep = {}
-    for name, value in scene.parameters.items():
-        section, _, field = name.partition(".")
-        if section == "pair" or name == "model.coupled_teeth" or (
-                section in ("gear1", "gear2") and field in _GEAR_BODY_PARAMETERS):
-            keep[name] = value
-    return keep
+    """The scene's FMU parameters that the tool reads (the parameter table's body flag: the pair,
+    the gears' body and material, coupled teeth); the rest does not change the body."""
+    use = parameter_use()
+    return {name: value for name, value in scene.parameters.items() if name in use and use[name].body}
 
 
 def tool_arguments(scene: Scene, gear: int, threads: int = 1) -> list[str]:

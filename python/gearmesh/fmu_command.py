@@ -8,6 +8,8 @@ from collections import Counter
 from collections.abc import Iterable
 
 from gearmesh import main_levels
+from gearmesh.levels import Level
+from gearmesh.param_ranges import parameter_use
 from gearmesh.scene import Scene
 from gearmesh.scene_fmu import array_variables, build_scene_fmu, model_variables
 from gearmesh.scene_interface import MODE_PARAMETERS, default_interface, listed_variables
@@ -19,13 +21,14 @@ def write_scene_fmu(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path,
     the one its mounting calls for); returns the interface and the names it lists. At level 5
     the compliance databases are built (cached) and shipped; at other levels no database is."""
     level = scene.parameters.get("model.stiffness", 0)
-    if level == 5:
+    if level == Level.FE:
         scene = main_levels.scene_at_level(scene, 5)
     mode = scene.fmu.get("mode")
     fixed = {**scene.parameters, **(MODE_PARAMETERS[mode] if mode else {})}
     interface = interface or scene.fmu.get("interface") or default_interface(fixed, scene.bearing_motion)
     listed = listed_variables(causalities(generic_fmu), fixed, interface, [*scene.fmu.get("tunable", []), *tunable],
-                              scene.fmu.get("outputs", []), arrays=set(offered_arrays(generic_fmu)))
+                              scene.fmu.get("outputs", []), arrays=set(offered_arrays(generic_fmu)),
+                              use=parameter_use(generic_fmu))
     build_scene_fmu(generic_fmu, fixed, scene.resources, out, listed)
     return interface, listed
 

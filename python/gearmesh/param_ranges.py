@@ -1,6 +1,7 @@
 """The FMU parameters' ranges as the FMU declares them: min and max in its modelDescription.xml,
 written from the core's parameter table (core/include/gearmesh/parameters.h), whose ranges the
-binary enforces.
+binary enforces; and what reads each parameter (parameter_use: the levels and modes, the gear
+body, a file), from the same table through the model's <Tool name="GearMesh.parameters">.
 Open bounds, which FMI 2.0 cannot state, are marked in the model's vendor annotation
 <Tool name="GearMesh"><Ranges><Range variable="..." minExclusive="true" .../>
 (modelDescription/generate_model_description.c).
@@ -68,6 +69,50 @@ def open_bounds(root: ET.Element) -> dict[str, dict[str, str]]:
     <VendorAnnotations><Tool name="GearMesh"><Ranges><Range variable=...> (generate_model_description.c)."""
     return {r.get("variable"): dict(r.attrib)
             for r in root.findall("VendorAnnotations/Tool[@name='GearMesh']/Ranges/Range")}
+
+
+@dataclass(frozen=True)
+class Use:
+    """What reads a parameter (gearmesh/parameters.h): the stiffness levels and the modes
+    (prescribed, quasi_static, large_step; None: all), whether compliance_tool reads it for the
+    gear body, whether it names a file."""
+    levels: frozenset[int] | None = None
+    modes: frozenset[str] | None = None
+    body: bool = False
+    file: bool = False
+
+    def read(self, level: int | None, modes) -> bool:
+        """Whether a scene at `level` (None: not fixed) running in `modes` reads it."""
+        if self.levels is not None and level is not None and level not in self.levels:
+            return False
+        return self.modes is None or any(m in self.modes for m in modes)
+
+
+def parameter_use(fmu: pathlib.Path | str | None = None) -> Mapping[str, Use]:
+    """FMU parameter name -> its Use, for every parameter the table marks (the others: Use()).
+    An FMI 3.0 FMU carries no vendor annotations (docs/fmi.md): its use is that of the FMI 2.0
+    default_fmu() built from the same table."""
+    path = pathlib.Path(fmu) if fmu is not None else default_fmu()
+    stat = path.stat()
+    out = _read_use(str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    if out is None:
+        return parameter_use(default_fmu())
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _read_use(path: str, mtime_ns: int, size: int) -> Mapping[str, Use] | None:
+    with zipfile.ZipFile(path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    if root.get("fmiVersion", "").startswith("3"):
+        return None
+    out = {}
+    for p in root.findall("VendorAnnotations/Tool[@name='GearMesh.parameters']/Parameters/Parameter"):
+        levels, modes = p.get("levels"), p.get("modes")
+        out[p.get("variable")] = Use(frozenset(int(x) for x in levels.split()) if levels else None,
+                                     frozenset(modes.split()) if modes else None,
+                                     p.get("body") == "true", p.get("file") == "true")
+    return types.MappingProxyType(out)
 
 
 @functools.lru_cache(maxsize=8)

@@ -20,6 +20,7 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 
+from gearmesh.levels import Level
 from gearmesh.param_ranges import Range, fmu_ranges
 
 
@@ -307,10 +308,10 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
             scene.parameters[spec.variable] = value
     level = scene.parameters.get("model.stiffness", 0)
     has_table = "model.stiffness_table" in scene.parameters
-    if level == 1 and not has_table:
+    if level == Level.USER_TABLE and not has_table:
         raise SceneError("model.stiffness_level = 1 (user tables) takes the pair stiffness from "
                          "model.stiffness_table_file; allowed: give that file, or another level")
-    if has_table and level != 1:
+    if has_table and level != Level.USER_TABLE:
         raise SceneError(f"model.stiffness_table_file: used at model.stiffness_level = 1 only, "
                          f"this scene has {level}; allowed: level 1, or no stiffness table")
     fe = _table("fe", raw.get("fe", {}))
@@ -490,13 +491,13 @@ def _check_fe_level(scene: Scene, level: int) -> None:
     """Body and FE tables are inputs of the FE level only; refused elsewhere (nothing unused)."""
     fe_keys = [f"gear{i}.body" for i in sorted(scene.bodies)] + (["fe"] if scene.fe else [])
     coupled = scene.parameters.get("model.coupled_teeth")
-    if coupled is not None and level not in (4, 5):
+    if coupled is not None and level not in (Level.ANALYTICAL, Level.FE):
         raise SceneError(f"model.coupled_teeth: an input of levels 4 and 5 (model.stiffness_level), "
                          f"this scene has {level}; allowed: level 4 or 5, or leave it out")
-    if coupled is not None and level == 4 and coupled > 3:
+    if coupled is not None and level == Level.ANALYTICAL and coupled > 3:
         raise SceneError(f"model.coupled_teeth = {coupled}: level 4 couples at most 3 teeth each side "
                          "(its fitted table); allowed range [0, 3]")
-    if level != 5:
+    if level != Level.FE:
         if fe_keys:
             raise SceneError(f"{fe_keys[0]}: an input of the FE level (model.stiffness_level = 5) "
                              f"only, this scene has {level}; allowed: level 5, or leave it out")

@@ -26,6 +26,8 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping
 
+from gearmesh.param_ranges import Use
+
 INTERFACES = ("torsional", "planar", "full")
 MODES = ("prescribed", "quasi_static", "large_step")  # scene [fmu] mode -> the FMU's switches
 MODE_PARAMETERS = {"prescribed": {"model.quasi_static": False, "model.dynamics": 0},
@@ -61,14 +63,6 @@ PLANAR_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("ux", "uy", "vx", "vy")
 PLANAR_OUTPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("fx", "fy", "fx_mean", "fy_mean")]
 OUT_OF_PLANE_INPUTS = [f"gear{i}.{x}" for i in GEARS for x in ("uz", "rx", "ry")]  # misalignment
 
-# parameters read at some stiffness levels only (model.stiffness)
-LEVEL_PARAMETERS = {"model.user_stiffness": {0}, "model.stiffness_table": {1},
-                    "model.rated_line_load": {2}, "model.coupled_teeth": {4, 5},
-                    "gear1.compliance": {5}, "gear2.compliance": {5}}
-# parameters of the large-step mode only
-LARGE_STEP_PARAMETERS = {f"gear{i}.{x}" for i in GEARS for x in ("inertia", "shaft_stiffness", "shaft_damping")} \
-    | {"dynamics.tolerance", "dynamics.max_step", "dynamics.min_step", "dynamics.step_sensitivities",
-       "dynamics.mesh_damping_ratio", "dynamics.order_cycles"}
 
 
 class InterfaceError(ValueError):
@@ -92,11 +86,14 @@ def scene_modes(fixed: Mapping[str, object]) -> list[str]:
 
 
 def listed_variables(variables: Mapping[str, str], fixed: Mapping[str, object], interface: str,
-                     tunable: Iterable[str] = (), outputs: Iterable[str] = (), arrays: Iterable[str] = ()) -> set[str]:
+                     tunable: Iterable[str] = (), outputs: Iterable[str] = (), arrays: Iterable[str] = (),
+                     use: Mapping[str, Use] | None = None) -> set[str]:
     """The names the scene FMU lists. `variables`: name -> causality of the generic FMU's
     variables and arrays; `fixed`: what the scene sets (name -> value); `tunable`: set parameters
     kept listed; `outputs`: outputs and arrays listed besides the interface's; `arrays`: which of
-    `variables` are arrays (listed only when named in `outputs`)."""
+    `variables` are arrays (listed only when named in `outputs`); `use`: what reads each parameter
+    (param_ranges.parameter_use of the generic FMU)."""
+    use = use or {}
     if interface not in INTERFACES:
         raise InterfaceError(f"interface {interface!r}: allowed: {', '.join(INTERFACES)}")
     tunable, asked, arrays = set(tunable), set(outputs), set(arrays)
@@ -129,7 +126,8 @@ def listed_variables(variables: Mapping[str, str], fixed: Mapping[str, object], 
         elif causality in wanted:
             keep = name in wanted[causality]
         elif causality == "parameter":
-            keep = name in tunable or (name not in fixed and _read(name, fixed, modes))
+            keep = name in tunable or (name not in fixed and use.get(name, Use()).read(fixed.get("model.stiffness"),
+                                                                                          modes))
         else:  # calculated parameters: the pair's geometry, always shown
             keep = True
         if keep:
@@ -139,16 +137,6 @@ def listed_variables(variables: Mapping[str, str], fixed: Mapping[str, object], 
         raise InterfaceError(f"{sorted(missing)[0]}: no such variable in the generic FMU (a "
                              "scene_interface table out of step with modelDescription/variables.h)")
     return listed
-
-
-def _read(name: str, fixed: Mapping[str, object], modes: list[str]) -> bool:
-    """Whether the scene's level and modes read the parameter."""
-    level = fixed.get("model.stiffness")
-    if name in LEVEL_PARAMETERS and level is not None and level not in LEVEL_PARAMETERS[name]:
-        return False
-    if name in LARGE_STEP_PARAMETERS and "large_step" not in modes:
-        return False
-    return True
 
 
 def restrict_model_description(xml: str, listed: set[str]) -> str:
