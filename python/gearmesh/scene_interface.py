@@ -181,10 +181,12 @@ def restrict_model_description(xml: str, listed: set[str]) -> str:
     for section in list(structure):
         if len(section) == 0:
             structure.remove(section)
-    for ranges in root.findall("VendorAnnotations/Tool[@name='GearMesh']/Ranges"):  # the listed variables' only
-        for rng in ranges.findall("Range"):
-            if rng.get("variable") not in listed:
-                ranges.remove(rng)
+    for path, tag in (("Tool[@name='GearMesh']/Ranges", "Range"),  # the listed variables' only
+                      ("Tool[@name='GearMesh.parameters']/Parameters", "Parameter")):
+        for group in root.findall("VendorAnnotations/" + path):
+            for el in group.findall(tag):
+                if el.get("variable") not in listed:
+                    group.remove(el)
     ET.indent(root, space="  ")
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
