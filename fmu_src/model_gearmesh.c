@@ -37,6 +37,7 @@ struct fmu_model {
   model_intermediate_fn intermediate;
   void* intermediate_context;
   double step_start, step_end;
+  gm_fmu_load saved_load; /* the arrays before that step, which a failed step restores */
   fmu_log_fn log;
   void* log_context;
 };
@@ -452,8 +453,7 @@ static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r)
   const gm_dynamics_state saved_ds = m->v.ds;
   const gm_result saved_y = m->v.y;
   const gm_fmu_ports saved_port = m->v.port;
-  gm_fmu_load* saved_load = m->intermediate ? malloc(sizeof *saved_load) : NULL;
-  if (saved_load) *saved_load = m->v.load;
+  if (m->intermediate) m->saved_load = m->v.load;
   const int saved_current = m->outputs_current;
   if (m->intermediate) {
     extra.observer = on_internal_step;
@@ -466,10 +466,9 @@ static gm_status core_step(fmu_model* m, int restart, double step, gm_result* r)
     m->v.ds = saved_ds;
     m->v.y = saved_y;
     m->v.port = saved_port;
-    if (saved_load) m->v.load = *saved_load;
+    m->v.load = m->saved_load;
     m->outputs_current = saved_current;
   }
-  free(saved_load);
   if (status == GM_OK && m->v.step_sensitivities) { /* a failed step changed nothing: the last one's stays */
     m->sens_valid = 1;
     m->sens_step = step;

@@ -141,6 +141,7 @@ static const char* open_note(const gm_param_range* r) {
 }
 
 static int depends(const gm_fmu_variable* u, const gm_fmu_variable* k, int initialization);
+static void put_units(FILE* f, const gm_fmu_variable* v);
 
 /* The value references of the knowns an unknown of dependency classes deps depends on. */
 static void put_dependency_refs(FILE* f, unsigned deps, int initialization) {
@@ -164,16 +165,8 @@ static void put_array_annotations(FILE* f) {
     put_escaped(f, v->name);
     fprintf(f, "\" elementBase=\"%u\" causality=\"%s\" variability=\"%s\" initial=\"%s\"",
             MODEL_ELEMENT_VR(a, 0), v->causality_name, v->variability, v->initial);
-    if (v->unit[0]) {
-      fputs(" unit=\"", f);
-      put_escaped(f, v->unit);
-      fputc('"', f);
-    }
-    if (v->display_unit[0]) {
-      fputs(" displayUnit=\"", f);
-      put_escaped(f, v->display_unit);
-      fputc('"', f);
-    }
+    const gm_fmu_variable units = {.unit = v->unit, .display_unit = v->display_unit};
+    put_units(f, &units);
     fputs(" dimensions=\"", f);
     for (int d = 0; d < 2 && v->dims[d]; d++) {
       if (d) fputc(' ', f);
