@@ -605,7 +605,7 @@ fmi3Status fmi3DoStep(fmi3Instance component, fmi3Float64 currentCommunicationPo
 
 /* ---- what co-simulation without event mode does not have -------------------------------- */
 
-/* Configuration Mode: the structural parameters (model.slices, which the arrays' dimensions
+/* Configuration Mode: the structural parameters (model.slices, dynamics.mesh_orders: the arrays' dimensions
  * name) are set there; also before initialization, as every fixed parameter. */
 fmi3Status fmi3EnterConfigurationMode(fmi3Instance component) {
   CHECK_MODE(FMI_INSTANTIATED);

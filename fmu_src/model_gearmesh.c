@@ -60,7 +60,7 @@ static const model_variable_info array_info[] = {
 };
 
 /* An array element's value reference (model.h, MODEL_ELEMENT_VR) within the largest its array
- * can be; model_array_length bounds it at the current model.slices. */
+ * can be; model_array_length bounds it at the current structural parameters. */
 static int element_vr(unsigned vr) {
   return vr >= MODEL_ELEMENT_VR_BASE && MODEL_ELEMENT_ARRAY(vr) < GM_FMU_ARRAY_COUNT &&
          MODEL_ELEMENT_INDEX(vr) < gm_fmu_arrays[MODEL_ELEMENT_ARRAY(vr)].capacity;
@@ -80,7 +80,7 @@ unsigned model_array_count(void) {
 }
 
 size_t model_array_length(const fmu_model* m, unsigned a) {
-  return a < GM_FMU_ARRAY_COUNT ? gm_fmu_array_length(&gm_fmu_arrays[a], m->v.p.slices) : 0;
+  return a < GM_FMU_ARRAY_COUNT ? gm_fmu_array_length(&gm_fmu_arrays[a], &m->v) : 0;
 }
 
 unsigned model_variable_count(void) {
@@ -88,7 +88,7 @@ unsigned model_variable_count(void) {
 }
 
 int model_variable_intermediate(unsigned vr) {
-  if (element_vr(vr)) return gm_fmu_arrays[MODEL_ELEMENT_ARRAY(vr)].causality == GM_FMU_output;
+  if (element_vr(vr)) return gm_fmu_array_intermediate(&gm_fmu_arrays[MODEL_ELEMENT_ARRAY(vr)]);
   return vr < GM_FMU_VARIABLE_COUNT && gm_fmu_follows_spins(&gm_fmu_variables[vr]);
 }
 

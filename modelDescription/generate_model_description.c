@@ -152,6 +152,14 @@ static void put_dependency_refs(FILE* f, unsigned deps, int initialization) {
     if (depends(&unknown, &gm_fmu_variables[j], initialization)) fprintf(f, "%s%zu", k++ ? " " : "", j);
 }
 
+/* The value reference of the structural parameter an array's dimension names (GM_FMU_DIM_*). */
+static size_t dim_vr(int dim) {
+  for (size_t i = 0; i < N_VARIABLES; i++)
+    if (gm_fmu_variables[i].offset == gm_fmu_dim_field(dim) && gm_fmu_structural(gm_fmu_variables[i].name)) return i;
+  fail("no structural parameter bound to the field an array's dimension names", "GM_FMU_DIM_*");
+  return 0;
+}
+
 /* FMI 2.0 has no arrays: the arrays (GM_FMU_ARRAYS) are described in <Tool name="GearMesh
  * arrays">, from which a scene FMU lists the elements it needs as Real ScalarVariables (value
  * references model.h's MODEL_ELEMENT_VR: elementBase + flat index; dimensions, a length or the
@@ -170,7 +178,7 @@ static void put_array_annotations(FILE* f) {
     fputs(" dimensions=\"", f);
     for (int d = 0; d < 2 && v->dims[d]; d++) {
       if (d) fputc(' ', f);
-      if (v->dims[d] == GM_FMU_DIM_SLICES) fputs("model.slices", f);
+      if (gm_fmu_dim_field(v->dims[d]) != (size_t)-1) put_escaped(f, gm_fmu_variables[dim_vr(v->dims[d])].name);
       else fprintf(f, "%d", v->dims[d]);
     }
     fputs("\"\n          dependencies=\"", f);
@@ -422,15 +430,6 @@ static void put_type_definitions(FILE* f) {
 #define N_ARRAYS GM_FMU_ARRAY_COUNT
 #define ARRAY_VR(a) ((size_t)N_VARIABLES + 1 + (a)) /* after `time` (model.h) */
 
-/* The value reference of the structural parameter named by dimension length GM_FMU_DIM_SLICES. */
-static size_t slices_vr(void) {
-  for (size_t i = 0; i < N_VARIABLES; i++)
-    if (gm_fmu_variables[i].offset == offsetof(gm_fmu_values, p.slices) && gm_fmu_structural(gm_fmu_variables[i].name))
-      return i;
-  fail("no structural parameter bound to p.slices for the arrays' dimensions", "GM_FMU_DIM_SLICES");
-  return 0;
-}
-
 /* FMI 3.0: the arrays (GM_FMU_ARRAYS), Float64 with their <Dimension>s, after `time`. */
 static void put_arrays3(FILE* f) {
   for (size_t a = 0; a < N_ARRAYS; a++) {
@@ -447,10 +446,11 @@ static void put_arrays3(FILE* f) {
       put_type_name(f, &units);
       fputc('"', f);
     }
-    if (v->causality == GM_FMU_output) fputs(" intermediateUpdate=\"true\"", f);
+    if (gm_fmu_array_intermediate(v)) fputs(" intermediateUpdate=\"true\"", f);
     fputs(">\n", f);
     for (int d = 0; d < 2 && v->dims[d]; d++) {
-      if (v->dims[d] == GM_FMU_DIM_SLICES) fprintf(f, "      <Dimension valueReference=\"%zu\"/>\n", slices_vr());
+      if (gm_fmu_dim_field(v->dims[d]) != (size_t)-1)
+        fprintf(f, "      <Dimension valueReference=\"%zu\"/>\n", dim_vr(v->dims[d]));
       else fprintf(f, "      <Dimension start=\"%d\"/>\n", v->dims[d]);
     }
     fputs("    </Float64>\n", f);

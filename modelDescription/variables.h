@@ -291,7 +291,7 @@ _Static_assert((int)D_GEO == (int)GM_GROUP_GEOMETRY && (int)D_SET == (int)GM_GRO
   GM_FMU_OUTPUT_AXIS(X, member, type, name, 2, 1, "y", unit, dunit, deps, desc)  \
   GM_FMU_OUTPUT_AXIS(X, member, type, name, 2, 2, "z", unit, dunit, deps, desc)
 
-/* Mesh order k (1 ... GM_MESH_ORDERS) of the TE and the normal force in the large-step mode
+/* Mesh order k (1 ... 3, the first three of dynamics.mesh_orders' arrays) of the TE and the normal force in the large-step mode
  * (gm_mesh_orders; docs/dynamics.md, "Mesh orders"). */
 #define GM_FMU_MESH_ORDER(X, k, n)                                                                                  \
   X("mesh.te_order" #k, Real, output, continuous, calculated, "m", "um", ds.orders.te_amplitude[n], 0,              \
@@ -303,7 +303,7 @@ _Static_assert((int)D_GEO == (int)GM_GROUP_GEOMETRY && (int)D_SET == (int)GM_GRO
   X("mesh.normal_force_order" #k "_phase", Real, output, continuous, calculated, "rad", "deg",                       \
     ds.orders.force_phase[n], 0, "large-step mode: its phase against gear 1's mesh angle")
 
-_Static_assert(GM_MESH_ORDERS == 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3");
+_Static_assert(GM_MESH_ORDERS_MAX >= 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3 as scalars");
 
 /* X(name, type, causality, variability, initial, unit, displayUnit, field of gm_fmu_values,
  *   dependency class, description). Value reference = position in this list: the parameters
@@ -390,12 +390,15 @@ _Static_assert(GM_MESH_ORDERS == 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3")
  * Mode and, like every fixed parameter, before initialization; FMI 2.0 as the Integer parameters
  * they are in the table). */
 
-/* The arrays: Real variables with one or two dimensions, each GM_FMU_DIM_SLICES (model.slices)
- * or a constant: name, causality, variability, initial, unit, display unit, dimensions (0: none),
- * bound field (an array of gm_fmu_values.load), dependency classes, description. FMI 3.0 declares
- * them as arrays with value references after `time`; FMI 2.0 has no arrays, and a scene FMU lists
- * the elements it needs as Real scalars (model.h, MODEL_ELEMENT_VR). */
+/* The arrays: Real variables with one or two dimensions, each a structural parameter
+ * (GM_FMU_DIM_SLICES: model.slices, GM_FMU_DIM_ORDERS: dynamics.mesh_orders) or a constant: name,
+ * causality, variability, initial, unit, display unit, dimensions (0: none), bound field (an array
+ * of gm_fmu_values), dependency classes, description. FMI 3.0 declares them as arrays with value
+ * references after `time`; FMI 2.0 has no arrays, and a scene FMU lists the elements it needs as
+ * Real scalars (model.h, MODEL_ELEMENT_VR). The load across the face (gm_fmu_values.load) is
+ * offered at intermediate updates; the mesh orders, which a whole step makes, are not. */
 #define GM_FMU_DIM_SLICES (-1)
+#define GM_FMU_DIM_ORDERS (-2)
 #define GM_FMU_ARRAYS(A)                                                                                          \
   A("mesh.slice_position", calculatedParameter, fixed, calculated, "m", "mm", GM_FMU_DIM_SLICES, 0,                \
     load.slice_position, D_AT_INIT(D_GEO),                                                                        \
@@ -411,7 +414,19 @@ _Static_assert(GM_MESH_ORDERS == 3, "GM_FMU_VARIABLES lists mesh orders 1 to 3")
   A("mesh.pair_position", output, continuous, calculated, "", "", GM_FMU_LOAD_PAIRS, 0, load.pair_position,         \
     D_CONTACT, "position of each loaded tooth pair on the path of contact: 0 at its start, 1 at its end")         \
   A("mesh.pair_approach", output, continuous, calculated, "m", "um", GM_FMU_LOAD_PAIRS, 0, load.pair_approach,      \
-    D_CONTACT, "largest normal approach of each loaded tooth pair's slices (its deflection where loaded)")
+    D_CONTACT, "largest normal approach of each loaded tooth pair's slices (its deflection where loaded)")         \
+  A("mesh.te_orders", output, continuous, calculated, "m", "um", GM_FMU_DIM_ORDERS, 0, ds.orders.te_amplitude, 0,    \
+    "large-step mode: amplitudes of mesh orders 1 ... dynamics.mesh_orders of mesh.te over the last "             \
+    "dynamics.order_cycles mesh cycles")                                                                          \
+  A("mesh.te_order_phases", output, continuous, calculated, "rad", "deg", GM_FMU_DIM_ORDERS, 0, ds.orders.te_phase,  \
+    0, "large-step mode: their phases against gear 1's mesh angle (te = mean + sum_k amplitude_k cos(k z1 phi1 "  \
+    "+ phase_k))")                                                                                                \
+  A("mesh.normal_force_orders", output, continuous, calculated, "N", "kN", GM_FMU_DIM_ORDERS, 0,                    \
+    ds.orders.force_amplitude, 0,                                                                                 \
+    "large-step mode: amplitudes of mesh orders 1 ... dynamics.mesh_orders of mesh.normal_force over the same "   \
+    "cycles")                                                                                                     \
+  A("mesh.normal_force_order_phases", output, continuous, calculated, "rad", "deg", GM_FMU_DIM_ORDERS, 0,           \
+    ds.orders.force_phase, 0, "large-step mode: their phases against gear 1's mesh angle")
 
 /* One row of the table as data, for the value-reference table and the generator. */
 typedef struct gm_fmu_variable {
@@ -446,7 +461,7 @@ typedef struct gm_fmu_array {
   const char* initial;
   const char* unit;
   const char* display_unit;
-  int dims[2]; /* GM_FMU_DIM_SLICES, a length, or 0 (none) */
+  int dims[2]; /* GM_FMU_DIM_SLICES, GM_FMU_DIM_ORDERS, a length, or 0 (none) */
   size_t offset; /* of its first element in gm_fmu_values */
   size_t capacity; /* elements the field holds */
   unsigned deps;
@@ -461,13 +476,21 @@ static const gm_fmu_array gm_fmu_arrays[] = {GM_FMU_ARRAYS(GM_FMU_ARRAY_ROW)};
 
 #define GM_FMU_ARRAY_COUNT (sizeof gm_fmu_arrays / sizeof gm_fmu_arrays[0])
 
-/* The length of dimension `dim` of array a at model.slices = slices (1 for none). */
-static inline size_t gm_fmu_array_dim(const gm_fmu_array* a, int dim, int slices) {
-  if (a->dims[dim] == GM_FMU_DIM_SLICES) return (size_t)slices;
+/* The field of the structural parameter a dimension names (GM_FMU_DIM_*), as an offset in
+ * gm_fmu_values; (size_t)-1 for a constant length. */
+static inline size_t gm_fmu_dim_field(int dim) {
+  return dim == GM_FMU_DIM_SLICES   ? offsetof(gm_fmu_values, p.slices)
+         : dim == GM_FMU_DIM_ORDERS ? offsetof(gm_fmu_values, dp.mesh_orders)
+                                    : (size_t)-1;
+}
+/* The length of dimension `dim` of array a at the values v's structural parameters (1 for none). */
+static inline size_t gm_fmu_array_dim(const gm_fmu_array* a, int dim, const gm_fmu_values* v) {
+  const size_t field = gm_fmu_dim_field(a->dims[dim]);
+  if (field != (size_t)-1) return (size_t)*(const int*)((const char*)v + field);
   return a->dims[dim] ? (size_t)a->dims[dim] : 1;
 }
-static inline size_t gm_fmu_array_length(const gm_fmu_array* a, int slices) {
-  return gm_fmu_array_dim(a, 0, slices) * gm_fmu_array_dim(a, 1, slices);
+static inline size_t gm_fmu_array_length(const gm_fmu_array* a, const gm_fmu_values* v) {
+  return gm_fmu_array_dim(a, 0, v) * gm_fmu_array_dim(a, 1, v);
 }
 
 /* 1 if the variable is a structural parameter. */
@@ -482,6 +505,11 @@ static inline int gm_fmu_in_member(size_t offset, size_t member_offset, size_t s
 }
 #define GM_FMU_IN(v, member) \
   gm_fmu_in_member((v)->offset, offsetof(gm_fmu_values, member), sizeof(((gm_fmu_values*)0)->member))
+
+/* 1 if the array is offered at intermediate updates (the load across the face). */
+static inline int gm_fmu_array_intermediate(const gm_fmu_array* a) {
+  return a->causality == GM_FMU_output && GM_FMU_IN(a, load);
+}
 
 /* 1 for an output that, at the end of a large-step step, follows from the spins and the contact
  * there alone: the contact outputs (gm_result), the spin state and the shaft torques, also in the
@@ -503,12 +531,13 @@ static inline int gm_fmu_follows_spins(const gm_fmu_variable* v) {
   _Static_assert(__builtin_types_compatible_p(__typeof__(((gm_fmu_values*)0)->field), GM_FMU_CTYPE_##type), \
                  name " is bound to a field of another C type");
 GM_FMU_VARIABLES(GM_FMU_CHECK_FIELD_TYPE)
+#define GM_FMU_DIM_MAX(dim) \
+  (size_t)((dim) == GM_FMU_DIM_SLICES ? GM_FMU_MAX_SLICES : (dim) == GM_FMU_DIM_ORDERS ? GM_MESH_ORDERS_MAX : (dim) ? (dim) : 1)
 #define GM_FMU_CHECK_ARRAY_TYPE(name, caus, var, init, unit, dunit, dim0, dim1, field, deps, desc)          \
   _Static_assert(__builtin_types_compatible_p(__typeof__(((gm_fmu_values*)0)->field[0]), double),          \
                  name " is bound to an array of another C type");                                          \
   _Static_assert(sizeof(((gm_fmu_values*)0)->field) / sizeof(double) >=                                   \
-                     (size_t)((dim0) == GM_FMU_DIM_SLICES ? GM_FMU_MAX_SLICES : (dim0) ? (dim0) : 1) *       \
-                         (size_t)((dim1) == GM_FMU_DIM_SLICES ? GM_FMU_MAX_SLICES : (dim1) ? (dim1) : 1),    \
+                     GM_FMU_DIM_MAX(dim0) * GM_FMU_DIM_MAX(dim1),                                          \
                  name " is bound to an array too short for its largest dimensions");
 GM_FMU_ARRAYS(GM_FMU_CHECK_ARRAY_TYPE)
 

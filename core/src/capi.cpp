@@ -280,6 +280,7 @@ void gm_dynamics_default_params(gm_dynamics_params* p) {
   p->max_step = 1e-3;
   p->min_step = 1e-9;
   p->order_cycles = 4;
+  p->mesh_orders = 3;
 }
 
 gm_status gm_dynamics_check(const gm_model* m, const gm_dynamics_params* p, char* msg, size_t msg_size) {

@@ -402,11 +402,12 @@ struct Aggregator {
 };
 
 // The mesh orders' trajectory over a step: its stage points x1 -> x2 -> x3 (mesh_orders.hpp).
-void add_orders(const gm_model& m, const Point& x1, const Point& x2, const Point& x3, gm_mesh_orders& orders) {
+void add_orders(const gm_model& m, int n, const Point& x1, const Point& x2, const Point& x3,
+                gm_mesh_orders& orders) {
   const auto point = [](const Point& x) { return OrderPoint{x.phi[0], {x.res.te, x.res.normal_force}}; };
   const int z1 = m.params.gear[0].teeth;
-  orders_add(orders, z1, point(x1), point(x2));
-  orders_add(orders, z1, point(x2), point(x3));
+  orders_add(orders, z1, n, point(x1), point(x2));
+  orders_add(orders, z1, n, point(x2), point(x3));
 }
 
 // The aggregates of a state alone (gm_dynamics_start): its values.
@@ -560,7 +561,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       ++replayed;
       account(h_try, x1, x2, x3, s);
       aggregates.add(h_try, x1, x2, x3);
-      add_orders(m, x1, x2, x3, s.orders);
+      add_orders(m, p.mesh_orders, x1, x2, x3, s.orders);
       t = h_try == remaining ? duration : t + h_try;
       if (options.observer) {
         const gm_internal_point point{t,
@@ -601,7 +602,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   s.step = h;
   finish_state(p, x1, s);
   s.step_aggregates = aggregates.finish();
-  orders_publish(s.orders, p.order_cycles);
+  orders_publish(s.orders, p.order_cycles, p.mesh_orders);
   if (options.sensitivity) sensitivity.write(*options.sensitivity);
   s_io = s;
   res = x1.res;

@@ -14,9 +14,11 @@ struct OrderPoint {
 
 // Forget everything (the start of the dynamics).
 void orders_reset(gm_mesh_orders& o);
-// The trajectory from a to b (linear in the mesh angle between them), z1 gear 1's teeth.
-void orders_add(gm_mesh_orders& o, int z1, const OrderPoint& a, const OrderPoint& b);
-// Amplitudes and phases from the last `window` completed cycles (the cycles in o.cycles).
-void orders_publish(gm_mesh_orders& o, int window);
+// The trajectory from a to b (linear in the mesh angle between them), z1 gear 1's teeth, for
+// orders 1 ... n (n <= GM_MESH_ORDERS_MAX).
+void orders_add(gm_mesh_orders& o, int z1, int n, const OrderPoint& a, const OrderPoint& b);
+// Amplitudes and phases of orders 1 ... n (o.orders) from the last `window` completed cycles (the
+// cycles in o.cycles); those past n are 0.
+void orders_publish(gm_mesh_orders& o, int window, int n);
 
 }  // namespace gm

@@ -94,6 +94,14 @@ SCHEMA: dict[str, dict[str, Key]] = {
         # FE level: neighbour teeth coupled each side (the databases are built with as many)
         "coupled_teeth": Key("model.coupled_teeth", 1, kind=int),
     },
+    # the large-step mode's integration and mesh orders (docs/dynamics.md); inertias, shafts and
+    # torques belong to the system model, which sets them through the FMU
+    "dynamics": {
+        "tolerance_um": Key("dynamics.tolerance", 1e-6, unit="um"),
+        "mesh_damping_ratio": Key("dynamics.mesh_damping_ratio", 1.0),
+        "mesh_orders": Key("dynamics.mesh_orders", 1, kind=int),
+        "order_cycles": Key("dynamics.order_cycles", 1, kind=int),
+    },
 }
 
 # [gear<i>.body] (FE level): compliance_tool's body options, in mm as the tool's flags
@@ -322,6 +330,9 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
         scene.fe[key] = _convert(f"fe.{key}", spec, value)
     _check_fe_level(scene, level)
     scene.fmu = _parse_fmu(_table("fmu", raw.get("fmu", {})))
+    if "dynamics" in raw and scene.fmu.get("mode", "large_step") != "large_step":
+        raise SceneError(f"[dynamics]: read by the large-step mode only, and fmu.mode = {scene.fmu['mode']!r}; "
+                         "allowed: fmu.mode = \"large_step\" (or none), or no [dynamics] table")
     for key, value in _table("run", raw.get("run", {})).items():
         spec = RUN_SCHEMA.get(key)
         if spec is None:

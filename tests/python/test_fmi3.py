@@ -39,9 +39,10 @@ def test_fmpy_validates_it(fmu3_path):
     assert validate_fmu(str(fmu3_path)) == []
 
 
-STRUCTURAL = {"model.slices"}  # FMI 3.0: UInt64 structural parameters (the arrays' dimensions)
+STRUCTURAL = {"model.slices", "dynamics.mesh_orders"}  # FMI 3.0: UInt64 structural parameters (the arrays' dimensions)
 ARRAYS = ["mesh.slice_position", "mesh.line_load", "mesh.pair_force", "mesh.pair_share", "mesh.pair_position",
-          "mesh.pair_approach"]
+          "mesh.pair_approach", "mesh.te_orders", "mesh.te_order_phases", "mesh.normal_force_orders",
+          "mesh.normal_force_order_phases"]
 
 
 def xml_bounds(fmu: pathlib.Path, name: str) -> tuple[str | None, str | None]:
@@ -54,7 +55,7 @@ def xml_bounds(fmu: pathlib.Path, name: str) -> tuple[str | None, str | None]:
 
 def test_same_variables_as_fmi2(fmu_path, fmu3_path):
     """Every variable of the 2.0 FMU with its value reference, causality, variability, type (Real
-    as Float64, Integer as Int32; model.slices a UInt64 structural parameter), unit, start, min
+    as Float64, Integer as Int32; model.slices and dynamics.mesh_orders UInt64 structural parameters), unit, start, min
     and max; plus the independent variable `time` after them, and after it the arrays; the same
     GUID as instantiation token."""
     md2, md3 = read_model_description(str(fmu_path)), read_model_description(str(fmu3_path))

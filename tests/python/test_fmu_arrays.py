@@ -24,7 +24,8 @@ from test_fmu_conformance import LogCapture
 PAIRS = 4  # GM_FMU_LOAD_PAIRS
 ELEMENT_BASE = 0x40000000  # model.h, MODEL_ELEMENT_VR
 ARRAYS = ["mesh.slice_position", "mesh.line_load", "mesh.pair_force", "mesh.pair_share", "mesh.pair_position",
-          "mesh.pair_approach"]
+          "mesh.pair_approach", "mesh.te_orders", "mesh.te_order_phases", "mesh.normal_force_orders",
+          "mesh.normal_force_order_phases"]
 
 
 def element_vr(array: str, index: int) -> int:
@@ -83,6 +84,37 @@ def test_scene_fmus_list_the_asked_arrays_and_agree(fmu_path, fmu3_path, tmp_pat
     assert np.allclose(line_load.sum(axis=2) * width[0], pair_force, rtol=1e-12, atol=1e-9)
     assert np.allclose(pair_force.sum(axis=1), run2["mesh.normal_force"], rtol=1e-12)
     assert np.array_equal(line_load.max(axis=(1, 2)), run2["mesh.max_line_load"])
+
+
+def test_scene_fmus_list_the_mesh_orders_the_scene_asks_for(fmu_path, fmu3_path, tmp_path):
+    """A large-step scene with [dynamics] mesh_orders = 6 and [fmu] outputs = the TE's orders:
+    FMI 2.0 lists mesh.te_orders[1] ... [6] (not [7]), FMI 3.0 the array with dimension 6; a run
+    of both gives the same orders bit for bit, the first three the scalar outputs; a [dynamics]
+    table in a scene whose mode is not the large-step one is refused naming the rule."""
+    from gearmesh.scene import SceneError, load_scene
+
+    scene, fmus = scene_fmus(fmu_path, fmu3_path, tmp_path, ["mesh.te_orders"],
+                             "\n[dynamics]\nmesh_orders = 6\n")
+    assert scene.parameters["dynamics.mesh_orders"] == 6
+    names2 = [v.name for v in read_model_description(str(fmus["2"])).modelVariables]
+    assert "mesh.te_orders[6]" in names2 and "mesh.te_orders[7]" not in names2
+    v3 = {v.name: v for v in read_model_description(str(fmus["3"])).modelVariables}
+    assert [int(d.start) for d in v3["mesh.te_orders"].dimensions] == [6]
+    w = 3000 * 2 * np.pi / 60
+    start = {"model.dynamics": 1, "gear1.omega": w, "gear2.omega": -w, "drive.torque": 100.0, "load.torque": -100.0}
+    names = [f"mesh.te_order{k}" for k in (1, 2, 3)]
+    run2 = simulate_fmu(str(fmus["2"]), start_values=start, stop_time=0.02, output_interval=1e-2,
+                        output=[f"mesh.te_orders[{k}]" for k in range(1, 7)] + names)
+    run3 = simulate_fmu(str(fmus["3"]), start_values=start, stop_time=0.02, output_interval=1e-2,
+                        output=["mesh.te_orders"])
+    orders2 = np.stack([run2[f"mesh.te_orders[{k}]"] for k in range(1, 7)], axis=1)
+    assert np.array_equal(orders2, run3["mesh.te_orders"]) and orders2[-1, 5] > 0
+    assert np.array_equal(orders2[:, :3], np.stack([run2[n] for n in names], axis=1))
+    prescribed = tmp_path / "prescribed.toml"
+    prescribed.write_text((REPO / "scenarios" / "paper_setA_3U4U.toml").read_text()
+                          + '\n[dynamics]\nmesh_orders = 6\n[fmu]\nmode = "prescribed"\n')
+    with pytest.raises(SceneError, match=r"\[dynamics\]: read by the large-step mode only"):
+        load_scene(prescribed, fmu_path)
 
 
 def test_unknown_scene_output_is_refused_naming_the_arrays(fmu_path, fmu3_path, tmp_path):
@@ -190,12 +222,16 @@ def test_generic_fmi2_annotation_describes_the_arrays(fmu_path):
     assert [a.element_base for a in arrays.values()] == [element_vr(n, 0) for n in ARRAYS]
     assert arrays["mesh.line_load"].dimensions == (str(PAIRS), "model.slices")
     assert arrays["mesh.line_load"].unit == "N/m" and arrays["mesh.slice_position"].causality == "calculatedParameter"
+    assert arrays["mesh.te_orders"].dimensions == ("dynamics.mesh_orders",) and arrays["mesh.te_orders"].unit == "m"
 
 
 def test_intermediate_update_offers_the_line_loads(fmu3_path):
     """In the large-step mode at a 5 ms step, the intermediate-update callback reads the line loads
     at each internal step (intermediateUpdate="true"): they change from step to step, each adds up
-    to the mesh's normal force read with it, and the last is the step's outputs."""
+    to the mesh's normal force read with it, and the last is the step's outputs. The mesh orders,
+    which a whole step makes, are not offered there (refused naming the rule); after the step the
+    array mesh.te_orders has dynamics.mesh_orders (set in Configuration Mode) elements, the first
+    three the scalars mesh.te_order<k>."""
     md = read_model_description(str(fmu3_path))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     slices = 10
@@ -207,8 +243,19 @@ def test_intermediate_update_offers_the_line_loads(fmu3_path):
         loads = f.getFloat64([vr["mesh.line_load"], vr["mesh.pair_force"], vr["mesh.normal_force"]],
                              nValues=PAIRS * slices + PAIRS + 1)
         samples.append((t, np.array(loads)))
+        if len(samples) == 1:
+            try:
+                f.getFloat64([vr["mesh.te_orders"]], nValues=orders)
+                refused.append(False)
+            except FMICallException:
+                refused.append(True)
 
-    f.instantiate(intermediateUpdate=update)
+    messages, refused, orders = [], [], 5
+    f.instantiate(intermediateUpdate=update,
+                  logMessage=lambda env, status, category, message: messages.append(message.decode()))
+    f.enterConfigurationMode()
+    f.setUInt64([vr["dynamics.mesh_orders"]], [orders])
+    f.exitConfigurationMode()
     w = 1000 * 2 * np.pi / 60
     f.setInt32([vr["model.dynamics"]], [1])
     f.setFloat64([vr["gear1.omega"], vr["gear2.omega"], vr["gear1.shaft_stiffness"], vr["gear1.shaft_omega"],
@@ -218,8 +265,12 @@ def test_intermediate_update_offers_the_line_loads(fmu3_path):
     f.doStep(0.0, 5e-3)
     end = np.array(f.getFloat64([vr["mesh.line_load"], vr["mesh.pair_force"], vr["mesh.normal_force"]],
                                 nValues=PAIRS * slices + PAIRS + 1))
+    te_orders = f.getFloat64([vr["mesh.te_orders"]], nValues=orders)
+    scalars = f.getFloat64([vr[f"mesh.te_order{k}"] for k in (1, 2, 3)])
     f.terminate()
     f.freeInstance()
+    assert refused == [True] and any("read during an intermediate update" in m for m in messages), messages
+    assert te_orders[:3] == scalars and len(te_orders) == orders
     assert len(samples) >= 10
     assert np.array_equal(samples[-1][1], end)
     values = np.array([s[1] for s in samples])

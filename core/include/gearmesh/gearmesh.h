@@ -241,6 +241,7 @@ typedef struct gm_dynamics_params {
   double max_step;           /* largest internal step, s */
   double min_step;           /* smallest internal step before the step fails, s */
   int order_cycles;          /* mesh cycles the orders average over, 1 ... GM_ORDER_CYCLES_MAX */
+  int mesh_orders;           /* mesh orders computed, 3 ... GM_MESH_ORDERS_MAX */
 } gm_dynamics_params;
 
 typedef struct gm_dynamics_inputs {
@@ -267,27 +268,28 @@ typedef struct gm_step_aggregates {
 /* The aggregates of a step that is one evaluation r (shaft torques: NULL for none): its values. */
 void gm_point_aggregates(const gm_result* r, const double* shaft_torque, gm_step_aggregates* out);
 
-/* Mesh orders 1..GM_MESH_ORDERS of the TE and the normal force in the large-step mode,
+/* Mesh orders 1..gm_dynamics_params.mesh_orders of the TE and the normal force in the large-step mode,
  * synchronous with the mesh angle u = z_1 |phi_1| (one mesh cycle per base pitch of gear 1):
  * Fourier coefficients over whole mesh cycles of the integrated trajectory (piecewise linear in u
  * between the stage points, integrated exactly), averaged over the last `cycles` of them, so that
  * signal = mean + sum_k amplitude_k cos(k u + phase_k). Exact for a steady run; in a run-up each
  * cycle has its own speed and the window averages them. A reversal of gear 1 starts the window
  * anew (docs/dynamics.md, "Mesh orders"). */
-#define GM_MESH_ORDERS 3
+#define GM_MESH_ORDERS_MAX 12 /* dynamics.mesh_orders' upper bound */
 #define GM_ORDER_CYCLES_MAX 16
 typedef struct gm_mesh_orders {
   int cycles;                                /* whole mesh cycles in the window (0: none yet) */
-  double te_amplitude[GM_MESH_ORDERS];       /* m */
-  double te_phase[GM_MESH_ORDERS];           /* rad */
-  double force_amplitude[GM_MESH_ORDERS];    /* N */
-  double force_phase[GM_MESH_ORDERS];        /* rad */
+  int orders;                                /* orders computed (1 ... orders); those past it are 0 */
+  double te_amplitude[GM_MESH_ORDERS_MAX];   /* m */
+  double te_phase[GM_MESH_ORDERS_MAX];       /* rad */
+  double force_amplitude[GM_MESH_ORDERS_MAX]; /* N */
+  double force_phase[GM_MESH_ORDERS_MAX];    /* rad */
   /* the accumulation (internal): the open cycle, its direction, the completed cycles' coefficients */
   int direction;                             /* +1, -1, 0: none yet */
   int open;                                  /* 1 if a cycle began at a boundary and is open */
   double open_from;                          /* u where it began, rad */
-  double sums[2][GM_MESH_ORDERS][2];         /* [te, force][order - 1][cos, sin] of the open cycle */
-  double ring[GM_ORDER_CYCLES_MAX][2][GM_MESH_ORDERS][2];
+  double sums[2][GM_MESH_ORDERS_MAX][2];     /* [te, force][order - 1][cos, sin] of the open cycle */
+  double ring[GM_ORDER_CYCLES_MAX][2][GM_MESH_ORDERS_MAX][2];
   int ring_count, ring_next;
 } gm_mesh_orders;
 

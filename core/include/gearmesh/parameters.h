@@ -229,6 +229,10 @@ enum { GM_PARAM_BODY = 1,
   X(A, "dynamics.order_cycles", parameter, Integer, DYNAMICS, order_cycles, "", "", 1, GM_ORDER_CYCLES_MAX,          \
     GM_CLOSED, GM_ALL_LEVELS, GM_MODE_LARGE_STEP, GM_GROUP_DYNAMICS, 0,                                           \
     "large-step mode: mesh cycles the mesh orders (mesh.te_order<k>) average over")                                \
+  X(A, "dynamics.mesh_orders", parameter, Integer, DYNAMICS, mesh_orders, "", "", 3, GM_MESH_ORDERS_MAX,            \
+    GM_CLOSED, GM_ALL_LEVELS, GM_MODE_LARGE_STEP, GM_GROUP_DYNAMICS, GM_PARAM_STRUCTURAL,                         \
+    "large-step mode: mesh orders computed, 1 to this (the arrays mesh.te_orders and the others; the scalars "   \
+    "mesh.te_order1 ... 3 are their first three)")                                                               \
   X(A, "dynamics.step_sensitivities", parameter, Boolean, HOST, step_sensitivities, "", "", 0, 1, GM_NO_RANGE,       \
     GM_ALL_LEVELS, GM_MODE_LARGE_STEP, GM_GROUP_DYNAMICS, 0,                                                      \
     "large-step mode: fmi2GetDirectionalDerivative gives the last step's sensitivities, d(value at its end) / "   \
