@@ -228,3 +228,28 @@ def test_the_compliance_tool_help_reader():
     assert flags["--beta"] == flags["--gamma-mm"] == flags["--delta-mm"] == (
         shared, "group one (default a thing)")
     assert flags["--flag"] == ("a switch over two lines", "other")
+
+
+# --- the README's level table ---------------------------------------------------------------------
+
+def test_readme_level_table_is_a_fresh_generation_of_the_ledgers():
+    """The README's accuracy table per level equals a fresh generation from the committed ledgers,
+    and a cell read back from the README equals the worst signed error computed here from the
+    ledger with the csv module alone (set A at level 4 against the 2-D band: the p-p, the
+    largest over its torques), so an edited README or ledger cannot pass."""
+    import csv
+
+    from gearmesh_dev import level_table
+
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    assert level_table.readme_with_table(readme, level_table.table()) == readme, \
+        f"README.md's level table is stale: run `{COMMAND}`"
+    with open(REPO / "scenarios" / "reference" / "ledger_small.csv", newline="") as f:
+        next(f)
+        wanted = ("paper_setA_3U4U", "2d", "L4 s10", "pp")
+        errors = [float(r["band_error"]) for r in csv.DictReader(f)
+                  if (r["scene"], r["reference"], r["setting"], r["quantity"]) == wanted]
+    expected = max(errors, key=abs)
+    row = next(line for line in readme.splitlines() if line.startswith("| set A, spur (2-D band) |"))
+    level4 = [c.strip() for c in row.split("|")[1:-1]][3]
+    assert float(level4.split(" / ")[1].replace("−", "-")) == round(100 * expected)

@@ -35,7 +35,7 @@ from gearmesh.param_ranges import Range, default_fmu, fmu_ranges
 from gearmesh.scene_fmu import array_variables
 from gearmesh.scene import (BODY_SCHEMA, FE_SCHEMA, FMU_INTERFACES, FMU_MODES, MOUNTING_SCHEMA,
                             RUN_SCHEMA, SCHEMA, Key, Scene, SceneError, parse_scene)
-from gearmesh_dev import checkout
+from gearmesh_dev import checkout, level_table
 
 REPO = checkout()
 OUT = REPO / "docs" / "reference"
@@ -782,13 +782,19 @@ def main(fmu: pathlib.Path | str | None = None, check: bool = False,
     except (OSError, subprocess.CalledProcessError) as exc:
         print(f"gearmesh-dev reference-docs: {exc}", file=sys.stderr)
         return 2
+    readme = level_table.README.read_text(encoding="utf-8")
+    fresh_readme = level_table.readme_with_table(readme, level_table.table())
     if check:
         differ = stale(pages, out)
         for name in differ:
             print(f"gearmesh-dev reference-docs: {out / name} is stale", file=sys.stderr)
-        return 1 if differ else 0
+        if readme != fresh_readme:
+            print(f"gearmesh-dev reference-docs: {level_table.README}'s level table is stale", file=sys.stderr)
+        return 1 if differ or readme != fresh_readme else 0
     out.mkdir(parents=True, exist_ok=True)
     for name, text in pages.items():
         (out / name).write_text(text, encoding="utf-8")
         print(f"gearmesh-dev reference-docs: wrote {out / name}")
+    level_table.README.write_text(fresh_readme, encoding="utf-8")
+    print(f"gearmesh-dev reference-docs: wrote {level_table.README}'s level table")
     return 0
