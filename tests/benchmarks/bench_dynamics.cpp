@@ -148,10 +148,11 @@ void run(double mu, double rpm, double H, int level = 4) {
   const int teeth = gm_model_parameters(u.m)->gear[0].teeth;
   const double mesh_period = 2 * kPi / (rpm * 2 * kPi / 60 * teeth), internal = double(steps) / comm;
   std::printf("level %d  mu %.1f  %5.0f rpm  H %-6g  %8.1f us per step (IQR %.1f-%.1f)  %7.2f internal steps, %6.2f rejected"
-              "  = %6.0f x gm_evaluate (%.2f us); %5.1f x gm_evaluate per internal step, %6.1f internal steps per mesh"
-              " period, %6.3f s wall per s\n",
+              "  = %6.0f x gm_evaluate (%.2f us); %5.1f x gm_evaluate per internal step (%4.1f per step tried, rejected"
+              " ones included), %6.1f internal steps per mesh period, %6.3f s wall per s\n",
               level, mu, rpm, H, us[2], us[1], us[3], internal, double(rejected) / comm, us[2] * 1e3 / base, base * 1e-3,
-              us[2] * 1e3 / base / internal, internal * mesh_period / H, us[2] * 1e-6 / H);
+              us[2] * 1e3 / base / internal, us[2] * 1e3 / base / (internal + double(rejected) / comm),
+              internal * mesh_period / H, us[2] * 1e-6 / H);
   gm_data_free(u.d);
   gm_model_free(u.m);
 }
@@ -191,7 +192,8 @@ void undamped(int level, double rpm) {
     }
     steps += u.s.steps;
     largest = std::max(largest, u.s.kinetic + u.s.elastic);
-    const int part = i <= 100 ? 0 : i > count - 100 ? 1 : -1;
+    const int part = i <= 100 ? 0 : i > count - 100 ? 1
+                                                    : -1;
     if (part < 0) continue;
     lo[part] = std::min(lo[part], res.te);
     hi[part] = std::max(hi[part], res.te);
