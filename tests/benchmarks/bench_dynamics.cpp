@@ -230,11 +230,15 @@ int sweep(const std::string& what) {
     }
     return 0;
   }
-  std::printf("usage: bench_dynamics [tolerance | roll-nodes]\n");
+  std::printf("usage: bench_dynamics [tolerance | roll-nodes | MU RPM STEP [LEVEL]]\n");
   return 2;
 }
 
 int main(int argc, char** argv) {
+  if (argc > 3) {  // one row: MU RPM STEP [LEVEL]
+    run(std::atof(argv[1]), std::atof(argv[2]), std::atof(argv[3]), argc > 4 ? std::atoi(argv[4]) : 4);
+    return 0;
+  }
   if (argc > 1) return sweep(argv[1]);
   std::printf("undamped free gears, set A, 10 slices, +150 N m on each, teeth touching at the start, H 1 ms, 1 s\n");
   for (int level : {0, 4})
