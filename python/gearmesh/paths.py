@@ -48,9 +48,10 @@ ENV_CACHE = "GM_CACHE"
 COMPLIANCE_TOOL_ROUTE = (
     "the FE level's compliance_tool links gmsh and SuiteSparse CHOLMOD, and a published wheel carries none (gmsh "
     "is GPL); pip install of a checkout builds it into the package when both are found: install "
-    "libsuitesparse-dev (Debian) and pip install gmsh into this environment, then pip install the checkout "
-    "again (with -v its CMake output names what is missing); or build it in a checkout (cmake --build build "
-    f"--target compliance_tool) and set ${ENV_COMPLIANCE_TOOL} to the binary, or put compliance_tool on PATH")
+    "libsuitesparse-dev (Debian) and pip install gmsh into this environment, then install the checkout again "
+    "(pip install --force-reinstall --no-deps CHECKOUT; with -v its CMake output names what is missing); or "
+    f"build it in a checkout (cmake --build build --target compliance_tool) and set ${ENV_COMPLIANCE_TOOL} to "
+    "the binary, or put compliance_tool on PATH")
 
 
 class NotFound(FileNotFoundError):
