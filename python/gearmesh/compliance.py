@@ -203,8 +203,8 @@ def build_gear(scene: Scene, gear: int, tool: pathlib.Path | None = None,
     if not tool.is_file():
         try:
             Paths.resolve().require("compliance_tool")
-        except FileNotFoundError as exc:
-            raise ComplianceError(f"{tool}: {exc}") from None
+        except FileNotFoundError as exc:  # the message names the tool's path when it looked there
+            raise ComplianceError(str(exc) if str(tool) in str(exc) else f"{tool}: {exc}") from None
         raise ComplianceError(f"{tool}: compliance_tool not found: {COMPLIANCE_TOOL_ROUTE}")
     key = cache_key(scene, gear, tool, threads)
     target = cache / f"{key}.gcdb"

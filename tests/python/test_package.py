@@ -141,6 +141,20 @@ def test_installed_package_runs_the_main_job_outside_the_repository(fresh_venv):
     assert (out / "paper_setA_3U4U" / "loaded_te.csv").is_file()
 
 
+def test_installed_package_without_compliance_tool_says_how_to_get_it(fresh_venv):
+    """A scene at level 5 alone, with the wheel's package (no compliance_tool): the main job stops
+    with the install route, no traceback."""
+    root, env = fresh_venv["root"], fresh_venv["env"]
+    scene = root / "small_fe.toml"
+    scene.write_text(SMALL_FE_SCENE)
+    done = subprocess.run([str(fresh_venv["venv"] / "bin" / "gearmesh"), "main", str(scene), "--out", str(root / "fe")],
+                          capture_output=True, text=True, timeout=300, cwd=root, env=env)
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert "Traceback" not in done.stderr, done.stderr
+    for route in ("compliance tool not found", "pip install gmsh", "libsuitesparse-dev", "GEARMESH_COMPLIANCE_TOOL"):
+        assert route in done.stderr, (route, done.stderr)
+
+
 def test_installed_package_runs_the_documented_example(fresh_venv):
     code, promised = documented_example()
     work = fresh_venv["root"] / "example"
