@@ -7,7 +7,7 @@ and the documented `import gearmesh` example prints what docs/tooling.md says it
 of the checkout is on that venv's path or in its environment. Then `pip install` of the sdist into
 a second fresh venv that has gmsh (this machine has CHOLMOD): compliance_tool is built into the
 package, gearmesh.paths finds it there and it builds a small gear's database. Slow
-(conftest.SLOW_MODULES): about 10 minutes, most of it compiling."""
+(conftest.SLOW_MODULES): about 6 minutes on the 2-core machine, most of it compiling."""
 from __future__ import annotations
 
 import os
