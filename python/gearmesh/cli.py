@@ -248,11 +248,12 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{s.name}: largest TE difference {worst:.3g} m "
                   f"({'ok' if ok else 'BEYOND'} tolerance {rc.TOLERANCE:g} m)")
         return status
+    from gearmesh.compliance import ComplianceError
     from gearmesh.main_job import run_main
 
     try:
         report = run_main(scenes, args.fmu, args.out, trains)
-    except (SceneError, FileNotFoundError) as exc:
+    except (SceneError, FileNotFoundError, ComplianceError) as exc:  # ComplianceError: a level-5 scene, no tool
         print(f"gearmesh: {exc}", file=sys.stderr)
         return 2
     print(f"gearmesh: report written to {report}")

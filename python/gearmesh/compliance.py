@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from gearmesh.levels import Level
 from gearmesh.param_ranges import parameter_use
-from gearmesh.paths import Paths
+from gearmesh.paths import COMPLIANCE_TOOL_ROUTE, Paths
 from gearmesh.scene import BODY_SCHEMA, FE_SCHEMA, SCHEMA, Scene
 
 TOOL_ENV = "GEARMESH_COMPLIANCE_TOOL"
@@ -52,8 +52,8 @@ class Build:
 
 
 def default_tool() -> pathlib.Path:
-    """$GEARMESH_COMPLIANCE_TOOL, else the checkout's build, else compliance_tool on PATH
-    (gearmesh.paths)."""
+    """$GEARMESH_COMPLIANCE_TOOL, else the installed package's, else the checkout's build, else
+    compliance_tool on PATH (gearmesh.paths)."""
     tool = Paths.resolve().compliance_tool
     return tool if tool is not None else pathlib.Path("compliance_tool")
 
@@ -203,10 +203,9 @@ def build_gear(scene: Scene, gear: int, tool: pathlib.Path | None = None,
     if not tool.is_file():
         try:
             Paths.resolve().require("compliance_tool")
-        except FileNotFoundError as exc:
-            raise ComplianceError(f"{tool}: {exc}") from None
-        raise ComplianceError(f"{tool}: compliance_tool not found; build the target "
-                              f"compliance_tool (or set {TOOL_ENV})")
+        except FileNotFoundError as exc:  # the message names the tool's path when it looked there
+            raise ComplianceError(str(exc) if str(tool) in str(exc) else f"{tool}: {exc}") from None
+        raise ComplianceError(f"{tool}: compliance_tool not found: {COMPLIANCE_TOOL_ROUTE}")
     key = cache_key(scene, gear, tool, threads)
     target = cache / f"{key}.gcdb"
     if target.is_file() and not force:

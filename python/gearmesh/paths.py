@@ -9,8 +9,8 @@ lies on disk).
 | train_binary | `$GEARMESH_TRAIN_BINARY`; the package's GearTrain.so; the checkout's build/fmu_src/GearTrain.so |
 | train_binary3 | `$GEARMESH_TRAIN_BINARY3`; the package's GearTrain3.so; the checkout's build/fmu_src/GearTrain3.so |
 | train_header | the package's train_variables.h; the checkout's fmu_src/train_variables.h |
-| compliance_tool | `$GEARMESH_COMPLIANCE_TOOL`; the checkout's build/compliance_tool/compliance_tool;
-  `compliance_tool` on PATH |
+| compliance_tool | `$GEARMESH_COMPLIANCE_TOOL`; the package's compliance_tool (built by pip install when gmsh and
+  CHOLMOD were found); the checkout's build/compliance_tool/compliance_tool; `compliance_tool` on PATH |
 | scenes | `$GEARMESH_SCENES`; the checkout's scenarios/ |
 | output | `$GEARMESH_OUTPUT`; the checkout's output/; output/ in the working directory |
 | cache | `$GM_CACHE`; the checkout's .cache/; the user's cache folder (platformdirs) |
@@ -19,8 +19,9 @@ lies on disk).
 The checkout is a GearMesh source tree: the `checkout` option, else `$GEARMESH_CHECKOUT`, else the
 working directory or the nearest folder above it holding GearMesh's CMakeLists.txt and
 modelDescription/variables.h; None outside one. An installed package (`pip install`) carries
-the FMUs and the train binary itself; a developer's editable install in a checkout finds them in
-the checkout's build/ (tools/bootstrap.sh sets `GEARMESH_CHECKOUT`).
+the FMUs and the train binary itself, and compliance_tool when its libraries were found at
+install; a developer's editable install in a checkout finds them in the checkout's build/
+(tools/bootstrap.sh sets `GEARMESH_CHECKOUT`).
 """
 from __future__ import annotations
 
@@ -43,13 +44,23 @@ ENV_OUTPUT = "GEARMESH_OUTPUT"
 ENV_CACHE = "GM_CACHE"
 
 
+# How to get compliance_tool (docs/tooling.md, "Install"): a wheel to redistribute carries none.
+COMPLIANCE_TOOL_ROUTE = (
+    "the FE level's compliance_tool links gmsh and SuiteSparse CHOLMOD, and a published wheel carries none (gmsh "
+    "is GPL); pip install of a checkout builds it into the package when both are found: install "
+    "libsuitesparse-dev (Debian) and pip install gmsh into this environment, then install the checkout again "
+    "(pip install --force-reinstall --no-deps CHECKOUT; with -v its CMake output names what is missing); or "
+    f"build it in a checkout (cmake --build build --target compliance_tool) and set ${ENV_COMPLIANCE_TOOL} to "
+    "the binary, or put compliance_tool on PATH")
+
+
 class NotFound(FileNotFoundError):
     """A file GearMesh needs is in none of the places it looks; the message says how to get it."""
 
 
 def package_data() -> pathlib.Path | None:
     """The installed package's data folder (GearMesh.fmu, GearMesh-fmi3.fmu, GearTrain.so,
-    train_variables.h), None when the package carries none (a developer's editable install)."""
+    train_variables.h, maybe compliance_tool), None when the package carries none (a developer's editable install)."""
     try:
         data = importlib.resources.files("gearmesh") / "data"
     except ModuleNotFoundError:  # pragma: no cover - gearmesh is this package
@@ -131,6 +142,7 @@ class Paths:
 
         which = shutil.which("compliance_tool")
         tool = _env_path(env, ENV_COMPLIANCE_TOOL) or _first(
+            data / "compliance_tool" if data else None,
             build / "compliance_tool" / "compliance_tool" if build else None,
             pathlib.Path(which) if which else None)
         if env.get(ENV_OUTPUT):
@@ -176,10 +188,7 @@ class Paths:
             "train_binary3": f"install the package, build a checkout (target GearTrain3), or set "
                              f"${ENV_TRAIN_BINARY3}",
             "train_header": "install the package, or work in a GearMesh checkout",
-            "compliance_tool": f"the FE level's compliance_tool needs gmsh and SuiteSparse CHOLMOD: "
-                               f"build it in a checkout (tools/bootstrap.sh, or cmake --build build "
-                               f"--target compliance_tool) and set ${ENV_COMPLIANCE_TOOL} to the "
-                               f"binary, or put compliance_tool on PATH",
+            "compliance_tool": COMPLIANCE_TOOL_ROUTE,
             "scenes": f"name the scene files, work in a GearMesh checkout, or set ${ENV_SCENES}",
         }.get(field, "")
         where = path if path is not None else "nowhere (not installed, no checkout)"

@@ -162,3 +162,37 @@ def test_paths_follow_options_then_environment_then_checkout(tmp_path):
         raise AssertionError("require('scenes') outside a checkout must fail")
     # inside a checkout's subfolder, found from the working directory
     assert Paths.resolve(env={}, cwd=REPO / "docs" / "guide").checkout == REPO
+
+
+def test_paths_find_the_packages_compliance_tool_and_say_how_to_get_it(tmp_path, monkeypatch):
+    """The package's data folder as pip install leaves it with compliance_tool (built when gmsh and
+    CHOLMOD were found) and without it (a published wheel): Paths takes the package's tool before a
+    checkout's, and without any names the install route (the slow test_package.py installs both)."""
+    from gearmesh import paths
+
+    data = tmp_path / "data"
+    data.mkdir()
+    (data / "GearMesh.fmu").write_bytes(b"")
+    monkeypatch.setattr(paths, "package_data", lambda: data)
+    monkeypatch.setattr(paths.shutil, "which", lambda name: None)  # none on PATH
+    work = tmp_path / "work"
+    work.mkdir()
+    p = paths.Paths.resolve(env={}, cwd=work)
+    assert p.fmu == data / "GearMesh.fmu"
+    assert p.compliance_tool is None or not p.compliance_tool.exists()  # no checkout, none on PATH here
+    try:
+        p.require("compliance_tool")
+    except paths.NotFound as exc:
+        message = str(exc)
+    else:
+        raise AssertionError("require('compliance_tool') must fail without a tool")
+    for route in ("pip install gmsh", "libsuitesparse-dev", "pip install --force-reinstall --no-deps",
+                  "GEARMESH_COMPLIANCE_TOOL", "GPL"):
+        assert route in message, (route, message)
+    (data / "compliance_tool").write_bytes(b"")
+    assert paths.Paths.resolve(env={}, cwd=work).require("compliance_tool") == data / "compliance_tool"
+    # before the checkout's build, as the package's FMU
+    in_checkout = paths.Paths.resolve(env={"GEARMESH_CHECKOUT": str(REPO)}, cwd=work)
+    assert in_checkout.compliance_tool == data / "compliance_tool"
+    env = {"GEARMESH_COMPLIANCE_TOOL": "/x/compliance_tool"}
+    assert paths.Paths.resolve(env=env, cwd=work).compliance_tool == pathlib.Path("/x/compliance_tool")

@@ -18,6 +18,7 @@ from tqdm import tqdm
 from gearmesh import compliance
 from gearmesh.batch import cluster
 from gearmesh.batch.cases import Case, run_case
+from gearmesh.paths import COMPLIANCE_TOOL_ROUTE
 
 RETRIES = 1
 
@@ -89,8 +90,7 @@ def run(client, cases: list[Case], generic_fmu: pathlib.Path, out: pathlib.Path,
     if any(compliance.needs_build(c.scene) for c in cases):
         tool = compliance.default_tool()
         if not tool.is_file():
-            raise compliance.ComplianceError(f"{tool}: compliance_tool not found; build the "
-                                             f"target compliance_tool (or set {compliance.TOOL_ENV})")
+            raise compliance.ComplianceError(f"{tool}: compliance_tool not found: {COMPLIANCE_TOOL_ROUTE}")
     done = out / "cases"
     done.mkdir(parents=True, exist_ok=True)
     ship = cluster.Shipper(client, shared)
