@@ -187,8 +187,12 @@ int main(int argc, char** argv) {
        [](gm_model_params& p) { p.slices = 10; p.stiffness_level = 4; p.quasi_static = 1; }, 0},
       {"spur, 10 slices, level 4, friction + damping",
        [](gm_model_params& p) {
-         p.slices = 10; p.stiffness_level = 4; p.friction_coefficient = 0.4; p.damping = 1e3;
-       }, 0},
+         p.slices = 10;
+         p.stiffness_level = 4;
+         p.friction_coefficient = 0.4;
+         p.damping = 1e3;
+       },
+       0},
       {"spur, 10 slices, level 5 (FE, +-2 coupled teeth)", fe_level, 0},
       {"spur, 20 slices, level 5 (FE, +-2 coupled teeth)",
        [](gm_model_params& p) { fe_level(p); p.slices = 20; }, 0},
