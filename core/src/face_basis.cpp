@@ -26,6 +26,7 @@ void FaceBasis::reserve(int capacity) {
   x2.resize(r);
   F.resize(c);
   trial.resize(c);
+  nominal.resize(c);
   Phi.resize(c, r);
   dPhi.resize(c, r);
   for (Eigen::VectorXd* x : {&diag, &law_f, &g, &u, &v, &t}) x->resize(c);
@@ -34,6 +35,13 @@ void FaceBasis::reserve(int capacity) {
 }
 
 namespace {
+
+bool same_law(const LocalLaw& a, const LocalLaw& b) {
+  return a.width == b.width && a.reduced_radius == b.reduced_radius && a.body[0].depth == b.body[0].depth &&
+         a.body[1].depth == b.body[1].depth && a.body[0].youngs_modulus == b.body[0].youngs_modulus &&
+         a.body[1].youngs_modulus == b.body[1].youngs_modulus && a.body[0].poisson_ratio == b.body[0].poisson_ratio &&
+         a.body[1].poisson_ratio == b.body[1].poisson_ratio;
+}
 
 // In-place Cholesky of the leading r x r block of A (lower triangle); false if not positive
 // definite.
@@ -219,7 +227,7 @@ bool response_shapes(FaceBasis& w, const FaceProblem& p) {
       const int a = w.member[f0 + i];
       const double* col = p.C + std::size_t(a) * p.ld;
       for (int j = i; j < np; ++j) L(j, i) = col[w.member[f0 + j]];
-      L(i, i) += nominal_slope(w.kern[a]);
+      L(i, i) += w.nominal[a];
     }
     if (!cholesky(L, np)) return false;
     for (int k = 0; k < w.dim[q]; ++k) {
@@ -245,7 +253,16 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
   w.used = false;
   const int n = p.n;
   if (n == 0 || p.shapes <= 0 || !group_pairs(w, p)) return out;
-  for (int a = 0; a < n; ++a) w.kern[a] = local_law_kernel(p.laws[a]);
+  // the laws prepared once per distinct law (an aligned spur pair's slices share theirs)
+  for (int a = 0; a < n; ++a) {
+    if (a > 0 && same_law(p.laws[a], p.laws[a - 1])) {
+      w.kern[a] = w.kern[a - 1];
+      w.nominal[a] = w.nominal[a - 1];
+      continue;
+    }
+    w.kern[a] = local_law_kernel(p.laws[a]);
+    w.nominal[a] = nominal_slope(w.kern[a]);
+  }
   if (!response_shapes(w, p)) return out;
   // gap offsets: Delta_a (+ lambda w_a)
   const double* delta = p.delta;
