@@ -27,6 +27,7 @@ void FaceBasis::reserve(int capacity) {
   F.resize(c);
   trial.resize(c);
   nominal.resize(c);
+  inv_norm.resize(r);
   Phi.resize(c, r);
   dPhi.resize(c, r);
   for (Eigen::VectorXd* x : {&diag, &law_f, &g, &u, &v, &t}) x->resize(c);
@@ -46,32 +47,35 @@ bool same_law(const LocalLaw& a, const LocalLaw& b) {
 // In-place Cholesky of the leading r x r block of A (lower triangle); false if not positive
 // definite.
 bool cholesky(Eigen::MatrixXd& A, int r) {
+  // column by column (left-looking), every inner loop down a column
   for (int j = 0; j < r; ++j) {
-    double d = A(j, j);
-    for (int k = 0; k < j; ++k) d -= A(j, k) * A(j, k);
-    if (!(d > 0)) return false;
-    d = std::sqrt(d);
-    A(j, j) = d;
-    for (int i = j + 1; i < r; ++i) {
-      double s = A(i, j);
-      for (int k = 0; k < j; ++k) s -= A(i, k) * A(j, k);
-      A(i, j) = s / d;
+    double* aj = &A(0, j);
+    for (int k = 0; k < j; ++k) {
+      const double* ak = &A(0, k);
+      const double f = ak[j];
+      for (int i = j; i < r; ++i) aj[i] -= ak[i] * f;
     }
+    if (!(aj[j] > 0)) return false;
+    const double d = std::sqrt(aj[j]), inv = 1.0 / d;
+    aj[j] = d;
+    for (int i = j + 1; i < r; ++i) aj[i] *= inv;
   }
   return true;
 }
 
 // x := (L L^T)^-1 x on the factor of cholesky().
 void cholesky_solve(const Eigen::MatrixXd& L, int r, double* x) {
-  for (int i = 0; i < r; ++i) {
-    double s = x[i];
-    for (int k = 0; k < i; ++k) s -= L(i, k) * x[k];
-    x[i] = s / L(i, i);
+  for (int k = 0; k < r; ++k) {
+    const double* lk = &L(0, k);
+    const double xk = x[k] / lk[k];
+    x[k] = xk;
+    for (int i = k + 1; i < r; ++i) x[i] -= lk[i] * xk;
   }
   for (int i = r - 1; i >= 0; --i) {
+    const double* li = &L(0, i);
     double s = x[i];
-    for (int k = i + 1; k < r; ++k) s -= L(k, i) * x[k];
-    x[i] = s / L(i, i);
+    for (int k = i + 1; k < r; ++k) s -= li[k] * x[k];
+    x[i] = s / li[i];
   }
 }
 
@@ -188,16 +192,23 @@ bool forces_of(FaceBasis& w, const FaceProblem& p, const Eigen::VectorXd& alpha,
 
 // The Newton matrix Phi^T (C + diag f') Phi at the jets in w.jet into w.A (factorized).
 bool newton_matrix(FaceBasis& w, int r) {
-  w.A.topLeftCorner(r, r) = w.PCP.topLeftCorner(r, r);
+  constexpr int K = FaceBasis::kMaxShapes;
+  for (int c = 0; c < r; ++c)
+    for (int e = c; e < r; ++e) w.A(e, c) = w.PCP(e, c);
   for (int q = 0; q < w.pairs; ++q) {
     if (!w.active[q]) continue;
     const int c0 = w.col[q], dq = w.dim[q];
+    double acc[K * K] = {};
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
-      const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+      const double* ph = &w.phi[std::size_t(m) * K];
       const double fp = w.jet[w.member[m]].slope;
-      for (int k = 0; k < dq; ++k)
-        for (int l = 0; l <= k; ++l) w.A(c0 + k, c0 + l) += fp * ph[k] * ph[l];
+      for (int k = 0; k < dq; ++k) {
+        const double t = fp * ph[k];
+        for (int l = 0; l <= k; ++l) acc[k * K + l] += t * ph[l];
+      }
     }
+    for (int k = 0; k < dq; ++k)
+      for (int l = 0; l <= k; ++l) w.A(c0 + k, c0 + l) += acc[k * K + l];
   }
   return cholesky(w.A, r);
 }
@@ -294,6 +305,15 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
   Eigen::VectorXd& F = w.F;
   for (int round = 0; round < 3; ++round) {
     const int r = build_projection(w, p);
+    for (int q = 0; q < w.pairs; ++q) {  // 1 / sum_a |phi_ak|: a column's residual as a mean gap
+      if (!w.active[q]) continue;
+      for (int k = 0; k < w.dim[q]; ++k) {
+        double norm = 0;
+        for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m)
+          norm += std::fabs(w.phi[std::size_t(m) * FaceBasis::kMaxShapes + k]);
+        w.inv_norm[w.col[q] + k] = 1.0 / norm;
+      }
+    }
     // start: the last answer's shapes where every active pair has them, else the solve without
     // the local laws (quasi: with the load balance)
     bool warm = true;
@@ -369,10 +389,7 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
       for (int q = 0; q < w.pairs; ++q) {
         if (!w.active[q]) continue;
         for (int k = 0; k < w.dim[q]; ++k) {
-          double norm = 0;
-          for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m)
-            norm += std::fabs(w.phi[std::size_t(m) * FaceBasis::kMaxShapes + k]);
-          res = std::max(res, std::fabs(w.G[w.col[q] + k]) / norm);
+          res = std::max(res, std::fabs(w.G[w.col[q] + k]) * w.inv_norm[w.col[q] + k]);
         }
       }
       double h = 0;

@@ -58,6 +58,7 @@ struct FaceBasis {
   Eigen::MatrixXd CP, PCP, A;        // C Phi (n x r), Phi^T C Phi, the Newton matrix (r x r)
   Eigen::VectorXd alpha, step, G, x1, x2, F, trial;
   Eigen::VectorXd nominal;           // per solved slice: f'_i at the shapes' line load
+  Eigen::VectorXd inv_norm;          // per column: 1 / sum_a |phi_ak|
   // the derivative's (derivatives.cpp): Phi and dPhi (n x r), per-slice vectors
   Eigen::MatrixXd Phi, dPhi;
   Eigen::VectorXd diag, law_f, g, u, v, t;
