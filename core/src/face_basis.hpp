@@ -1,23 +1,27 @@
 // Level 5's coupled solve on a reduced face basis (solver.face_shapes = K > 0; docs/model.md,
-// "Level 5: the coupled solve", Reduced face basis). The loads of each loaded tooth pair's slices
-// are a sum of K smooth shapes across the face, F = Phi alpha, Phi per pair the Legendre
-// polynomials P_0 .. P_{K-1} of the slice's position within the pair's span of solved slices
-// (min(K, slices of the pair) columns). The coupled problem C F + f(F) = Delta is solved in that
-// space by Ritz-Galerkin, Phi^T (C Phi alpha + f(Phi alpha) - Delta) = 0, the stationary point
-// of the convex energy 1/2 F^T C F + sum_i P_i(F_i) - Delta^T F on the subspace (quasi-static:
-// with the rigid approach lambda along the TE gains and the load balance sum_i b_i F_i = load as
-// a bordered row), by Newton on alpha: J = Phi^T (C + diag f'(F)) Phi, r x r with r the pairs'
-// columns (about 6 for 19 slices of two spur pairs) instead of the slices' n x n.
+// "FE level", Reduced face basis). The loads of each loaded tooth pair's slices are a sum of K
+// shapes across the face, F = Phi alpha, each the pair's own response to a smooth approach:
+// Phi_k = (C_pp + diag f'(w_0 L))^-1 P_k on the pair's solved slices (C_pp its block of C, f' the
+// local laws' slopes at the line load kShapeLineLoad, P_k the Legendre polynomial of the slice's
+// position within the pair's span; min(K, slices of the pair) columns, each scaled to a largest
+// entry of 1). The coupled problem C F + f(F) = Delta is solved in that space by Ritz-Galerkin,
+// Phi^T (C Phi alpha + f(Phi alpha) - Delta) = 0, the stationary point of the convex energy
+// 1/2 F^T C F + sum_i P_i(F_i) - Delta^T F on the subspace (quasi-static: with the rigid approach
+// lambda along the TE gains and the load balance sum_i b_i F_i = load as a bordered row), by
+// Newton on alpha: J = Phi^T (C + diag f'(F)) Phi, r x r with r the pairs' columns (2 for two
+// spur pairs at K = 1) instead of the slices' n x n.
 //
 // Complementarity stays exact: the answer is accepted only when every slice of a loaded pair
 // carries a positive load and every solved slice of the other pairs stays open at it (gap >= 0);
 // a pair that closes is added and the solve repeated (quasi-static: the loaded pairs are not
 // known before lambda). Otherwise (a slice would unload: crowning, tilt, a pair entering or
-// leaving mesh; no convergence) the caller solves over every slice (dense_solve.cpp), so the
-// reduced answer is only ever used where the face loads are positive throughout.
+// leaving mesh; no convergence; a loaded slice's own gap beyond slice_tolerance) the caller
+// solves over every slice (dense_solve.cpp), so the reduced answer is only ever used where the
+// face loads are positive throughout.
 //
-// The directional derivative (derivatives.cpp) differentiates the same reduced equations on
-// the same basis (FaceBasis::used and the per-candidate rows of Phi it keeps).
+// The directional derivative (derivatives.cpp, face_dual_solve) differentiates the same reduced
+// equations on the same basis, with the basis's own derivative (FaceBasis::used, the
+// per-candidate rows of Phi and alpha it keeps).
 #pragma once
 
 #include <vector>
