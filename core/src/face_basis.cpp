@@ -15,14 +15,16 @@ void FaceBasis::reserve(int capacity) {
   pair_of.assign(c, -1);
   member.assign(c, 0);
   phi.assign(std::size_t(c) * kMaxShapes, 0.0);
+  // r: the columns one call can have; A and x1 also hold a tooth pair's block and its shapes
+  // (up to c slices)
   const int r = std::min(c, kMaxPairs * kMaxShapes);
   CP.resize(c, r);
   PCP.resize(r, r);
-  A.resize(r, r);
+  A.resize(c, c);
   alpha.resize(r);
   step.resize(r);
   G.resize(r);
-  x1.resize(r);
+  x1.resize(c);
   x2.resize(r);
   F.resize(c);
   trial.resize(c);
