@@ -230,6 +230,7 @@ gm_status gm_data_create(const gm_model* m, gm_data** out) {
       if (m->level.database) {
         d->fe_assembly.reserve(gm::fe_view(*m), c);  // gm_evaluate then allocates nothing
         d->fe_dual_assembly.reserve(gm::fe_view(*m), c);
+        d->face.reserve(c);
       }
     }
     d->message.reserve(256);
@@ -248,6 +249,7 @@ void gm_data_reset(const gm_model* m, gm_data* d) {
   d->loaded_count = 0;
   d->te_estimate = 0;
   d->dense_prev_n = -1;
+  d->face.warm.pairs = 0;
   d->fe_assembly.invalidate();
 }
 
@@ -359,6 +361,7 @@ gm_status gm_data_state_load(const gm_model* m, gm_data* d, const void* buf, siz
   }
   d->te_estimate = h.te_estimate;
   d->dense_prev_n = -1;  // level 5: the next solve starts cold
+  d->face.warm.pairs = 0;
   d->fe_assembly.invalidate();  // derived caches: rebuilt by the next call
   d->loaded_count = 0;          // the record of the last evaluation: none since
   d->message.clear();

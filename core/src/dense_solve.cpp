@@ -7,10 +7,16 @@
 #include <cmath>
 #include <limits>
 
+#include "face_basis.hpp"
+
 namespace gm {
 namespace {
 
 constexpr double kNlcpRelativeTolerance = 1e-10;  // NlcpOptions' default
+// The reduced face basis's Newton iterations: it starts from the last answer or the solve without
+// the local laws and converges in 2-4; one that needs more is a slice unloading, which the solve
+// over the slices then answers
+constexpr int kFaceIterations = 12;
 
 // The solved set (every candidate with `all`, else those with Delta > 0) in d.dense_index; its
 // number. Zeroes d.forces and d.slice_stiffness of all n candidates.
@@ -252,6 +258,53 @@ void dense_store(gm_data& d, int na, bool tangent) {
   d.dense_energy = energy;
 }
 
+// Level 5 with solver.face_shapes > 0: the solve on the reduced face basis (face_basis.hpp) over
+// the gathered set; true with the answer stored as dense_store stores it (quasi: d.approach moved
+// by the solved lambda), false (nothing changed) where the caller solves over the slices.
+bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int na, int flank, ForceSolve& out) {
+  const NlcpOptions& opt = d.nlcp->options();
+  double all_max = 0;
+  for (int a = 0; a < na; ++a) all_max = std::max(all_max, std::fabs(d.dense_delta[a]));
+  FaceProblem fp;
+  fp.n = na;
+  fp.index = d.dense_index.data();
+  fp.slices = d.slices.data();
+  fp.C = d.dense_c.data();
+  fp.ld = static_cast<int>(d.dense_c.rows());
+  fp.delta = d.dense_delta.data();
+  fp.laws = d.dense_laws.data();
+  fp.shapes = m.params.solver_face_shapes;
+  fp.tolerance = opt.tolerance + opt.relative_tolerance * all_max;
+  fp.max_iterations = std::min(m.params.solver_max_iterations, kFaceIterations);
+  fp.quasi = p.quasi;
+  fp.gain = d.dense_weights.data();
+  fp.balance = d.balance.data();
+  fp.load = p.load;
+  const FaceAnswer fa = solve_face_basis(d.face, fp, d.dense_work.data(), d.dense_tangent.data());
+  if (!fa.accepted) return false;
+  const int n = p.n;
+  if (p.quasi) {
+    for (int i = 0; i < n; ++i) d.approach[i] += fa.lambda * d.slices[i].te_gain;
+    if (flank != 0 && !dense_others_open(d, n, flank)) {  // wedging: the full solve decides
+      for (int i = 0; i < n; ++i) d.approach[i] = d.slices[i].approach;
+      d.face.used = false;
+      return false;
+    }
+  }
+  const bool tangent = !(p.quasi && std::fabs(fa.lambda) > p.next_pass_above);
+  for (int a = 0; a < na; ++a) {
+    const int i = d.dense_index[a];
+    d.forces[i] = d.dense_work[a];
+    d.slice_stiffness[i] = tangent ? d.dense_tangent.data()[a] : 0.0;
+    d.dense_force[a] = d.dense_work[a];  // the full solve's warm start, should a later call need it
+  }
+  d.dense_energy = fa.energy;
+  out.lambda = fa.lambda;
+  out.iterations += fa.iterations;
+  out.residual = fa.residual;
+  return true;
+}
+
 }  // namespace
 
 ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p) {
@@ -275,6 +328,10 @@ ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p) {
                         : 0;
   dense_gather(m, d, kin, na);
   dense_set_options(m, d, na);
+  d.face.used = false;
+  if (m.level.database && m.params.solver_face_shapes > 0 && !(quasi && load == 0) &&
+      dense_face_solve(m, d, p, na, flank, out))
+    return out;
   NlcpResult res;
   if (!quasi) {
     const auto Cn = d.dense_c.topLeftCorner(na, na);

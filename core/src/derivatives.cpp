@@ -172,9 +172,14 @@ void coupled_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>&
   for (int p = 0; p < na; ++p) {
     const int i = d.dense_index[p];
     double fd = 0;
+    if (d.face.used) {  // the reduced face basis's derivative: diag(C) and f(F)
+      d.face.diag[p] = H(p, p);
+      d.face.law_f[p] = 0;
+    }
     if (has_local_law(d.laws[i].local)) {
       Dual f, fp;
       local_law_approach_slope(d.dual_laws[i].local, Dual(d.forces[i], 0), f, fp);
+      if (d.face.used) d.face.law_f[p] = f.v;
       H(p, p) += fp.v;
       fd = f.d;
     }
@@ -216,6 +221,134 @@ gm_status coupled_dual_solve(gm_data& d, int na) {
   return GM_OK;
 }
 
+// The same on the reduced face basis of the evaluation's solve (solver.face_shapes,
+// face_basis.hpp): F = Phi alpha with Phi^T g = 0, g = C F + f(F) - Delta, and Phi per pair
+// (C_pp + diag f'_nom)^-1 P (column scales aside, which leave the span and so F as they are), so
+// dPhi = -(C_pp + diag f'_nom)^-1 (dC_pp + diag df'_nom) Phi and
+//   A dalpha = Phi^T rhs - dPhi^T g - Phi^T H dPhi alpha,  A = Phi^T H Phi,  H = C + diag f'(F),
+//   dF = dPhi alpha + Phi dalpha;
+// the tangent stiffnesses x = Phi y, y = A^-1 Phi^T 1, and
+//   dx = dPhi y + Phi A^-1 [dPhi^T (1 - H x) - Phi^T (dH x) - Phi^T H dPhi y].
+// d.face.diag and law_f hold diag(C) and f(F) of the loaded slices (coupled_dual_system).
+gm_status face_dual_solve(gm_data& d, int na) {
+  FaceBasis& w = d.face;
+  const int r = w.columns;
+  auto H = d.dense_tangent.topLeftCorner(na, na);
+  auto dC = d.dense_dual_c.topLeftCorner(na, na);
+  auto rhs = d.dense_delta.head(na);
+  auto Phi = w.Phi.topLeftCorner(na, r);
+  auto dPhi = w.dPhi.topLeftCorner(na, r);
+  Phi.setZero();
+  dPhi.setZero();
+  for (int p = 0; p < na; ++p) {
+    const int i = d.dense_index[p];
+    if (w.cand_col[i] < 0) {
+      d.message = "level 5 (FE): a loaded slice outside the reduced face basis (internal error)";
+      return GM_ERR_SOLVER;
+    }
+    for (int k = 0; k < w.cand_dim[i]; ++k)
+      Phi(p, w.cand_col[i] + k) = w.cand_phi[std::size_t(i) * FaceBasis::kMaxShapes + k];
+  }
+  // dPhi pair by pair (the loaded slices of one pair share their first column)
+  for (int p0 = 0; p0 < na; ++p0) {
+    const int c0 = w.cand_col[d.dense_index[p0]];
+    bool first = true;
+    for (int p = 0; p < p0 && first; ++p) first = w.cand_col[d.dense_index[p]] != c0;
+    if (!first) continue;
+    int np = 0;
+    for (int p = p0; p < na; ++p)
+      if (w.cand_col[d.dense_index[p]] == c0) w.member[np++] = p;
+    Eigen::MatrixXd& L = w.A;
+    for (int a = 0; a < np; ++a) {
+      const int pa = w.member[a], i = d.dense_index[pa];
+      double slope = 0, dslope = 0;
+      if (has_local_law(d.laws[i].local)) {
+        Dual f, fp;
+        local_law_approach_slope(d.dual_laws[i].local, kShapeLineLoad * d.dual_laws[i].local.width, f, fp);
+        slope = fp.v;
+        dslope = fp.d;
+      }
+      for (int b = a + 1; b < np; ++b) L(b, a) = H(w.member[b], pa);
+      L(a, a) = w.diag[pa] + slope;
+      w.u[a] = dslope;  // d(f'_nom) of member a
+    }
+    if (!face_cholesky(L, np)) {
+      d.message = "level 5 (FE): a tooth pair's block of the reduced face basis is not positive definite";
+      return GM_ERR_SOLVER;
+    }
+    for (int k = 0; k < w.cand_dim[d.dense_index[p0]]; ++k) {
+      for (int a = 0; a < np; ++a) {
+        const int pa = w.member[a];
+        double z = w.u[a] * Phi(pa, c0 + k);
+        for (int b = 0; b < np; ++b) z += dC(pa, w.member[b]) * Phi(w.member[b], c0 + k);
+        w.v[a] = z;
+      }
+      face_cholesky_solve(L, np, w.v.data());
+      for (int a = 0; a < np; ++a) dPhi(w.member[a], c0 + k) = -w.v[a];
+    }
+  }
+  // the Galerkin residual g at the answer
+  auto g = w.g.head(na);
+  for (int p = 0; p < na; ++p) {
+    double s = w.law_f[p] - d.slices[d.dense_index[p]].approach + w.diag[p] * d.forces[d.dense_index[p]];
+    for (int q = 0; q < na; ++q)
+      if (q != p) s += H(p, q) * d.forces[d.dense_index[q]];
+    g[p] = s;
+  }
+  // A = Phi^T H Phi
+  auto HP = w.CP.topLeftCorner(na, r);
+  HP.noalias() = H.lazyProduct(Phi);
+  auto A = w.A.topLeftCorner(r, r);
+  A.noalias() = Phi.transpose().lazyProduct(HP);
+  if (!face_cholesky(w.A, r)) {
+    d.message = "level 5 (FE): the reduced face basis's matrix is not positive definite";
+    return GM_ERR_SOLVER;
+  }
+  auto alpha = w.alpha.head(r);
+  auto u = w.u.head(na);
+  auto v = w.v.head(na);
+  auto t = w.t.head(na);
+  auto y = w.x1.head(r);
+  auto c = w.x2.head(r);
+  u.noalias() = dPhi.lazyProduct(alpha);
+  t.noalias() = H.lazyProduct(u);
+  y.noalias() = Phi.transpose().lazyProduct(rhs);
+  y.noalias() -= dPhi.transpose().lazyProduct(g);
+  y.noalias() -= Phi.transpose().lazyProduct(t);
+  face_cholesky_solve(w.A, r, y.data());
+  rhs = u;
+  rhs.noalias() += Phi.lazyProduct(y);  // dF_A
+  // tangent stiffnesses
+  for (int k = 0; k < r; ++k) y[k] = Phi.col(k).sum();
+  face_cholesky_solve(w.A, r, y.data());
+  auto x = d.dense_work.head(na);
+  x.noalias() = Phi.lazyProduct(y);
+  auto dHx = d.dense_weights.head(na);
+  for (int p = 0; p < na; ++p) {
+    const int i = d.dense_index[p];
+    d.dual_forces[i] = Dual(d.forces[i], rhs[p]);
+    double dfp = 0;
+    if (has_local_law(d.laws[i].local)) {
+      Dual f, fp;
+      local_law_approach_slope(d.dual_laws[i].local, d.dual_forces[i], f, fp);
+      dfp = fp.d;
+    }
+    dHx[p] = dfp * x[p];
+    for (int q = 0; q < na; ++q) dHx[p] += dC(p, q) * x[q];
+  }
+  v.noalias() = dPhi.lazyProduct(y);  // dPhi y
+  t.setOnes();
+  t.noalias() -= H.lazyProduct(x);
+  c.noalias() = dPhi.transpose().lazyProduct(t);
+  c.noalias() -= Phi.transpose().lazyProduct(dHx);
+  u.noalias() = H.lazyProduct(v);
+  c.noalias() -= Phi.transpose().lazyProduct(u);
+  face_cholesky_solve(w.A, r, c.data());
+  v.noalias() += Phi.lazyProduct(c);
+  for (int p = 0; p < na; ++p) d.dual_stiffness[d.dense_index[p]] = Dual(x[p], v[p]);
+  return GM_OK;
+}
+
 gm_status coupled_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, int n,
                               bool all) {
   const gm_kinematics kv = values_of(kin);
@@ -243,7 +376,7 @@ gm_status coupled_dual_forces(const gm_model& m, gm_data& d, const KinematicsT<D
   }
   if (na == 0) return GM_OK;
   coupled_dual_system(m, d, kin, na);
-  return coupled_dual_solve(d, na);
+  return d.face.used ? face_dual_solve(d, na) : coupled_dual_solve(d, na);
 }
 
 gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin, bool all,
@@ -284,7 +417,8 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
 // it when the derivative returns, so that gm_evaluate's next result does not depend on it.
 class CoupledWarmStartGuard {
  public:
-  CoupledWarmStartGuard(gm_data& d, bool active) : d_(d), active_(active), n_(d.dense_prev_n) {
+  CoupledWarmStartGuard(gm_data& d, bool active)
+      : d_(d), active_(active), n_(d.dense_prev_n), face_(d.face.warm) {
     for (int a = 0; active_ && a < n_; ++a) {
       d_.dense_saved_force[a] = d_.dense_force[a];
       d_.dense_saved_key[a] = d_.dense_prev_key[a];
@@ -297,6 +431,7 @@ class CoupledWarmStartGuard {
       d_.dense_prev_key[a] = d_.dense_saved_key[a];
     }
     d_.dense_prev_n = n_;
+    d_.face.warm = face_;
   }
   CoupledWarmStartGuard(const CoupledWarmStartGuard&) = delete;
   CoupledWarmStartGuard& operator=(const CoupledWarmStartGuard&) = delete;
@@ -305,6 +440,7 @@ class CoupledWarmStartGuard {
   gm_data& d_;
   bool active_;
   int n_;
+  FaceBasis::Warm face_;  // the reduced face basis's warm start
 };
 
 // One gm_directional_derivative at the pose at_in along seed: the poses, the pass and the TE.

@@ -15,6 +15,7 @@
 #include "contact_forces.hpp"
 #include "nlcp.hpp"
 #include "detection.hpp"
+#include "face_basis.hpp"
 #include "fe_compliance.hpp"
 #include "stiffness_iso.hpp"
 #include "gearmesh/internal/tooth_compliance.hpp"
@@ -88,6 +89,7 @@ struct gm_data {
   // J; NaN: this evaluation has none (resultants.hpp's elastic_energy computes it)
   double dense_energy = std::numeric_limits<double>::quiet_NaN();
   gm::FeAssembly fe_assembly;            // cached face sums of the databases (derived data)
+  gm::FaceBasis face;                    // level 5, solver.face_shapes > 0: the reduced solve
   Eigen::MatrixXd dense_dual_c;             // derivative: dC between the loaded slices, m/N
   gm::FeDualAssembly fe_dual_assembly;   // derivative: level 5's C and dC (its scratch)
   Eigen::VectorXd dense_saved_force;        // derivative: the warm start, restored afterwards

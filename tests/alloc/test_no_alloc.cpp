@@ -250,6 +250,7 @@ TEST(NoAlloc, TheCounterSeesEveryForm) {
 struct Case {
   int level;
   int quasi_static;
+  int face_shapes = 0;  // level 5: solver.face_shapes (the reduced face basis)
 };
 
 class Evaluate : public ::testing::TestWithParam<Case> {};
@@ -260,7 +261,9 @@ TEST_P(Evaluate, AllocatesNothingOnceWarm) {
   p.slices = 5;
   p.quasi_static = c.quasi_static;
   p.stiffness_level = c.level;
-  const std::string tag = "l" + std::to_string(c.level) + "q" + std::to_string(c.quasi_static);
+  p.solver_face_shapes = c.face_shapes;
+  const std::string tag =
+      "l" + std::to_string(c.level) + "q" + std::to_string(c.quasi_static) + "s" + std::to_string(c.face_shapes);
   const std::string te_path = write_temp("no_alloc_" + tag + "_te.txt", te_table(p.gear[0].teeth));
   const std::string k_path = write_temp("no_alloc_" + tag + "_k.txt", kStiffnessTable);
   p.te_table = te_path.c_str();
@@ -306,9 +309,11 @@ TEST_P(Evaluate, AllocatesNothingOnceWarm) {
 INSTANTIATE_TEST_SUITE_P(
     EveryLevel, Evaluate,
     ::testing::Values(Case{0, 0}, Case{1, 0}, Case{2, 0}, Case{3, 0}, Case{4, 0}, Case{5, 0},
-                      Case{0, 1}, Case{1, 1}, Case{2, 1}, Case{3, 1}, Case{4, 1}, Case{5, 1}),
+                      Case{0, 1}, Case{1, 1}, Case{2, 1}, Case{3, 1}, Case{4, 1}, Case{5, 1}, Case{5, 0, 2},
+                      Case{5, 1, 2}),
     [](const ::testing::TestParamInfo<Case>& i) {
-      return "level" + std::to_string(i.param.level) + (i.param.quasi_static ? "_quasi" : "_plain");
+      return "level" + std::to_string(i.param.level) + (i.param.quasi_static ? "_quasi" : "_plain") +
+             (i.param.face_shapes ? "_face_shapes" + std::to_string(i.param.face_shapes) : "");
     });
 
 }  // namespace

@@ -7,7 +7,8 @@
 // then optionally, in any order: "helical" (the 15 deg variant of
 // tests/benchmarks/bench_evaluate.cpp), "fe" (level 5 with bench_evaluate's synthetic databases,
 // written to the temporary directory), "baseline" (bench_evaluate's baseline: the default
-// parameters; COUPLED is then ignored) and a slice count (default 10).
+// parameters; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K) and a
+// slice count (default 10).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -22,9 +23,11 @@ int main(int argc, char** argv) {
   const int quasi = argc > 2 ? std::atoi(argv[2]) : 0;
   const int n = argc > 3 ? std::atoi(argv[3]) : 1000;
   bool helical = false, fe = false, baseline = false, bad = false;
-  int slices = 10;
+  int slices = 10, shapes = 0;
   for (int a = 4; a < argc; ++a) {
-    if (std::strcmp(argv[a], "helical") == 0)
+    if (std::strncmp(argv[a], "shapes", 6) == 0)
+      shapes = std::atoi(argv[a] + 6);
+    else if (std::strcmp(argv[a], "helical") == 0)
       helical = true;
     else if (std::strcmp(argv[a], "fe") == 0)
       fe = true;
@@ -35,7 +38,7 @@ int main(int argc, char** argv) {
   }
   if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1 || bad) {
     std::fprintf(stderr, "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical] [fe] "
-                         "[baseline] [SLICES]\n");
+                         "[baseline] [shapesK] [SLICES]\n");
     return 2;
   }
   gm_model_params p;
@@ -44,6 +47,7 @@ int main(int argc, char** argv) {
   p.slices = slices;
   p.coupled_teeth = coupled;
   p.quasi_static = quasi;
+  p.solver_face_shapes = shapes;
   if (baseline) {
     gm_default_params(&p);
     p.quasi_static = quasi;

@@ -12,6 +12,7 @@
 
 #include "gearmesh/internal/compliance_db.hpp"
 #include "fe_synthetic.hpp"
+#include "model.hpp"
 #include "test_support.hpp"
 
 namespace {
@@ -216,6 +217,9 @@ gm_model_params with_micro(gm_model_params p) {
   return p;
 }
 
+// Level 5 with solver.face_shapes: the poses whose evaluation took the reduced face basis.
+int* g_face_used = nullptr;
+
 void run_case(const Case& c, Stats& total) {
   gm_model_params p = gm_test::paper();
   p.slices = 7;
@@ -248,6 +252,7 @@ void run_case(const Case& c, Stats& total) {
     at.omega[1] = -I.sign() * at.omega[0] * I.rb(0) / I.rb(1) * (1 + 0.01 * (2 * U(rng) - 1));
     at.load_torque = c.quasi ? 200 + 800 * U(rng) : 0.0;
     I.eval(at);  // warm start
+    if (g_face_used && I.d->face.used) ++*g_face_used;
     for (int k = 0; k < 3; ++k) {
       // an aligned pose is a kink along tilts (one-sided derivatives differ): tilt only tilted ones
       const gm_kinematics seed = random_seed(rng, c.tilt);
@@ -403,6 +408,32 @@ TEST(Jacobian, Level5MatchesCentralDifferences) {
     if (is_fe(c)) run_case(c, total);
   std::printf("  level 5: checked %d skipped %d worst error/allowed %.3g\n", total.checked,
               total.skipped, total.worst);
+}
+
+// Level 5 on the reduced face basis (solver.face_shapes, face_basis.hpp): the derivative of the
+// reduced equations, with the basis's own derivative (the shapes are the pair's response through
+// C), against the same differences; most poses of the spur cases take the reduced basis.
+TEST(Jacobian, Level5FaceBasisMatchesCentralDifferences) {
+  for (int shapes : {1, 3}) {
+    Stats total;
+    int used = 0, poses = 0;
+    g_face_used = &used;
+    for (const Case& c : cases()) {
+      if (!is_fe(c)) continue;
+      Case r = c;
+      r.edit = [&c, shapes](gm_model_params& p) {
+        c.edit(p);
+        p.solver_face_shapes = shapes;
+      };
+      run_case(r, total);
+      poses += 12;
+    }
+    g_face_used = nullptr;
+    std::printf("  level 5, %d face shapes: checked %d skipped %d worst error/allowed %.3g; reduced at %d of %d "
+                "poses\n",
+                shapes, total.checked, total.skipped, total.worst, used, poses);
+    EXPECT_GE(used, poses / 4) << shapes << " face shapes: the reduced basis was hardly used";
+  }
 }
 
 // A pure TE direction (gear 2's spin only) at level 0, spur, aligned, one slice: the normal

@@ -7,8 +7,9 @@
 //   output_hashes [REPO]   REPO: the source tree (scenarios/ for level 1's table, TE table)
 //
 // The cases: levels 0-5 (level 4 also without tooth coupling; level 5 on both gears' synthetic
-// databases, tests/core/fe_synthetic.hpp), each plain and quasi-static, spur and helical, and
-// without or with effects (friction, damping, crowning, a tilt, a TE excitation table).
+// databases, tests/core/fe_synthetic.hpp, also on the reduced face basis), each plain and
+// quasi-static, spur and helical, and without or with effects (friction, damping, crowning, a
+// tilt, a TE excitation table).
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -158,14 +159,17 @@ int main(int argc, char** argv) {
   const std::string table = repo + "/scenarios/user_stiffness_example.txt";
   const std::string te_table = repo + "/scenarios/user_te_example.txt";
   int cases = 0;
-  for (int level = 0; level <= 6; ++level) {  // 6: level 4 without tooth coupling
+  // 6: level 4 without tooth coupling; 7: level 5 on the reduced face basis (solver.face_shapes 2)
+  for (int level = 0; level <= 7; ++level) {
     for (int helical = 0; helical < 2; ++helical) {
       for (int effects = 0; effects < 2; ++effects) {
         for (int quasi = 0; quasi < 2; ++quasi) {
           Setting s;
           gm_default_params(&s.p);
-          s.p.stiffness_level = level == 6 ? GM_STIFFNESS_ANALYTICAL : level;
+          s.p.stiffness_level = level == 6 ? GM_STIFFNESS_ANALYTICAL : level == 7 ? GM_STIFFNESS_FE
+                                                                                  : level;
           if (level == 6) s.p.coupled_teeth = 0;
+          if (level == 7) s.p.solver_face_shapes = 2;
           s.p.slices = 6;
           if (helical) {
             s.p.pair.helix_angle = 15 * kPi / 180;
@@ -186,7 +190,7 @@ int main(int argc, char** argv) {
             s.tilt = 2e-4;
           }
           s.p.quasi_static = quasi;
-          if (level == 5) {
+          if (level == 5 || level == 7) {
             std::string msg;
             for (int gear = 0; gear < 2; ++gear) {
               const std::string path = gm_test::write_smooth_db(
@@ -198,7 +202,10 @@ int main(int argc, char** argv) {
               s.p.compliance[gear] = kept(path);
             }
           }
-          s.name = "level " + (level == 6 ? std::string("4 uncoupled") : std::to_string(level)) +
+          s.name = "level " +
+                   (level == 6   ? std::string("4 uncoupled")
+                    : level == 7 ? std::string("5 face shapes")
+                                 : std::to_string(level)) +
                    (helical ? " helical" : " spur") + (effects ? " effects" : " plain") +
                    (quasi ? " quasi-static" : " prescribed");
           run(s);

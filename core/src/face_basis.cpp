@@ -1,0 +1,522 @@
+// Level 5's coupled solve on a reduced face basis (face_basis.hpp).
+#include "face_basis.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace gm {
+
+void FaceBasis::reserve(int capacity) {
+  const int c = std::max(capacity, 1);
+  cand_col.assign(c, -1);
+  cand_dim.assign(c, 0);
+  cand_phi.assign(std::size_t(c) * kMaxShapes, 0.0);
+  pair_of.assign(c, -1);
+  member.assign(c, 0);
+  phi.assign(std::size_t(c) * kMaxShapes, 0.0);
+  // r: the columns one call can have; A and x1 also hold a tooth pair's block and its shapes
+  // (up to c slices)
+  const int r = std::min(c, kMaxPairs * kMaxShapes);
+  CP.resize(c, r);
+  PCP.resize(r, r);
+  A.resize(c, c);
+  alpha.resize(r);
+  step.resize(r);
+  G.resize(r);
+  x1.resize(c);
+  x2.resize(r);
+  F.resize(c);
+  trial.resize(c);
+  nominal.resize(c);
+  inv_norm.resize(r);
+  Phi.resize(c, r);
+  dPhi.resize(c, r);
+  for (Eigen::VectorXd* x : {&diag, &law_f, &g, &u, &v, &t}) x->resize(c);
+  kern.resize(c);
+  jet.resize(c);
+}
+
+namespace {
+
+bool same_law(const LocalLaw& a, const LocalLaw& b) {
+  return a.width == b.width && a.reduced_radius == b.reduced_radius && a.body[0].depth == b.body[0].depth &&
+         a.body[1].depth == b.body[1].depth && a.body[0].youngs_modulus == b.body[0].youngs_modulus &&
+         a.body[1].youngs_modulus == b.body[1].youngs_modulus && a.body[0].poisson_ratio == b.body[0].poisson_ratio &&
+         a.body[1].poisson_ratio == b.body[1].poisson_ratio;
+}
+
+// In-place Cholesky of the leading r x r block of A (lower triangle); false if not positive
+// definite.
+bool cholesky(Eigen::MatrixXd& A, int r) {
+  // column by column (left-looking), every inner loop down a column
+  for (int j = 0; j < r; ++j) {
+    double* aj = &A(0, j);
+    for (int k = 0; k < j; ++k) {
+      const double* ak = &A(0, k);
+      const double f = ak[j];
+      for (int i = j; i < r; ++i) aj[i] -= ak[i] * f;
+    }
+    if (!(aj[j] > 0)) return false;
+    const double d = std::sqrt(aj[j]), inv = 1.0 / d;
+    aj[j] = d;
+    for (int i = j + 1; i < r; ++i) aj[i] *= inv;
+  }
+  return true;
+}
+
+// x := (L L^T)^-1 x on the factor of cholesky().
+void cholesky_solve(const Eigen::MatrixXd& L, int r, double* x) {
+  for (int k = 0; k < r; ++k) {
+    const double* lk = &L(0, k);
+    const double xk = x[k] / lk[k];
+    x[k] = xk;
+    for (int i = k + 1; i < r; ++i) x[i] -= lk[i] * xk;
+  }
+  for (int i = r - 1; i >= 0; --i) {
+    const double* li = &L(0, i);
+    double s = x[i];
+    for (int k = i + 1; k < r; ++k) s -= li[k] * x[k];
+    x[i] = s / li[i];
+  }
+}
+
+// Groups the solved slices by tooth pair (w.pairs, key, first/count, member, pair_of) and sets
+// each pair's rows of Phi. false: more pairs than the workspace holds.
+bool group_pairs(FaceBasis& w, const FaceProblem& p) {
+  w.pairs = 0;
+  for (int a = 0; a < p.n; ++a) {
+    const ContactSlice& s = p.slices[p.index[a]];
+    int q = 0;
+    while (q < w.pairs && !(w.key[q][0] == s.tooth[0] && w.key[q][1] == s.tooth[1] && w.key[q][2] == s.flank)) ++q;
+    if (q == w.pairs) {
+      if (w.pairs == FaceBasis::kMaxPairs) return false;
+      w.key[q][0] = s.tooth[0];
+      w.key[q][1] = s.tooth[1];
+      w.key[q][2] = s.flank;
+      w.key[q][3] = s.slice;
+      w.count[q] = 0;
+      ++w.pairs;
+    }
+    w.pair_of[a] = q;
+    ++w.count[q];
+  }
+  int at = 0;
+  for (int q = 0; q < w.pairs; ++q) {
+    w.first[q] = at;
+    at += w.count[q];
+    w.count[q] = 0;
+  }
+  for (int a = 0; a < p.n; ++a) {
+    const int q = w.pair_of[a];
+    w.member[w.first[q] + w.count[q]++] = a;
+  }
+  for (int q = 0; q < w.pairs; ++q) {
+    int lo = 1 << 30, hi = -(1 << 30);
+    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+      const int s = p.slices[p.index[w.member[m]]].slice;
+      lo = std::min(lo, s);
+      hi = std::max(hi, s);
+    }
+    w.key[q][3] = lo;
+    w.dim[q] = std::min(p.shapes, w.count[q]);
+    const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+      const double x = half > 0 ? (p.slices[p.index[w.member[m]]].slice - mid) / half : 0.0;
+      double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+      // Legendre polynomials P_k(x): P_0 = 1, P_1 = x, (k + 1) P_{k+1} = (2k + 1) x P_k - k P_{k-1}
+      ph[0] = 1;
+      if (w.dim[q] > 1) ph[1] = x;
+      for (int k = 1; k + 1 < w.dim[q]; ++k) ph[k + 1] = ((2 * k + 1) * x * ph[k] - k * ph[k - 1]) / (k + 1);
+    }
+  }
+  return true;
+}
+
+// Columns of the active pairs; C Phi and Phi^T C Phi over them. The number of columns.
+int build_projection(FaceBasis& w, const FaceProblem& p) {
+  int r = 0;
+  for (int q = 0; q < w.pairs; ++q) {
+    w.col[q] = r;
+    if (w.active[q]) r += w.dim[q];
+  }
+  const int n = p.n;
+  w.CP.topLeftCorner(n, r).setZero();
+  for (int q = 0; q < w.pairs; ++q) {
+    if (!w.active[q]) continue;
+    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+      const int b = w.member[m];
+      const double* cb = p.C + std::size_t(b) * p.ld;
+      const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+      for (int k = 0; k < w.dim[q]; ++k) {
+        double* out = &w.CP(0, w.col[q] + k);
+        const double f = ph[k];
+        for (int a = 0; a < n; ++a) out[a] += f * cb[a];
+      }
+    }
+  }
+  for (int q = 0; q < w.pairs; ++q) {
+    if (!w.active[q]) continue;
+    for (int k = 0; k < w.dim[q]; ++k)
+      for (int c = 0; c < r; ++c) {
+        double s = 0;
+        for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m)
+          s += w.phi[std::size_t(m) * FaceBasis::kMaxShapes + k] * w.CP(w.member[m], c);
+        w.PCP(w.col[q] + k, c) = s;
+      }
+  }
+  // symmetric in exact arithmetic: mirror the lower triangle
+  for (int c = 0; c < r; ++c)
+    for (int e = c + 1; e < r; ++e) w.PCP(c, e) = w.PCP(e, c);
+  return r;
+}
+
+// F_a = (Phi alpha)_a on the active pairs' slices (0 elsewhere), from alpha (or alpha + s step).
+// false: a slice of an active pair is not positive.
+bool forces_of(FaceBasis& w, const FaceProblem& p, const Eigen::VectorXd& alpha, const Eigen::VectorXd* step,
+               double s, Eigen::VectorXd& F) {
+  for (int a = 0; a < p.n; ++a) F[a] = 0;
+  for (int q = 0; q < w.pairs; ++q) {
+    if (!w.active[q]) continue;
+    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+      const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+      double f = 0;
+      for (int k = 0; k < w.dim[q]; ++k) {
+        const int c = w.col[q] + k;
+        f += ph[k] * (step ? alpha[c] + s * (*step)[c] : alpha[c]);
+      }
+      if (!(f > 0)) return false;
+      F[w.member[m]] = f;
+    }
+  }
+  return true;
+}
+
+// The Newton matrix Phi^T (C + diag f') Phi at the jets in w.jet into w.A (factorized).
+bool newton_matrix(FaceBasis& w, int r) {
+  constexpr int K = FaceBasis::kMaxShapes;
+  for (int c = 0; c < r; ++c)
+    for (int e = c; e < r; ++e) w.A(e, c) = w.PCP(e, c);
+  for (int q = 0; q < w.pairs; ++q) {
+    if (!w.active[q]) continue;
+    const int c0 = w.col[q], dq = w.dim[q];
+    double acc[K * K] = {};
+    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+      const double* ph = &w.phi[std::size_t(m) * K];
+      const double fp = w.jet[w.member[m]].slope;
+      for (int k = 0; k < dq; ++k) {
+        const double t = fp * ph[k];
+        for (int l = 0; l <= k; ++l) acc[k * K + l] += t * ph[l];
+      }
+    }
+    for (int k = 0; k < dq; ++k)
+      for (int l = 0; l <= k; ++l) w.A(c0 + k, c0 + l) += acc[k * K + l];
+  }
+  return cholesky(w.A, r);
+}
+
+// Phi^T v over the active pairs into out (r).
+void project(const FaceBasis& w, const double* v, double* out) {
+  for (int q = 0; q < w.pairs; ++q) {
+    if (!w.active[q]) continue;
+    for (int k = 0; k < w.dim[q]; ++k) {
+      double s = 0;
+      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m)
+        s += w.phi[std::size_t(m) * FaceBasis::kMaxShapes + k] * v[w.member[m]];
+      out[w.col[q] + k] = s;
+    }
+  }
+}
+
+// Each pair's shapes as its own response: phi_k := (C_pp + diag f'_i(w_0 L_i))^-1 P_k on its
+// slices (C_pp the pair's block of C, f' the local laws' slopes at the line load w_0), each
+// column scaled to a largest entry of 1 (the scale leaves the span, and so the answer, as it is).
+// false: the block is not positive definite.
+bool response_shapes(FaceBasis& w, const FaceProblem& p) {
+  Eigen::MatrixXd& L = w.A;
+  for (int q = 0; q < w.pairs; ++q) {
+    const int np = w.count[q], f0 = w.first[q];
+    for (int i = 0; i < np; ++i) {
+      const int a = w.member[f0 + i];
+      const double* col = p.C + std::size_t(a) * p.ld;
+      for (int j = i; j < np; ++j) L(j, i) = col[w.member[f0 + j]];
+      L(i, i) += w.nominal[a];
+    }
+    if (!cholesky(L, np)) return false;
+    for (int k = 0; k < w.dim[q]; ++k) {
+      for (int i = 0; i < np; ++i) w.x1[i] = w.phi[std::size_t(f0 + i) * FaceBasis::kMaxShapes + k];
+      cholesky_solve(L, np, w.x1.data());
+      double mx = 0;
+      for (int i = 0; i < np; ++i) mx = std::max(mx, std::fabs(w.x1[i]));
+      if (!(mx > 0)) return false;
+      const double inv = 1.0 / mx;
+      for (int i = 0; i < np; ++i) w.phi[std::size_t(f0 + i) * FaceBasis::kMaxShapes + k] = w.x1[i] * inv;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool face_cholesky(Eigen::MatrixXd& A, int r) { return cholesky(A, r); }
+void face_cholesky_solve(const Eigen::MatrixXd& L, int r, double* x) { cholesky_solve(L, r, x); }
+
+FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, double* stiffness) {
+  FaceAnswer out;
+  w.used = false;
+  const int n = p.n;
+  if (n == 0 || p.shapes <= 0 || !group_pairs(w, p)) return out;
+  // the laws prepared once per distinct law (an aligned spur pair's slices share theirs)
+  for (int a = 0; a < n; ++a) {
+    if (a > 0 && same_law(p.laws[a], p.laws[a - 1])) {
+      w.kern[a] = w.kern[a - 1];
+      w.nominal[a] = w.nominal[a - 1];
+      continue;
+    }
+    w.kern[a] = local_law_kernel(p.laws[a]);
+    w.nominal[a] = nominal_slope(w.kern[a]);
+  }
+  if (!response_shapes(w, p)) return out;
+  // gap offsets: Delta_a (+ lambda w_a)
+  const double* delta = p.delta;
+  // the active pairs at first: those with a closed slice (plain: every solved slice is), else
+  // the one closest to closing
+  int closest = -1;
+  double most = -std::numeric_limits<double>::infinity();
+  for (int q = 0; q < w.pairs; ++q) {
+    w.active[q] = false;
+    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+      const int a = w.member[m];
+      if (p.quasi && !(p.gain[a] * p.load > 0)) continue;
+      if (delta[a] > 0) w.active[q] = true;
+      if (delta[a] > most) {
+        most = delta[a];
+        closest = q;
+      }
+    }
+  }
+  bool any = false;
+  for (int q = 0; q < w.pairs; ++q) any = any || w.active[q];
+  if (!any) {
+    if (closest < 0) return out;
+    w.active[closest] = true;
+  }
+  if (p.quasi && p.load == 0) return out;  // the touch position: the full solve's own path
+  double lambda = 0;
+  Eigen::VectorXd& alpha = w.alpha;
+  Eigen::VectorXd& F = w.F;
+  for (int round = 0; round < 3; ++round) {
+    const int r = build_projection(w, p);
+    for (int q = 0; q < w.pairs; ++q) {  // 1 / sum_a |phi_ak|: a column's residual as a mean gap
+      if (!w.active[q]) continue;
+      for (int k = 0; k < w.dim[q]; ++k) {
+        double norm = 0;
+        for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m)
+          norm += std::fabs(w.phi[std::size_t(m) * FaceBasis::kMaxShapes + k]);
+        w.inv_norm[w.col[q] + k] = 1.0 / norm;
+      }
+    }
+    // start: the last answer's shapes where every active pair has them, else the solve without
+    // the local laws (quasi: with the load balance)
+    bool warm = true;
+    for (int q = 0; q < w.pairs && warm; ++q) {
+      if (!w.active[q]) continue;
+      int j = 0;
+      while (j < w.warm.pairs && !(w.warm.key[j][0] == w.key[q][0] && w.warm.key[j][1] == w.key[q][1] &&
+                                   w.warm.key[j][2] == w.key[q][2] && w.warm.key[j][3] == w.key[q][3] &&
+                                   w.warm.key[j][4] == w.count[q]))
+        ++j;
+      if (j == w.warm.pairs) {
+        warm = false;
+        break;
+      }
+      for (int k = 0; k < w.dim[q]; ++k) alpha[w.col[q] + k] = w.warm.alpha[j][k];
+    }
+    if (round > 0 || !warm || !forces_of(w, p, alpha, nullptr, 0, F)) {
+      w.A.topLeftCorner(r, r) = w.PCP.topLeftCorner(r, r);
+      if (!cholesky(w.A, r)) return out;
+      if (!p.quasi) {
+        project(w, delta, alpha.data());
+        cholesky_solve(w.A, r, alpha.data());
+        alpha.head(r) *= 0.7;  // the local laws take part of the approach
+      } else {
+        for (int a = 0; a < n; ++a) w.trial[a] = -delta[a];
+        project(w, w.trial.data(), w.x1.data());
+        cholesky_solve(w.A, r, w.x1.data());
+        project(w, p.gain, w.x2.data());
+        cholesky_solve(w.A, r, w.x2.data());
+        for (int a = 0; a < n; ++a) w.trial[a] = p.balance[p.index[a]];
+        project(w, w.trial.data(), w.G.data());
+        const double u1 = w.G.head(r).dot(w.x1.head(r)), u2 = w.G.head(r).dot(w.x2.head(r));
+        if (!(u2 != 0)) return out;
+        // alpha = x2 lambda - x1 with b^T Phi alpha = load
+        lambda = (p.load + u1) / u2;
+        alpha.head(r) = lambda * w.x2.head(r) - w.x1.head(r);
+      }
+      if (!forces_of(w, p, alpha, nullptr, 0, F)) {
+        // a pair's linear answer is not positive throughout: start from its mean load alone
+        for (int q = 0; q < w.pairs; ++q) {
+          if (!w.active[q]) continue;
+          const int c0 = w.col[q];
+          for (int k = 1; k < w.dim[q]; ++k) alpha[c0 + k] = 0;
+          if (!(alpha[c0] > 0)) return out;
+        }
+        if (!forces_of(w, p, alpha, nullptr, 0, F)) return out;
+      }
+    }
+    // Newton on alpha (quasi: and lambda)
+    bool converged = false;
+    int it = 0;
+    double res = 0;
+    for (;; ++it) {
+      for (int q = 0; q < w.pairs; ++q) {
+        if (!w.active[q]) continue;
+        for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+          const int a = w.member[m];
+          w.jet[a] = local_law_jet(w.kern[a], F[a]);
+        }
+      }
+      // gaps of the active slices, g = C Phi alpha + f - Delta - lambda w, into trial
+      for (int q = 0; q < w.pairs; ++q) {
+        if (!w.active[q]) continue;
+        for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+          const int a = w.member[m];
+          double g = w.jet[a].approach - delta[a] - (p.quasi ? lambda * p.gain[a] : 0.0);
+          for (int c = 0; c < r; ++c) g += w.CP(a, c) * alpha[c];
+          w.trial[a] = g;
+        }
+      }
+      project(w, w.trial.data(), w.G.data());
+      res = 0;
+      for (int q = 0; q < w.pairs; ++q) {
+        if (!w.active[q]) continue;
+        for (int k = 0; k < w.dim[q]; ++k) {
+          res = std::max(res, std::fabs(w.G[w.col[q] + k]) * w.inv_norm[w.col[q] + k]);
+        }
+      }
+      double h = 0;
+      if (p.quasi) {
+        for (int a = 0; a < n; ++a) h += p.balance[p.index[a]] * F[a];
+        h -= p.load;
+      }
+      if (res <= p.tolerance && std::fabs(h) <= 1e-12 * std::fabs(p.load)) {
+        converged = true;
+        break;
+      }
+      if (it >= p.max_iterations) break;
+      if (!newton_matrix(w, r)) return out;
+      for (int c = 0; c < r; ++c) w.step[c] = -w.G[c];
+      cholesky_solve(w.A, r, w.step.data());
+      double dlambda = 0;
+      if (p.quasi) {
+        for (int c = 0; c < r; ++c) w.x1[c] = w.G[c];
+        cholesky_solve(w.A, r, w.x1.data());
+        project(w, p.gain, w.x2.data());
+        cholesky_solve(w.A, r, w.x2.data());
+        for (int a = 0; a < n; ++a) w.trial[a] = p.balance[p.index[a]];
+        project(w, w.trial.data(), w.G.data());
+        const double u1 = w.G.head(r).dot(w.x1.head(r)), u2 = w.G.head(r).dot(w.x2.head(r));
+        if (!(u2 != 0)) return out;
+        dlambda = (u1 - h) / u2;
+        w.step.head(r) = dlambda * w.x2.head(r) - w.x1.head(r);
+      }
+      // the step, shortened while a loaded slice would unload
+      double s = 1;
+      int cuts = 0;
+      while (!forces_of(w, p, alpha, &w.step, s, w.trial)) {
+        if (++cuts > 4) return out;  // a slice unloads: the slices decide
+        s *= 0.5;
+      }
+      alpha.head(r) += s * w.step.head(r);
+      lambda += s * dlambda;
+      F.head(n) = w.trial.head(n);
+    }
+    out.iterations += it;
+    if (!converged) return out;
+    out.residual = res;
+    // the basis must hold the answer slice by slice: every loaded slice's own gap (the error
+    // the projection leaves, which the slices' forces would remove) within slice_tolerance of
+    // the approach it closes
+    double worst = 0, closing = 0;
+    for (int q = 0; q < w.pairs; ++q) {
+      if (!w.active[q]) continue;
+      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+        const int a = w.member[m];
+        worst = std::max(worst, std::fabs(w.trial[a]));
+        closing = std::max(closing, delta[a] + (p.quasi ? lambda * p.gain[a] : 0.0));
+      }
+    }
+    out.slice_gap = closing > 0 ? worst / closing : 1.0;
+    if (!(worst <= p.slice_tolerance * closing)) return out;
+    // the other pairs' slices must stay open: gap = (C Phi alpha)_a - Delta_a - lambda w_a >= 0
+    bool closes = false;
+    for (int q = 0; q < w.pairs; ++q) {
+      if (w.active[q]) continue;
+      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+        const int a = w.member[m];
+        double g = -delta[a] - (p.quasi ? lambda * p.gain[a] : 0.0);
+        for (int c = 0; c < r; ++c) g += w.CP(a, c) * alpha[c];
+        if (g < -p.tolerance) {
+          w.active[q] = true;
+          closes = true;
+          break;
+        }
+      }
+    }
+    if (closes) continue;
+    // accepted: forces, energy, tangent, the basis for the derivative and the warm start
+    double energy = 0;
+    for (int a = 0; a < n; ++a) {
+      force[a] = F[a];
+      if (F[a] > 0)
+        energy += 0.5 * F[a] * (delta[a] + (p.quasi ? lambda * p.gain[a] : 0.0) + w.jet[a].approach) - w.jet[a].energy;
+    }
+    if (p.tangent && stiffness) {
+      if (!newton_matrix(w, r)) return out;
+      for (int q = 0; q < w.pairs; ++q) {
+        if (!w.active[q]) continue;
+        for (int k = 0; k < w.dim[q]; ++k) {
+          double s = 0;
+          for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m)
+            s += w.phi[std::size_t(m) * FaceBasis::kMaxShapes + k];
+          w.x1[w.col[q] + k] = s;
+        }
+      }
+      cholesky_solve(w.A, r, w.x1.data());
+      for (int a = 0; a < n; ++a) stiffness[a] = 0;
+      for (int q = 0; q < w.pairs; ++q) {
+        if (!w.active[q]) continue;
+        for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+          const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+          double s = 0;
+          for (int k = 0; k < w.dim[q]; ++k) s += ph[k] * w.x1[w.col[q] + k];
+          stiffness[w.member[m]] = s;
+        }
+      }
+    }
+    w.warm.pairs = 0;
+    for (int q = 0; q < w.pairs; ++q) {
+      if (!w.active[q]) continue;
+      const int j = w.warm.pairs++;
+      for (int e = 0; e < 4; ++e) w.warm.key[j][e] = w.key[q][e];
+      w.warm.key[j][4] = w.count[q];
+      for (int k = 0; k < w.dim[q]; ++k) w.warm.alpha[j][k] = alpha[w.col[q] + k];
+      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+        const int i = p.index[w.member[m]];
+        w.cand_col[i] = w.col[q];
+        w.cand_dim[i] = w.dim[q];
+        const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+        for (int k = 0; k < w.dim[q]; ++k) w.cand_phi[std::size_t(i) * FaceBasis::kMaxShapes + k] = ph[k];
+      }
+    }
+    w.columns = r;
+    w.used = true;
+    out.accepted = true;
+    out.lambda = lambda;
+    out.energy = energy;
+    return out;
+  }
+  return out;
+}
+
+}  // namespace gm

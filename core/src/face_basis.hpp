@@ -1,0 +1,123 @@
+// Level 5's coupled solve on a reduced face basis (solver.face_shapes = K > 0; docs/model.md,
+// "FE level", Reduced face basis). The loads of each loaded tooth pair's slices are a sum of K
+// shapes across the face, F = Phi alpha, each the pair's own response to a smooth approach:
+// Phi_k = (C_pp + diag f'(w_0 L))^-1 P_k on the pair's solved slices (C_pp its block of C, f' the
+// local laws' slopes at the line load kShapeLineLoad, P_k the Legendre polynomial of the slice's
+// position within the pair's span; min(K, slices of the pair) columns, each scaled to a largest
+// entry of 1). The coupled problem C F + f(F) = Delta is solved in that space by Ritz-Galerkin,
+// Phi^T (C Phi alpha + f(Phi alpha) - Delta) = 0, the stationary point of the convex energy
+// 1/2 F^T C F + sum_i P_i(F_i) - Delta^T F on the subspace (quasi-static: with the rigid approach
+// lambda along the TE gains and the load balance sum_i b_i F_i = load as a bordered row), by
+// Newton on alpha: J = Phi^T (C + diag f'(F)) Phi, r x r with r the pairs' columns (2 for two
+// spur pairs at K = 1) instead of the slices' n x n.
+//
+// Complementarity stays exact: the answer is accepted only when every slice of a loaded pair
+// carries a positive load and every solved slice of the other pairs stays open at it (gap >= 0);
+// a pair that closes is added and the solve repeated (quasi-static: the loaded pairs are not
+// known before lambda). Otherwise (a slice would unload: crowning, tilt, a pair entering or
+// leaving mesh; no convergence; a loaded slice's own gap beyond slice_tolerance) the caller
+// solves over every slice (dense_solve.cpp), so the reduced answer is only ever used where the
+// face loads are positive throughout.
+//
+// The directional derivative (derivatives.cpp, face_dual_solve) differentiates the same reduced
+// equations on the same basis, with the basis's own derivative (FaceBasis::used, the
+// per-candidate rows of Phi and alpha it keeps).
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "detection.hpp"
+#include "gearmesh/internal/hertz.hpp"
+
+namespace gm {
+
+// The line load at which the shapes take the local laws' slopes, N/m (about the line load of
+// 150 N m on the paper's pair; the answer is within 0.2 % of the full solve's from 20 to 300 kN/m
+// with one shape).
+constexpr double kShapeLineLoad = 1e5;
+
+// f'_i at the shapes' line load (the slope the shapes are made with).
+inline double nominal_slope(const LocalLawKernel& kern) {
+  return kern.terms ? local_law_jet(kern, kShapeLineLoad * kern.width).slope : 0.0;
+}
+
+struct FaceBasis {
+  static constexpr int kMaxPairs = 16;   // tooth pairs one call can hold
+  static constexpr int kMaxShapes = 8;   // solver.face_shapes' upper bound
+  // The last accepted answer (the derivative's basis): per candidate its first column in Phi
+  // (-1: not loaded) and its row of Phi (kMaxShapes values, the pair's dim of them used).
+  bool used = false;
+  int columns = 0;
+  std::vector<int> cand_col, cand_dim;
+  std::vector<double> cand_phi;
+  // scratch, sized at gm_data_create
+  int pairs = 0;
+  int key[kMaxPairs][4] = {};  // tooth 1, tooth 2, flank, first solved slice index
+  int first[kMaxPairs] = {}, count[kMaxPairs] = {}, dim[kMaxPairs] = {}, col[kMaxPairs] = {};
+  bool active[kMaxPairs] = {};
+  std::vector<int> pair_of, member;  // per solved slice: its pair; the pairs' slices, grouped
+  std::vector<double> phi;           // per grouped slice: kMaxShapes values
+  Eigen::MatrixXd CP, PCP, A;        // C Phi (n x r), Phi^T C Phi, the Newton matrix (r x r)
+  Eigen::VectorXd alpha, step, G, x1, x2, F, trial;
+  Eigen::VectorXd nominal;           // per solved slice: f'_i at the shapes' line load
+  Eigen::VectorXd inv_norm;          // per column: 1 / sum_a |phi_ak|
+  // the derivative's (derivatives.cpp): Phi and dPhi (n x r), per-slice vectors
+  Eigen::MatrixXd Phi, dPhi;
+  Eigen::VectorXd diag, law_f, g, u, v, t;
+  std::vector<LocalLawKernel> kern;
+  std::vector<LocalLawJet> jet;
+  // warm start: the last accepted answer's alpha per pair (key: tooth 1, tooth 2, flank, first
+  // slice, slices); part of the solve's warm start (reset with it, kept across a derivative)
+  struct Warm {
+    int pairs = 0;
+    int key[kMaxPairs][5] = {};
+    double alpha[kMaxPairs][kMaxShapes] = {};
+  } warm;
+  void reserve(int capacity);
+};
+
+// The gathered system of one call (dense_solve.cpp's solved set).
+struct FaceProblem {
+  int n = 0;                          // solved slices
+  const int* index = nullptr;         // their candidate indices
+  const ContactSlice* slices = nullptr;
+  const double* C = nullptr;          // n x n, column-major, leading dimension ld
+  int ld = 0;
+  const double* delta = nullptr;      // Delta_a, m
+  const LocalLaw* laws = nullptr;
+  int shapes = 0;                     // K
+  double tolerance = 0;               // m, on the pairs' mean gaps (the NLCP's tol)
+  // -, each loaded slice's own gap over the largest approach: a basis that cannot hold the
+  // face's load (crowning with two shapes) leaves tens of per cent; five shapes on an aligned
+  // spur pair about 2 % (its TE then within 0.06 % of the full solve's)
+  double slice_tolerance = 0.1;
+  int max_iterations = 50;
+  bool quasi = false;
+  const double* gain = nullptr;       // quasi: te_gain per solved slice
+  const double* balance = nullptr;    // quasi: b per candidate
+  double load = 0;                    // quasi: sum_i b_i F_i, N
+  bool tangent = true;                // the slice stiffnesses wanted
+};
+
+struct FaceAnswer {
+  bool accepted = false;
+  int iterations = 0;
+  double residual = 0;  // m
+  double lambda = 0;    // quasi: the rigid approach along te_gain, m
+  double energy = 0;    // sum_a [F_a (Delta_a + lambda w_a + f_a)/2 - P_a], J
+  double slice_gap = 0;  // largest |gap| of a loaded slice over the largest approach, -
+};
+
+// Solves p on the reduced basis into force[a] and (p.tangent) stiffness[a] (row sums of
+// Phi (Phi^T H Phi)^-1 Phi^T, H = C + diag f'), for the n solved slices. Not accepted: the caller
+// solves over the slices (force and stiffness then hold nothing of use).
+FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, double* stiffness);
+
+// The leading r x r block of A replaced by its Cholesky factor (lower); false if not positive
+// definite. x := A^-1 x with that factor.
+bool face_cholesky(Eigen::MatrixXd& A, int r);
+void face_cholesky_solve(const Eigen::MatrixXd& L, int r, double* x);
+
+}  // namespace gm
