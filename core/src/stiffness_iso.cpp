@@ -106,4 +106,12 @@ double iso_mesh_stiffness_at(const IsoStiffness& s, double line_load) {
   return s.c_gamma_alpha * iso_load_factor(line_load);
 }
 
+void iso_published(const gm_model_params& p, gm_pair_geometry& g) {
+  IsoStiffness iso{};
+  std::string ignored;
+  const bool ok = iso_stiffness(p, g, IsoGearBlank{}, iso, ignored) == GM_OK;
+  g.c_single = ok ? iso_single_stiffness_at(iso, p.rated_line_load) : 0.0;
+  g.c_gamma_alpha = ok ? iso_mesh_stiffness_at(iso, p.rated_line_load) : 0.0;
+}
+
 }  // namespace gm
