@@ -88,7 +88,7 @@ gm_status build_te_table(const gm_model_params& p, gm::TeTable& te, std::string&
   if (!path || !*path) return GM_OK;
   const gm_status st = gm::load_te_table(path, p.gear[0].teeth, te, text);
   if (st == GM_OK) return st;
-  const std::string prefix = "model.te_table: ";
+  const std::string prefix = std::string(GM_PARAM_NAME(te_table)) + ": ";
   if (text.rfind(prefix, 0) != 0) text = prefix + text;
   if (text.find("allowed") == std::string::npos) text += "; allowed: a readable GearMesh TE table (format 1)";
   return st;

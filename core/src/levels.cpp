@@ -5,6 +5,7 @@
 #include <string>
 
 #include "gearmesh/parameters.h"
+#include "params.hpp"
 
 namespace gm {
 
@@ -36,8 +37,9 @@ gm_status check_level(const gm_model_params& p, std::string& msg) {
       continue;
     const char* value = *reinterpret_cast<const char* const*>(reinterpret_cast<const char*>(&p) + r.offset);
     if (!value || !*value) continue;
-    msg = std::string(r.name) + " = \"" + value + "\": used at model.stiffness = " + level_names(r.levels) +
-          " only, this model has model.stiffness = " + std::to_string(p.stiffness_level) +
+    const std::string level = GM_PARAM_NAME(stiffness_level);
+    msg = std::string(r.name) + " = \"" + value + "\": used at " + level + " = " + level_names(r.levels) +
+          " only, this model has " + level + " = " + std::to_string(p.stiffness_level) +
           "; allowed: \"\" (none) at this level";
     return GM_ERR_PARAMETER;
   }

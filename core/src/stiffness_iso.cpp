@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "params.hpp"
+
 namespace gm {
 
 namespace {
@@ -84,9 +86,9 @@ gm_status iso_stiffness(const gm_model_params& p, const gm_pair_geometry& g,
   if (!(out.q_min > 0.0) || !std::isfinite(out.c_single)) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
-                  "model.stiffness = ISO 6336: q'_min = %.4g mm um/N is not positive for profile "
+                  "%s = ISO 6336: q'_min = %.4g mm um/N is not positive for profile "
                   "shifts %g/%g (the method B regression holds for x1 >= x2, -0.5 <= x1 + x2 <= 2)",
-                  out.q_min / kMmUmPerN, in.x[0], in.x[1]);
+                  GM_PARAM_NAME(stiffness_level), out.q_min / kMmUmPerN, in.x[0], in.x[1]);
     msg = buf;
     return GM_ERR_PARAMETER;
   }

@@ -1,4 +1,4 @@
-"""FE level (model.stiffness_level = 5) from scenes: compliance_tool builds through
+"""FE level (model.stiffness = 5) from scenes: compliance_tool builds through
 gearmesh.compliance (cache, errors named by scene key) and the FE mesh against the analytical
 level and ISO 6336 through the FMU, quasi-static at the same torque.
 
@@ -278,7 +278,7 @@ def test_fe_inputs_are_refused_below_level_5(extra, first):
     with pytest.raises(SceneError) as err:
         parse_scene(LEVEL4 + extra)
     message = str(err.value)
-    assert message.startswith(first) and "model.stiffness_level = 5" in message and "has 4" in message
+    assert message.startswith(first) and "model.stiffness = 5" in message and "has 4" in message
 
 
 def test_coupled_teeth_belongs_to_levels_4_and_5():

@@ -485,7 +485,7 @@ class _SceneKeys:
             return rows
 
         out += _gear_tables("[{g}.body]", body, lambda g: (
-            "FE level only (`model.stiffness_level = 5`): the gear body compliance_tool meshes, "
+            "FE level only (`model.stiffness = 5`): the gear body compliance_tool meshes, "
             "as its flags, in mm as the flags take them (the tool also checks them against the "
             "tooth geometry). " + self.tool_groups(BODY_SCHEMA) + "\n"))
         moving = Scene.__dataclass_fields__["bearing_motion"].default  # gears whose centre moves
