@@ -189,6 +189,11 @@ def test_every_input_is_in_the_cache_key(tmp_path, change):
                 PAIR.replace("[gear2]\n", "[gear2]\nyoungs_modulus_GPa = 200\n")}[change]
     if change == "tool bytes":
         tool.write_bytes(b"another tool")
+    if change == "pair.helix_angle_deg":  # at 41 mm for both: the helical pair's teeth overlap at 40 mm
+        wider = "center_distance_mm = 41.0"
+        base = parse_scene(PAIR.replace("center_distance_mm = 40.0", wider), tmp_path / "base41.toml")
+        key = compliance.cache_key(base, 1, tool)
+        text = text.replace("center_distance_mm = 40.0", wider)
     changed = parse_scene(text, tmp_path / "changed.toml")
     assert compliance.cache_key(changed, 1, tool) != key
     if change == "pair.helix_angle_deg":  # an external helical pair: opposite hands
