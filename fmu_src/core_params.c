@@ -29,21 +29,25 @@ static int has_parent_component(const char* path) {
 /* The absolute path of a String parameter that names a file inside resources/ (its value
  * `name`) in *path (NULL for ""), or nonzero with msg naming the parameter if the name would
  * leave resources/ or there is no resources directory. */
-static int resolve_resource(const char* resources, const char* parameter, const char* name, char** path, char* msg,
-                            size_t n) {
-  *path = NULL;
-  if (!name || !name[0]) return 0;
+/* Nonzero with msg naming the parameter if the file name `name` would leave resources/. */
+static int name_refused(const char* parameter, const char* name, char* msg, size_t n) {
   const char* why = NULL;
   if (name[0] == '/') why = "is an absolute path";
   else if (strchr(name, '\\')) why = "contains a backslash";
   else if (has_parent_component(name)) why = "has a \"..\" component";
-  if (why) {
+  if (why)
     snprintf(msg, n,
              "%s = \"%s\" %s; allowed: the name of a file inside the FMU's resources/ folder "
              "(relative, '/' separators, no \"..\")",
              parameter, name, why);
-    return 1;
-  }
+  return why != NULL;
+}
+
+static int resolve_resource(const char* resources, const char* parameter, const char* name, char** path, char* msg,
+                            size_t n) {
+  *path = NULL;
+  if (!name || !name[0]) return 0;
+  if (name_refused(parameter, name, msg, n)) return 1;
   if (!resources) {
     snprintf(msg, n,
              "%s = \"%s\" names a file in resources/, but the FMU was instantiated without a local "
@@ -101,3 +105,14 @@ int core_params(const char* resources, const gm_model_params* p, gm_model_params
   return 0;
 }
 
+
+int core_params_unresolved(const gm_model_params* p, gm_model_params* q, char* msg, size_t n) {
+  *q = *p;
+  for (int i = 0; i < 2; i++) q->gear[i].flank[1] = q->gear[i].flank[0];
+  for (size_t r = 0; r < sizeof parameter_rows / sizeof parameter_rows[0]; r++) {
+    if (!parameter_rows[r].name) continue;
+    const char* name = *(const char**)((const char*)q + parameter_rows[r].offset);
+    if (name && name[0] && name_refused(parameter_rows[r].name, name, msg, n)) return 1;
+  }
+  return 0;
+}

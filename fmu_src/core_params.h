@@ -21,4 +21,8 @@ enum { CORE_PARAMS_FILES = 0 GM_PARAMETERS(CORE_PARAMS_FILE_ROW, _) };
 int core_params(const char* resources, const gm_model_params* p, gm_model_params* q,
                 char* paths[CORE_PARAMS_FILES], char* msg, size_t n);
 
+/* q = p with flank B's micro-geometry from flank A and the file names checked as names (as
+ * core_params does) but kept as given: for a check that reads no file (gm_model_check). */
+int core_params_unresolved(const gm_model_params* p, gm_model_params* q, char* msg, size_t n);
+
 #endif /* GEARMESH_FMU_CORE_PARAMS_H */

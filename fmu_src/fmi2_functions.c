@@ -142,6 +142,20 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component component) {
   return (fmi2Status)fmi_exit_initialization(c, __func__);
 }
 
+/* Not FMI: whether the instance's parameters and inputs would pass fmi2ExitInitializationMode as far
+ * as that is known without reading a file or building the model (model_check; GearMesh's core:
+ * gm_model_check). fmi2OK and msg "", or fmi2Error and msg the message initialization would log
+ * after the function's name. Logs nothing and changes nothing. Before fmi2ExitInitializationMode
+ * and after, until the instance is terminated. */
+FMI2_Export fmi2Status gearmesh_check(fmi2Component component, char* msg, size_t msg_size) {
+  CHECK_MODE(FMI_INSTANTIATED | FMI_INITIALIZATION | FMI_STEP);
+  CHECK_POINTER(msg);
+  char text[sizeof c->msg];
+  const int failed = model_check(c->model, text, sizeof text);
+  if (msg_size) snprintf(msg, msg_size, "%s", failed ? text : "");
+  return failed ? fmi2Error : fmi2OK;
+}
+
 fmi2Status fmi2Terminate(fmi2Component component) {
   CHECK_MODE(FMI_STEP);
   return (fmi2Status)fmi_terminate(c, __func__);

@@ -99,6 +99,10 @@ void model_set_string(fmu_model* m, unsigned vr, char* owned);
 
 /* Bring the calculated parameters up to date with the parameters. Nonzero on error, with msg. */
 int model_build(fmu_model* m, char* msg, size_t msg_size);
+/* Whether model_build and the first evaluation would refuse the parameters and the inputs as far as
+ * that is known without reading a file or building the model (a model without a cheaper check:
+ * model_build itself). 0, or nonzero with the message they would give. */
+int model_check(fmu_model* m, char* msg, size_t msg_size);
 /* Compute the outputs at the held inputs (time only labels log messages): restart (Initialization
  * Mode, its end) starts from the inputs and forgets any memory of earlier evaluations; otherwise
  * a communication step of step (s) ending at time. Returns 0, 1 on error, or 2 (nothing changed,

@@ -306,6 +306,16 @@ int model_build(fmu_model* m, char* msg, size_t n) {
   return 0;
 }
 
+/* GearMesh: the ranges as model_build checks them, then gm_model_check on the core's parameters
+ * (file names as names) and the held inputs, as model_build and the first evaluation would refuse
+ * them. Not checked: what reads a file, the large-step mode's dynamics and mesh damping. */
+int model_check(fmu_model* m, char* msg, size_t n) {
+  gm_model_params q;
+  msg[0] = '\0';
+  if (check_ranges(m, msg, n) || core_params_unresolved(&m->v.p, &q, msg, n)) return 1;
+  return gm_model_check(&q, &m->v.k, msg, n) != GM_OK;
+}
+
 static const char* flank_name(int flank) {
   static const char* const names[] = {"none", "flank A", "flank B", "both flanks"};
   return flank >= 0 && flank <= 3 ? names[flank] : "?";

@@ -325,6 +325,20 @@ _Static_assert(GM_MESH_ORDERS_MAX >= 3, "GM_FMU_VARIABLES lists mesh orders 1 to
     "transverse base pitch p_bt")                                                                                  \
   X("geometry.tight_center_distance", Real, calculatedParameter, fixed, calculated, "m", "mm", g.a_tight,          \
     D_GEO, "centre distance of a zero-backlash mesh a_tight")                                                      \
+  X("geometry.path_start", Real, calculatedParameter, fixed, calculated, "m", "mm", g.path_start, D_GEO,         \
+    "start of the path of contact A: gear 1's roll distance there, along the line of action from its tangency "   \
+    "point T1 (over gear 1's base radius: its roll angle)")                                                        \
+  X("geometry.path_end", Real, calculatedParameter, fixed, calculated, "m", "mm", g.path_end, D_GEO,             \
+    "end of the path of contact E (gear 1's tip): gear 1's roll distance there from T1")                          \
+  X("geometry.face_overlap", Real, calculatedParameter, fixed, calculated, "m", "mm", g.face_overlap, D_GEO,     \
+    "axial overlap of the two face widths b (the width the slices cover; eps_beta's)")                            \
+  X("iso.single_stiffness", Real, calculatedParameter, fixed, calculated, "N/m2", "N/(mm.um)", g.c_single,       \
+    D_GEO | D_SET,                                                                                                 \
+    "ISO 6336-1 method B single stiffness c' per unit face width, load-corrected by model.rated_line_load (level " \
+    "2's; 0 = none); 0 where method B's regression gives no positive q'_min")                                     \
+  X("iso.mesh_stiffness", Real, calculatedParameter, fixed, calculated, "N/m2", "N/(mm.um)", g.c_gamma_alpha,    \
+    D_GEO | D_SET, "ISO 6336-1 mean mesh stiffness c_gamma_alpha = c' (0.75 eps_alpha + 0.25) per unit face width " \
+    "(level 2's mean; 0 where c' is)")                                                                             \
   GM_FMU_GEAR_GEOMETRY(X, 1, 0)                                                                                    \
   GM_FMU_GEAR_GEOMETRY(X, 2, 1)                                                                                    \
   GM_FMU_GEAR_INPUTS(X, 1, 0)                                                                                      \

@@ -14,6 +14,7 @@
 #include "evaluate.hpp"
 #include "levels.hpp"
 #include "gearmesh/internal/geometry.hpp"
+#include "inputs.hpp"
 #include "microgeometry.hpp"
 #include "model.hpp"
 #include "params.hpp"
@@ -34,26 +35,39 @@ gm_status build_geometry(const gm_model_params* p, gm_pair_geometry* g, std::str
     return GM_ERR_ARGUMENT;
   }
   gm_status st = gm::validate_params(*p, text);
-  if (st != GM_OK) return st;
-  return gm::compute_pair_geometry(*p, *g, text);
+  if (st == GM_OK) st = gm::compute_pair_geometry(*p, *g, text);
+  if (st == GM_OK) gm::iso_published(*p, *g);  // ISO 6336-1's c' and c_gamma_alpha (calculated parameters)
+  return st;
+}
+
+// The active flank of gear i (the micro-geometry's extent).
+gm::ActiveFlank active_flank(const gm_model_params& p, const gm_pair_geometry& g, int i) {
+  const gm_gear_geometry& gi = g.gear[i];
+  return {0.5 * std::sqrt(std::max(0.0, gi.d_sap * gi.d_sap - gi.d_b * gi.d_b)), gi.rho_a, p.gear[i].face_width};
+}
+
+// The modifications of gear i's flanks against its active flank.
+gm_status check_modifications(const gm_model_params& p, const gm_pair_geometry& g, int i, std::string& text) {
+  const std::string prefix = "gear" + std::to_string(i + 1);
+  for (const gm_flank_modification& f : p.gear[i].flank) {
+    const gm_status st = gm::validate_modification(prefix.c_str(), f, active_flank(p, g, i), text);
+    if (st != GM_OK) return st;
+  }
+  return GM_OK;
 }
 
 // Validated modifications and the deviation files of both gears, over their active profiles.
 gm_status build_microgeometry(const gm_model_params& p, const gm_pair_geometry& g,
                               gm::GearMicrogeometry micro[2], std::string& text) {
   for (int i = 0; i < 2; ++i) {
-    const gm_gear_geometry& gi = g.gear[i];
     const std::string prefix = "gear" + std::to_string(i + 1);
-    const gm::ActiveFlank active{0.5 * std::sqrt(std::max(0.0, gi.d_sap * gi.d_sap - gi.d_b * gi.d_b)),
-                                 gi.rho_a, p.gear[i].face_width};
-    for (const gm_flank_modification& f : p.gear[i].flank) {
-      gm_status st = gm::validate_modification(prefix.c_str(), f, active, text);
-      if (st != GM_OK) return st;
-    }
+    const gm::ActiveFlank active = active_flank(p, g, i);
+    gm_status st = check_modifications(p, g, i, text);
+    if (st != GM_OK) return st;
     gm::DeviationTable table;
     const char* path = p.gear[i].deviations;
     if (path && *path) {
-      gm_status st = gm::load_deviations(path, p.gear[i].teeth, p.gear[i].face_width, table, text);
+      st = gm::load_deviations(path, p.gear[i].teeth, p.gear[i].face_width, table, text);
       if (st == GM_OK) st = gm::validate_deviation_coverage(prefix.c_str(), table, active, text);
       if (st != GM_OK) {
         if (text.rfind(prefix + ".deviations", 0) != 0) text = prefix + ".deviations: " + text;
@@ -74,7 +88,7 @@ gm_status build_te_table(const gm_model_params& p, gm::TeTable& te, std::string&
   if (!path || !*path) return GM_OK;
   const gm_status st = gm::load_te_table(path, p.gear[0].teeth, te, text);
   if (st == GM_OK) return st;
-  const std::string prefix = "model.te_table: ";
+  const std::string prefix = std::string(GM_PARAM_NAME(te_table)) + ": ";
   if (text.rfind(prefix, 0) != 0) text = prefix + text;
   if (text.find("allowed") == std::string::npos) text += "; allowed: a readable GearMesh TE table (format 1)";
   return st;
@@ -177,6 +191,28 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     return GM_OK;
   } catch (const std::bad_alloc&) {
     copy_message("out of memory creating the model", msg, msg_size);
+    return GM_ERR_MEMORY;
+  } catch (const std::exception& e) {
+    copy_message(e.what(), msg, msg_size);
+    return GM_ERR_ARGUMENT;
+  }
+}
+
+gm_status gm_model_check(const gm_model_params* p, const gm_kinematics* pose, char* msg, size_t msg_size) {
+  try {
+    std::string text;
+    gm_pair_geometry g{};
+    // gm_model_create's order, its files not read
+    gm_status st = p ? gm::validate_params(*p, text) : GM_ERR_ARGUMENT;
+    if (st == GM_OK) st = gm::check_level(*p, text);
+    if (st == GM_OK) st = build_geometry(p, &g, text);
+    for (int i = 0; i < 2 && st == GM_OK; ++i) st = check_modifications(*p, g, i, text);
+    if (st == GM_OK) st = gm::check_level_build(*p, g, text);
+    if (st == GM_OK && pose && !gm::inputs_valid(*pose, text)) st = GM_ERR_INPUT;
+    copy_message(st == GM_OK ? std::string() : text, msg, msg_size);
+    return st;
+  } catch (const std::bad_alloc&) {
+    copy_message("out of memory checking the model", msg, msg_size);
     return GM_ERR_MEMORY;
   } catch (const std::exception& e) {
     copy_message(e.what(), msg, msg_size);

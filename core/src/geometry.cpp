@@ -278,6 +278,8 @@ gm_status line_of_action(PairWork& c) {
   g.T1T2 = c.a * std::sin(c.alpha_wt);
   c.A = c.internal ? c.rho_a2 - g.T1T2 : g.T1T2 - c.rho_a2;
   c.E = c.rho_a1;
+  g.path_start = c.A;
+  g.path_end = c.E;
   g.g_alpha = c.E - c.A;
   if (!(g.g_alpha > 0.0))
     return c.fail(format("pair.center_distance = %.6g m: the tip circles do not overlap on the "
@@ -382,6 +384,7 @@ gm_status overlap_ratio(PairWork& c) {
                          "range (%.6g, %.6g) m",
                          p.gear[1].axial_offset, p.gear[0].axial_offset - half_sum,
                          p.gear[0].axial_offset + half_sum));
+  c.g.face_overlap = b;
   c.g.eps_beta = b * std::sin(c.beta) / (kPi * c.m_n);
   return GM_OK;
 }

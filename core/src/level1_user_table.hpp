@@ -9,6 +9,7 @@
 #include <string>
 
 #include "model.hpp"
+#include "params.hpp"
 
 namespace gm {
 
@@ -17,9 +18,9 @@ struct UserTableLevel {
 
   static gm_status check(const gm_model_params& p, std::string& msg) {
     if (p.stiffness_table && *p.stiffness_table) return GM_OK;
-    msg = "model.stiffness_table = \"\": model.stiffness = 1 (user tables) takes the pair "
-          "stiffness from a stiffness table; allowed: the path of a stiffness table file "
-          "('gearmesh-stiffness-table 1'; in the FMU the name of a file inside resources/)";
+    msg = std::string(GM_PARAM_NAME(stiffness_table)) + " = \"\": " + GM_PARAM_NAME(stiffness_level) +
+          " = 1 (user tables) takes the pair stiffness from a stiffness table; allowed: the path of a "
+          "stiffness table file ('gearmesh-stiffness-table 1'; in the FMU the name of a file inside resources/)";
     return GM_ERR_PARAMETER;
   }
 
@@ -27,7 +28,7 @@ struct UserTableLevel {
   static gm_status build(const gm_model_params& p, const gm_pair_geometry& g, gm_model& m, std::string& text) {
     gm_status st = load_stiffness_table(p.stiffness_table, m.stiffness_table, text);
     if (st != GM_OK) {
-      const std::string prefix = "model.stiffness_table: ";
+      const std::string prefix = std::string(GM_PARAM_NAME(stiffness_table)) + ": ";
       if (text.rfind(prefix, 0) != 0) text = prefix + text;
       if (text.find("allowed") == std::string::npos)
         text += "; allowed: a readable GearMesh stiffness table (format 1)";
@@ -43,11 +44,11 @@ struct UserTableLevel {
       char buf[400];
       constexpr double deg = 180 / 3.14159265358979323846;
       std::snprintf(buf, sizeof buf,
-                    "model.stiffness_table: %s: its roll angles %.6g .. %.6g deg miss gear 1's "
+                    "%s: %s: its roll angles %.6g .. %.6g deg miss gear 1's "
                     "active profile, %.6g .. %.6g deg; allowed: a table over gear 1's roll angle "
                     "(roll distance on gear 1's flank / r_b1, deg) that overlaps its active profile",
-                    p.stiffness_table, table.roll_angle.front() * deg, table.roll_angle.back() * deg,
-                    std::min(lo, hi) * deg, std::max(lo, hi) * deg);
+                    GM_PARAM_NAME(stiffness_table), p.stiffness_table, table.roll_angle.front() * deg,
+                    table.roll_angle.back() * deg, std::min(lo, hi) * deg, std::max(lo, hi) * deg);
       text = buf;
       return GM_ERR_PARAMETER;
     }

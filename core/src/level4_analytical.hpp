@@ -7,6 +7,7 @@
 #include <string>
 
 #include "model.hpp"
+#include "params.hpp"
 
 namespace gm {
 
@@ -20,7 +21,7 @@ struct AnalyticalLevel {
     for (int i = 0; i < 2 && st == GM_OK; ++i)
       st = build_tooth_section(p, g, i, ToothSectionOptions{}, m.tooth[i], text);
     if (st != GM_OK) {
-      text = "model.stiffness = 4 (analytical): " + text;
+      text = std::string(GM_PARAM_NAME(stiffness_level)) + " = 4 (analytical): " + text;
       return st;
     }
     return build_tooth_coupling(p, g, m.coupling, m.warnings, text);

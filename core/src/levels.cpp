@@ -1,9 +1,11 @@
 // The levels' checks and builds at gm_model_create (levels.hpp).
 #include "levels.hpp"
 
+#include <memory>
 #include <string>
 
 #include "gearmesh/parameters.h"
+#include "params.hpp"
 
 namespace gm {
 
@@ -35,12 +37,33 @@ gm_status check_level(const gm_model_params& p, std::string& msg) {
       continue;
     const char* value = *reinterpret_cast<const char* const*>(reinterpret_cast<const char*>(&p) + r.offset);
     if (!value || !*value) continue;
-    msg = std::string(r.name) + " = \"" + value + "\": used at model.stiffness = " + level_names(r.levels) +
-          " only, this model has model.stiffness = " + std::to_string(p.stiffness_level) +
+    const std::string level = GM_PARAM_NAME(stiffness_level);
+    msg = std::string(r.name) + " = \"" + value + "\": used at " + level + " = " + level_names(r.levels) +
+          " only, this model has " + level + " = " + std::to_string(p.stiffness_level) +
           "; allowed: \"\" (none) at this level";
     return GM_ERR_PARAMETER;
   }
   return with_level(p.stiffness_level, [&](auto level) { return decltype(level)::check(p, msg); });
+}
+
+namespace {
+
+// Whether a file row of the parameter table is read at this level alone (its data come from it).
+bool reads_own_file(int level) {
+  size_t count;
+  const gm_param_info* rows = gm_parameters(&count);
+  for (size_t i = 0; i < count; ++i)
+    if ((rows[i].flags & GM_PARAM_FILE) && rows[i].levels == GM_LEVEL(level)) return true;
+  return false;
+}
+
+}  // namespace
+
+gm_status check_level_build(const gm_model_params& p, const gm_pair_geometry& g, std::string& msg) {
+  if (reads_own_file(p.stiffness_level)) return GM_OK;
+  std::unique_ptr<gm_model> scratch(new gm_model);
+  scratch->params = p;
+  return build_level(g, *scratch, msg);
 }
 
 gm_status build_level(const gm_pair_geometry& g, gm_model& m, std::string& msg) {

@@ -42,4 +42,10 @@ gm_status check_level(const gm_model_params& p, std::string& msg);
 // The level's data of m (m.params set) and its traits in m.level.
 gm_status build_level(const gm_pair_geometry& g, gm_model& m, std::string& msg);
 
+// gm_model_check's part of the build: the level's build on a scratch model where the level reads no
+// file of its own (a file row of the parameter table that this level alone reads: level 1's table,
+// level 5's databases), so that what it checks there (level 2's q'_min, level 4's tooth sections and
+// coupled teeth) is said as gm_model_create says it; GM_OK for the levels that read their files.
+gm_status check_level_build(const gm_model_params& p, const gm_pair_geometry& g, std::string& msg);
+
 }  // namespace gm

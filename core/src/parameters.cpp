@@ -104,6 +104,12 @@ bool check_range(const char* name, double v, std::string& msg) {
   return false;
 }
 
+const char* parameter_name(size_t offset) {
+  for (const gm_param_info& r : kRows)
+    if (r.where == GM_PARAM_IN_MODEL && r.offset == offset) return r.name;
+  return "(a field without a row in gearmesh/parameters.h)";
+}
+
 bool check_rows(gm_param_where where, const void* values, std::string& msg) {
   for (const gm_param_info& r : kRows) {
     if (r.where != where || r.calculated || r.type == GM_PARAM_String) continue;

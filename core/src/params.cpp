@@ -39,17 +39,17 @@ class Checker {
 };
 
 void check_pair(Checker& c, const gm_pair_params& pr) {
-  c.bound("pair.rack_dedendum", pr.rack_dedendum, "", pr.rack_dedendum > pr.rack_addendum,
-          "> pair.rack_addendum = " + number(pr.rack_addendum));
+  c.bound(GM_PARAM_NAME(pair.rack_dedendum), pr.rack_dedendum, "", pr.rack_dedendum > pr.rack_addendum,
+          std::string("> ") + GM_PARAM_NAME(pair.rack_addendum) + " = " + number(pr.rack_addendum));
   const double full_round = (pr.rack_dedendum - pr.rack_addendum) / (1 - std::sin(pr.pressure_angle));
-  c.bound("pair.rack_tip_radius", pr.rack_tip_radius, "", pr.rack_tip_radius <= full_round * 1.01,
+  c.bound(GM_PARAM_NAME(pair.rack_tip_radius), pr.rack_tip_radius, "", pr.rack_tip_radius <= full_round * 1.01,
           "<= " + number(full_round * 1.01) + " (the full round (h_fP* - h_aP*)/(1 - sin alpha_n) + 1 %)");
 }
 
 void check_gear(Checker& c, const gm_gear_params& g, double normal_module, int i) {
-  const std::string n = "gear" + std::to_string(i + 1) + ".";
-  c.bound(n + "thickness_allowance", g.thickness_allowance, " m", g.thickness_allowance >= -0.5 * normal_module,
-          ">= " + number(-0.5 * normal_module) + " m (-0.5 pair.normal_module)");
+  c.bound(GM_GEAR_PARAM_NAME(i, thickness_allowance), g.thickness_allowance, " m",
+          g.thickness_allowance >= -0.5 * normal_module,
+          ">= " + number(-0.5 * normal_module) + " m (-0.5 " + GM_PARAM_NAME(pair.normal_module) + ")");
 }
 
 }  // namespace

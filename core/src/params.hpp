@@ -1,6 +1,7 @@
 // Parameter defaults and range validation: the one place a bad parameter is named.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "gearmesh/parameters.h"
@@ -17,6 +18,14 @@ gm_status validate_params(const gm_model_params& p, std::string& msg);
 // with msg = "<name> = <v> <unit>: allowed range [lo, hi] <unit>" (or, for a name without a
 // range, a message saying so).
 bool check_range(const char* name, double v, std::string& msg);
+
+// The FMU name of the model parameter whose field lies at `offset` in gm_model_params (its row of the
+// parameter table), for the messages that name a parameter: GM_PARAM_NAME(stiffness_level) is
+// "model.stiffness", GM_GEAR_PARAM_NAME(i, thickness_allowance) "gear<i + 1>.thickness_allowance".
+const char* parameter_name(size_t offset);
+#define GM_PARAM_NAME(field) ::gm::parameter_name(offsetof(gm_model_params, field))
+#define GM_GEAR_PARAM_NAME(i, field) \
+  ::gm::parameter_name(offsetof(gm_model_params, gear) + (i) * sizeof(gm_gear_params) + offsetof(gm_gear_params, field))
 
 // The one loop of the range checks: every row of the parameter table whose value lives in
 // `values` (a gm_model_params for GM_PARAM_IN_MODEL, a gm_dynamics_params for

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "params.hpp"
+
 namespace gm {
 
 namespace {
@@ -84,9 +86,9 @@ gm_status iso_stiffness(const gm_model_params& p, const gm_pair_geometry& g,
   if (!(out.q_min > 0.0) || !std::isfinite(out.c_single)) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
-                  "model.stiffness = ISO 6336: q'_min = %.4g mm um/N is not positive for profile "
+                  "%s = ISO 6336: q'_min = %.4g mm um/N is not positive for profile "
                   "shifts %g/%g (the method B regression holds for x1 >= x2, -0.5 <= x1 + x2 <= 2)",
-                  out.q_min / kMmUmPerN, in.x[0], in.x[1]);
+                  GM_PARAM_NAME(stiffness_level), out.q_min / kMmUmPerN, in.x[0], in.x[1]);
     msg = buf;
     return GM_ERR_PARAMETER;
   }
@@ -104,6 +106,14 @@ double iso_single_stiffness_at(const IsoStiffness& s, double line_load) {
 
 double iso_mesh_stiffness_at(const IsoStiffness& s, double line_load) {
   return s.c_gamma_alpha * iso_load_factor(line_load);
+}
+
+void iso_published(const gm_model_params& p, gm_pair_geometry& g) {
+  IsoStiffness iso{};
+  std::string ignored;
+  const bool ok = iso_stiffness(p, g, IsoGearBlank{}, iso, ignored) == GM_OK;
+  g.c_single = ok ? iso_single_stiffness_at(iso, p.rated_line_load) : 0.0;
+  g.c_gamma_alpha = ok ? iso_mesh_stiffness_at(iso, p.rated_line_load) : 0.0;
 }
 
 }  // namespace gm

@@ -102,4 +102,9 @@ double iso_load_factor(double line_load);
 double iso_single_stiffness_at(const IsoStiffness& s, double line_load);
 double iso_mesh_stiffness_at(const IsoStiffness& s, double line_load);
 
+// The pair's c' and c_gamma_alpha at model.rated_line_load into g.c_single and g.c_gamma_alpha (the
+// calculated parameters of every level; level 2 builds its law from the same values); 0 where
+// q'_min is not positive (levels 2 and 3 refuse such a pair at their build).
+void iso_published(const gm_model_params& p, gm_pair_geometry& g);
+
 }  // namespace gm

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "params.hpp"
+
 namespace gm {
 namespace {
 
@@ -82,15 +84,16 @@ gm_status build_tooth_coupling(const gm_model_params& p, const gm_pair_geometry&
   out = ToothCoupling{};
   warning.clear();
   if (p.coupled_teeth < 0 || p.coupled_teeth > kCouplingMaxOffset) {
-    msg = "model.coupled_teeth = " + std::to_string(p.coupled_teeth) +
+    msg = std::string(GM_PARAM_NAME(coupled_teeth)) + " = " + std::to_string(p.coupled_teeth) +
           ": level 4 (analytical) couples at most " + std::to_string(kCouplingMaxOffset) +
           " neighbouring teeth each side (its fitted table, core/src/tooth_coupling_table.inc); "
-          "allowed range [0, " + std::to_string(kCouplingMaxOffset) + "]";
+          "allowed range [0, " +
+          std::to_string(kCouplingMaxOffset) + "]";
     return GM_ERR_PARAMETER;
   }
   if (p.pair.internal) {
-    msg = "model.stiffness = 4 (analytical): the tooth coupling of an internal ring is not "
-          "modelled (level 4 has no ring teeth)";
+    msg = std::string(GM_PARAM_NAME(stiffness_level)) +
+          " = 4 (analytical): the tooth coupling of an internal ring is not modelled (level 4 has no ring teeth)";
     return GM_ERR_PARAMETER;
   }
   out.offsets = p.coupled_teeth;
@@ -102,7 +105,8 @@ gm_status build_tooth_coupling(const gm_model_params& p, const gm_pair_geometry&
                              p.gear[1].axial_offset + 0.5 * p.gear[1].face_width);
   const double overlap = hi - lo;
   if (!(overlap > 0)) {
-    msg = "gear1.axial_offset, gear2.axial_offset: the faces do not overlap axially";
+    msg = std::string(GM_GEAR_PARAM_NAME(0, axial_offset)) + ", " + GM_GEAR_PARAM_NAME(1, axial_offset) +
+          ": the faces do not overlap axially";
     return GM_ERR_PARAMETER;
   }
   for (int i = 0; i < 2; ++i) {

@@ -1,4 +1,4 @@
-"""Compliance databases of a scene at the FE level (model.stiffness_level = 5): each gear's .gcdb
+"""Compliance databases of a scene at the FE level (model.stiffness = 5): each gear's .gcdb
 from compliance_tool, cached, and shipped in the scene FMU as gear<i>.compliance.
 
 The tool (compliance_tool/README.md) takes the gear as --param pairs with the FMU's names in SI

@@ -5,7 +5,7 @@ import functools
 import pathlib
 import shutil
 import tempfile
-from ctypes import byref
+from ctypes import byref, c_char_p, c_int, c_size_t, c_void_p, create_string_buffer
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
@@ -39,7 +39,7 @@ class GearMeshFMU:
     """One FMU instance: parameters set before initialization, then inputs -> doStep -> outputs."""
 
     def __init__(self, fmu_path: pathlib.Path | str, parameters: dict | None = None,
-                 instance_name: str = "gearmesh", start_time: float = 0.0):
+                 instance_name: str = "gearmesh", start_time: float = 0.0, initialize: bool = True):
         unzip_dir, md = _unpacked(str(pathlib.Path(fmu_path).resolve()))
         self.model_description = md
         self.variables = {v.name: v for v in md.modelVariables}
@@ -55,8 +55,21 @@ class GearMeshFMU:
         self._call(self.fmu.setDebugLogging, True, ["logStatusWarning"])
         self._call(self.fmu.setupExperiment, startTime=start_time)
         self.set(parameters or {})
-        self._call(self.fmu.enterInitializationMode)
-        self._call(self.fmu.exitInitializationMode)
+        self.initialized = initialize  # False: Instantiated, for check()
+        if initialize:
+            self._call(self.fmu.enterInitializationMode)
+            self._call(self.fmu.exitInitializationMode)
+
+    def check(self) -> str:
+        """The core's check of the parameters and inputs set so far, without reading a file or
+        building the model (the binary's gearmesh_check, the core's gm_model_check; docs/fmi.md,
+        "Checking parameters"): "" if they pass, else the message initialization would give."""
+        function = self.fmu.dll.gearmesh_check
+        function.argtypes = [c_void_p, c_char_p, c_size_t]
+        function.restype = c_int
+        text = create_string_buffer(1024)
+        function(self.fmu.component, text, len(text))
+        return text.value.decode("utf-8", "replace")
 
     @property
     def warnings(self) -> list[str]:
@@ -123,7 +136,7 @@ class GearMeshFMU:
 
     def close(self) -> None:
         try:
-            if not self.failed:
+            if not self.failed and self.initialized:
                 self.fmu.terminate()
         finally:
             self.fmu.freeInstance()

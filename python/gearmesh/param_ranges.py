@@ -100,6 +100,19 @@ def parameter_use(fmu: pathlib.Path | str | None = None) -> Mapping[str, Use]:
     return out
 
 
+def fmi_version(fmu: pathlib.Path | str) -> str:
+    """The FMU's fmiVersion ("2.0", "3.0"), from its modelDescription.xml."""
+    path = pathlib.Path(fmu)
+    stat = path.stat()
+    return _read_version(str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=8)
+def _read_version(path: str, mtime_ns: int, size: int) -> str:
+    with zipfile.ZipFile(path) as z:
+        return ET.fromstring(z.read("modelDescription.xml")).get("fmiVersion", "")
+
+
 @functools.lru_cache(maxsize=8)
 def _read_use(path: str, mtime_ns: int, size: int) -> Mapping[str, Use] | None:
     with zipfile.ZipFile(path) as z:

@@ -3,9 +3,12 @@
 A scene lists only what it uses; every key it omits keeps the FMU's default (the core's
 gm_default_params). Each key maps to one FMU parameter with a factor to SI, and is checked against
 that parameter's range as the FMU declares it (its modelDescription.xml's min and max, which the
-binary enforces: gearmesh.param_ranges), converted to the key's unit for the message.
+binary enforces: gearmesh.param_ranges), converted to the key's unit for the message. The rules
+between parameters, the level's, the pair geometry and the tilt bound are the core's: the whole set
+goes through its check (gm_model_check in the FMU binary), and a scene it refuses fails with the
+core's message, in the FMU's names.
 
-The FE level (model.stiffness_level = 5) adds two kinds of tables that are not FMU parameters but
+The FE level (model.stiffness = 5) adds two kinds of tables that are not FMU parameters but
 inputs of compliance_tool (gearmesh.compliance builds each gear's database from them):
 [gear1.body] / [gear2.body], the gear body (BODY_SCHEMA), and [fe], the FE discretization
 (FE_SCHEMA). Their values stay in the scene's units (mm), as the tool's flags take them. They are
@@ -21,7 +24,7 @@ import tomllib
 from dataclasses import dataclass, field
 
 from gearmesh.levels import Level
-from gearmesh.param_ranges import Range, fmu_ranges
+from gearmesh.param_ranges import Range, default_fmu, fmi_version, fmu_ranges
 
 
 class SceneError(ValueError):
@@ -133,14 +136,14 @@ GEOMETRY_BODY_KEYS = [k for k in BODY_SCHEMA if k not in ("mesh_file", "complian
 # [gear<i>.mounting]: the centre's static pose in the housing frame (start values of the FMU's
 # inputs; a tilt or axial offset is a misalignment) and whether the bearings let it move in the
 # plane (the system model then drives gear<i>.ux, .uy: the planar interface).
-# The tilt's range is the detection's (core/src/inputs.cpp, kMaxTilt); a centre more than 10 mm
-# off is a different pair, not a mounting error.
+# The tilt's bound is the core's (its check, _core_check); a centre more than 10 mm off is a different
+# pair, not a mounting error.
 MOUNTING_SCHEMA: dict[str, Key] = {
     "center_x_um": Key("gear{i}.ux", 1e-6, -1e4, 1e4, unit="um"),
     "center_y_um": Key("gear{i}.uy", 1e-6, -1e4, 1e4, unit="um"),
     "center_z_um": Key("gear{i}.uz", 1e-6, -1e4, 1e4, unit="um"),
-    "tilt_x_mrad": Key("gear{i}.rx", 1e-3, -20, 20, unit="mrad"),
-    "tilt_y_mrad": Key("gear{i}.ry", 1e-3, -20, 20, unit="mrad"),
+    "tilt_x_mrad": Key("gear{i}.rx", 1e-3, unit="mrad"),
+    "tilt_y_mrad": Key("gear{i}.ry", 1e-3, unit="mrad"),
     "bearing_motion": Key("", kind=bool),
 }
 # [fmu]: what `gearmesh fmu` writes (gearmesh.scene_interface; docs/fmi.md, "Scene interfaces")
@@ -315,13 +318,6 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
                 value = name
             scene.parameters[spec.variable] = value
     level = scene.parameters.get("model.stiffness", 0)
-    has_table = "model.stiffness_table" in scene.parameters
-    if level == Level.USER_TABLE and not has_table:
-        raise SceneError("model.stiffness_level = 1 (user tables) takes the pair stiffness from "
-                         "model.stiffness_table_file; allowed: give that file, or another level")
-    if has_table and level != Level.USER_TABLE:
-        raise SceneError(f"model.stiffness_table_file: used at model.stiffness_level = 1 only, "
-                         f"this scene has {level}; allowed: level 1, or no stiffness table")
     fe = _table("fe", raw.get("fe", {}))
     for key, value in fe.items():
         spec = FE_SCHEMA.get(key)
@@ -338,7 +334,27 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
         if spec is None:
             raise SceneError(f"run.{key}: unknown key; allowed: {', '.join(sorted(RUN_SCHEMA))}")
         scene.run[key] = _convert(f"run.{key}", spec, value)
+    _core_check(scene, fmu)
     return scene
+
+
+def _core_check(scene: Scene, fmu) -> None:
+    """The core's rules over the scene's whole parameter set and its inputs' start values (the rules
+    between parameters, the level's, the pair geometry, the tilt bound): gm_model_check through the
+    FMU binary (gearmesh_check), which reads no file; SceneError with the core's message, the one
+    the FMU would give at initialization. A database that compliance_tool is to build stands in as
+    a file name."""
+    from gearmesh.compliance import needs_build
+    from gearmesh.fmu_driver import GearMeshFMU
+
+    path = pathlib.Path(fmu) if fmu is not None else default_fmu()
+    if fmi_version(path).startswith("3"):  # the check is the FMI 2.0 binary's
+        path = default_fmu()
+    values = {**scene.parameters, **{f"gear{i}.compliance": f"gear{i}.gcdb" for i in needs_build(scene)}}
+    with GearMeshFMU(path, values, instance_name="scene_check", initialize=False) as instance:
+        message = instance.check()
+    if message:
+        raise SceneError(message)
 
 
 def _why(exc: Exception) -> str:
@@ -503,14 +519,11 @@ def _check_fe_level(scene: Scene, level: int) -> None:
     fe_keys = [f"gear{i}.body" for i in sorted(scene.bodies)] + (["fe"] if scene.fe else [])
     coupled = scene.parameters.get("model.coupled_teeth")
     if coupled is not None and level not in (Level.ANALYTICAL, Level.FE):
-        raise SceneError(f"model.coupled_teeth: an input of levels 4 and 5 (model.stiffness_level), "
+        raise SceneError(f"model.coupled_teeth: an input of levels 4 and 5 (model.stiffness), "
                          f"this scene has {level}; allowed: level 4 or 5, or leave it out")
-    if coupled is not None and level == Level.ANALYTICAL and coupled > 3:
-        raise SceneError(f"model.coupled_teeth = {coupled}: level 4 couples at most 3 teeth each side "
-                         "(its fitted table); allowed range [0, 3]")
     if level != Level.FE:
         if fe_keys:
-            raise SceneError(f"{fe_keys[0]}: an input of the FE level (model.stiffness_level = 5) "
+            raise SceneError(f"{fe_keys[0]}: an input of the FE level (model.stiffness = 5) "
                              f"only, this scene has {level}; allowed: level 5, or leave it out")
         return
     internal = scene.parameters.get("pair.internal", False)

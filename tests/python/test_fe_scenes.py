@@ -1,4 +1,4 @@
-"""FE level (model.stiffness_level = 5) from scenes: compliance_tool builds through
+"""FE level (model.stiffness = 5) from scenes: compliance_tool builds through
 gearmesh.compliance (cache, errors named by scene key) and the FE mesh against the analytical
 level and ISO 6336 through the FMU, quasi-static at the same torque.
 
@@ -203,6 +203,11 @@ def test_every_input_is_in_the_cache_key(tmp_path, change):
                 PAIR.replace("[gear2]\n", "[gear2]\nyoungs_modulus_GPa = 200\n")}[change]
     if change == "tool bytes":
         tool.write_bytes(b"another tool")
+    if change == "pair.helix_angle_deg":  # at 41 mm for both: the helical pair's teeth overlap at 40 mm
+        wider = "center_distance_mm = 41.0"
+        base = parse_scene(PAIR.replace("center_distance_mm = 40.0", wider), tmp_path / "base41.toml")
+        key = compliance.cache_key(base, 1, tool)
+        text = text.replace("center_distance_mm = 40.0", wider)
     changed = parse_scene(text, tmp_path / "changed.toml")
     assert compliance.cache_key(changed, 1, tool) != key
     if change == "pair.helix_angle_deg":  # an external helical pair: opposite hands
@@ -292,7 +297,7 @@ def test_fe_inputs_are_refused_below_level_5(extra, first):
     with pytest.raises(SceneError) as err:
         parse_scene(LEVEL4 + extra)
     message = str(err.value)
-    assert message.startswith(first) and "model.stiffness_level = 5" in message and "has 4" in message
+    assert message.startswith(first) and "model.stiffness = 5" in message and "has 4" in message
 
 
 def test_coupled_teeth_belongs_to_levels_4_and_5():

@@ -50,7 +50,8 @@ EXPORTED = {
     "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate",
     "fmi2GetDirectionalDerivative", "fmi2SetRealInputDerivatives", "fmi2GetRealOutputDerivatives",
     "fmi2DoStep", "fmi2CancelStep", "fmi2GetStatus", "fmi2GetRealStatus", "fmi2GetIntegerStatus",
-    "fmi2GetBooleanStatus", "fmi2GetStringStatus"}
+    "fmi2GetBooleanStatus", "fmi2GetStringStatus",
+    "gearmesh_check"}  # not FMI: the parameters' check (docs/fmi.md, "Checking parameters")
 H = 1e-5  # communication step, s
 W = 100.0  # spin rate of gear 1, rad/s
 # Level 0 (a constant stiffness per unit face width, model.user_stiffness) on one slice, set

@@ -220,10 +220,11 @@ def test_scene_fmu_checks_table_names(fmu_path, tmp_path, tables, parameters, sa
 
 
 @pytest.mark.parametrize("text, words", [
-    ('[model]\nstiffness_level = 1\n', ["model.stiffness_level = 1", "stiffness_table_file"]),
+    # the level's rules are the core's: its messages, in the FMU's names
+    ('[model]\nstiffness_level = 1\n', ['model.stiffness_table = "": model.stiffness = 1']),
     ('[model]\nstiffness_level = 4\nstiffness_table_file = "k.txt"\n',
-     ["model.stiffness_table_file", "stiffness_level = 1 only", "has 4"]),
-    ('[model]\nstiffness_table_file = "k.txt"\n', ["model.stiffness_table_file", "has 0"]),
+     ['model.stiffness_table = "model_k.txt"', "model.stiffness = 1 (user tables) only", "has model.stiffness = 4"]),
+    ('[model]\nstiffness_table_file = "k.txt"\n', ["model.stiffness_table", "has model.stiffness = 4"]),
     ('[model]\nte_table_file = "absent.txt"\n', ["model.te_table_file", "no such file"]),
     ('[model]\nte_table_file = ""\n', ["model.te_table_file", "non-empty file name"]),
 ])

@@ -158,3 +158,29 @@ def test_resource_root_widens_the_folder(tmp_path):
     # still nothing outside the root
     with pytest.raises(SceneError, match=rf"resolves to /etc/passwd, outside {tmp_path}"):
         parse_scene('[scene]\nresource_root = ".."\n[model]\nte_table_file = "/etc/passwd"\n', folder / "s.toml")
+
+
+# Scenes the core refuses (its rules between parameters, the level's, the geometry, the tilt bound),
+# with the FMU parameters and inputs they set.
+CORE_REFUSED = [
+    ("[model]\nstiffness_level = 1\n", {"model.stiffness": 1}),
+    ("[model]\nstiffness_level = 4\ncoupled_teeth = 5\n", {"model.stiffness": 4, "model.coupled_teeth": 5}),
+    ("[pair]\ncenter_distance_mm = 140\n", {"pair.center_distance": 0.140}),
+    ("[pair]\nrack_dedendum = 0.9\n", {"pair.rack_dedendum": 0.9}),
+    ("[gear1.mounting]\ntilt_y_mrad = -25\n", {"gear1.ry": -0.025}),
+]
+
+
+@pytest.mark.parametrize("text, values", CORE_REFUSED, ids=[t.split("\n")[-2] for t, _ in CORE_REFUSED])
+def test_a_scene_the_core_refuses_fails_with_the_cores_message(fmu_path, text, values):
+    """The scene's error is the message the FMU gives at initialization for the same values (the
+    core's gm_model_check through the binary's gearmesh_check, gm_model_create's message)."""
+    from gearmesh.fmu_driver import FMUError, GearMeshFMU
+
+    with pytest.raises(SceneError) as err:
+        parse_scene(text, fmu=fmu_path)
+    with pytest.raises(FMUError) as init:
+        GearMeshFMU(fmu_path, values)
+    assert str(init.value).endswith(f"fmi2ExitInitializationMode: {err.value}"), (str(err.value), str(init.value))
+    with GearMeshFMU(fmu_path, values, initialize=False) as instance:
+        assert instance.check() == str(err.value)

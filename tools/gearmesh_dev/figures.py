@@ -166,7 +166,7 @@ def te_set_a(path: pathlib.Path, opt: Options) -> str:
 _PARAMETERS = ["pair.center_distance", "pair.normal_module", "pair.pressure_angle",
                "pair.helix_angle", "pair.internal", "pair.rack_dedendum",
                "geometry.operating_pressure_angle", "geometry.backlash", "geometry.base_pitch",
-               "geometry.contact_ratio", "model.slices"]
+               "geometry.contact_ratio", "geometry.path_start", "geometry.path_end", "model.slices"]
 _GEAR = ["teeth", "profile_shift", "thickness_allowance", "face_width", "axial_offset",
          "base_diameter", "tip_diameter_used", "form_diameter"]
 
@@ -200,13 +200,9 @@ class PairGeometry:
     gears: tuple[Gear, Gear]
     # flank (1 A, 2 B) -> (unit contact force on gear 1, T1, T2): the line of action from the FMU
     lines: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]]
-
-    @property
-    def path(self) -> tuple[float, float]:
-        """Flank A's path of contact as roll distances from T1 (docs/physics.md §1)."""
-        g1, g2 = self.gears
-        t1t2 = float(np.linalg.norm(self.lines[1][2] - self.lines[1][1]))
-        return t1t2 - math.sqrt(g2.r_a ** 2 - g2.r_b ** 2), math.sqrt(g1.r_a ** 2 - g1.r_b ** 2)
+    # the path of contact as roll distances from T1 (docs/physics.md §1): the FMU's
+    # geometry.path_start, geometry.path_end
+    path: tuple[float, float]
 
     def drawn_backlash(self) -> float:
         """The gap along flank B's line of action between the drawn teeth (equal to the FMU's
@@ -266,7 +262,7 @@ def pair_geometry(fmu_path: pathlib.Path, parameters: dict, probe: float = 1e-6)
     beta_b = math.asin(math.sin(beta) * math.cos(alpha_n))
     return PairGeometry(a, alpha_wt, g["geometry.backlash"], g["geometry.base_pitch"],
                         g["geometry.contact_ratio"], beta_b, int(g["model.slices"]), tuple(gears),
-                        lines)
+                        lines, (g["geometry.path_start"], g["geometry.path_end"]))
 
 
 def gear_outline(gear: Gear, points: int = 12) -> np.ndarray:

@@ -107,8 +107,8 @@ def eigen_include() -> str:
 
 
 def exported_functions() -> list[str]:
-    """The fmi2 function names of fmu_src/GearMesh.map."""
-    return re.findall(r"^\s*(fmi2\w+);", EXPORT_MAP.read_text(), re.M)
+    """The function names fmu_src/GearMesh.map exports: the fmi2 functions and gearmesh_check."""
+    return re.findall(r"^\s*((?:fmi2|gearmesh_)\w+);", EXPORT_MAP.read_text(), re.M)
 
 
 def _run(cmd: list[str], what: str, env: dict | None = None, cwd: pathlib.Path | None = None) -> None:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import math
 import pathlib
 import re
 import subprocess
@@ -274,6 +275,8 @@ def _range_text(spec: Key, fmu_range: Range | None) -> str:
     if spec.kind is str:
         return "a file inside the scene's folder (or `[scene] resource_root`)"
     rng = fmu_range if fmu_range is not None else Range(spec.lo, spec.hi)
+    if fmu_range is None and rng.lo == -math.inf and rng.hi == math.inf:
+        return "the core's (its check's message states it)"
     scale = spec.factor if fmu_range is not None else 1
     text = _with_unit(rng.text(scale), spec.unit)
     return f"each in {text}" if spec.kind is list else text
@@ -485,7 +488,7 @@ class _SceneKeys:
             return rows
 
         out += _gear_tables("[{g}.body]", body, lambda g: (
-            "FE level only (`model.stiffness_level = 5`): the gear body compliance_tool meshes, "
+            "FE level only (`model.stiffness = 5`): the gear body compliance_tool meshes, "
             "as its flags, in mm as the flags take them (the tool also checks them against the "
             "tooth geometry). " + self.tool_groups(BODY_SCHEMA) + "\n"))
         moving = Scene.__dataclass_fields__["bearing_motion"].default  # gears whose centre moves

@@ -149,6 +149,14 @@ typedef struct gm_pair_geometry {
   double g_alpha;             /* length of the path of contact, m */
   double eps_alpha;           /* transverse contact ratio, - */
   double eps_beta;            /* overlap ratio, - */
+  double path_start;          /* start of the path of contact (A): gear 1's roll distance there, along
+                                 the line of action from gear 1's tangency point T1, m */
+  double path_end;            /* end of the path of contact (E, gear 1's tip): its roll distance, m */
+  double face_overlap;        /* axial overlap of the two face widths (eps_beta's, the slices'), m */
+  double c_single;            /* ISO 6336-1 method B single stiffness c' per unit face width, with
+                                 model.rated_line_load's load correction (level 2's), N/m^2; 0 where
+                                 method B's regression gives no positive q'_min */
+  double c_gamma_alpha;       /* its mesh stiffness c_gamma_alpha = c' (0.75 eps_alpha + 0.25), N/m^2 */
   gm_gear_geometry gear[2];
 } gm_pair_geometry;
 
@@ -188,6 +196,15 @@ gm_status gm_compute_geometry(const gm_model_params* p, gm_pair_geometry* out, c
 
 /* Validate p and build an immutable model. On error *out is NULL and msg says why. */
 gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, size_t msg_size);
+
+/* Check p as gm_model_create does, without reading a file or building the model: the static ranges,
+ * the rules between parameters, the level's rules (its files given or not; what its build checks
+ * without a file, e.g. level 4's coupled teeth and ring), the pair geometry, the micro-geometry's
+ * modifications; and, if pose is not NULL, the inputs as gm_evaluate checks them (finite, the spin
+ * bound, the tilt bound). GM_OK, or the status and message gm_model_create (gm_evaluate for the
+ * pose) gives for the same p. What only the files can say (a file that is missing or malformed, a
+ * table that misses the active profile, a database of another gear) passes here. */
+gm_status gm_model_check(const gm_model_params* p, const gm_kinematics* pose, char* msg, size_t msg_size);
 void gm_model_free(gm_model* m);
 /* The model's parameters and derived geometry (valid while m lives). */
 const gm_model_params* gm_model_parameters(const gm_model* m);

@@ -1,15 +1,14 @@
-"""The stiffness a user would take from ISO 6336-1 for levels 0 and 1 (docs/model.md, "Stiffness levels"):
+"""The stiffness a user would take from ISO 6336-1 for levels 0 and 1 (docs/model.md, "Stiffness levels"),
+read from the FMU's calculated parameters (the core's ISO 6336-1 method B, core/src/stiffness_iso.hpp):
 
-* level 0: the mean mesh stiffness c_gamma_alpha = c'(0.75 eps_alpha + 0.25) per unit face width,
-  with the level-2 model's own c': the peak of its mesh.stiffness per unit face width in the
-  single-contact zone (plain mode, micro-geometry removed; the single pair passes mid-path, u =
-  0.5, where the level-2 curve peaks at c'). Not the mean of mesh.stiffness over a pitch: a
-  loaded pair's tip edge beyond the path adds stiffness there that ISO's c_gamma_alpha leaves out
-  (0.3 N/(mm um) on set A at 0.2 um approach, growing with the approach);
+* level 0: the mean mesh stiffness c_gamma_alpha = c'(0.75 eps_alpha + 0.25) per unit face width
+  (iso.mesh_stiffness), or the single stiffness c' (iso.single_stiffness), both load-corrected by
+  model.rated_line_load as level 2 uses them;
 * level 1: the level-2 curve as a stiffness table (scenarios/user_stiffness_example.txt gives the
   format): the single-pair stiffness c'(1 - kappa (2u - 1)^2) over the path (u = 0 at its start,
-  1 at its end), kappa = 0.75 (1 - 1/eps_alpha), c' = c_gamma_alpha / (0.75 eps_alpha + 0.25),
-  over gear 1's roll angle (both constants as level 2 computes them: docs/model.md, "Stiffness levels").
+  1 at its end: geometry.path_start and geometry.path_end over gear 1's base radius), kappa =
+  0.75 (1 - 1/eps_alpha), over gear 1's roll angle (both constants as level 2 computes them:
+  docs/model.md, "Stiffness levels").
 """
 from __future__ import annotations
 
@@ -20,21 +19,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from gearmesh.fmu_driver import GearMeshFMU
-from gearmesh.prescribed_motion import pair_kinematics
+from gearmesh.levels import Level
+from gearmesh.param_ranges import parameter_use
 
-# Micro-geometry and excitation parameters, set to "none" for the run that reads c'.
-_MICRO = ("profile_crowning", "tip_relief", "root_relief", "profile_slope", "lead_crowning",
-          "helix_slope", "end_relief")
-APPROACH = 0.2e-6  # m: any approach loads the single pair; its stiffness is linear at level 2
-POSITIONS = 400    # per pitch: the parabola's top is flat, a sample within 1/400 pitch of u = 0.5
-                   # is within kappa (2/400 / eps_alpha)^2 < 1e-5 of c'
 TABLE_ROWS = 41    # over the path of contact
 
 
 @dataclass(frozen=True)
 class IsoStiffness:
     c_gamma_alpha: float    # N/m per m of face width (SI of model.user_stiffness)
-    c_prime: float          # N/m per m, single-pair peak
+    c_prime: float          # N/m per m, ISO's single stiffness c' (level 2's single-pair peak)
     contact_ratio: float
     roll_start: float       # rad, gear 1's roll angle at the start of the path of contact
     roll_end: float         # rad, at its end (gear 1's tip)
@@ -57,55 +51,32 @@ class IsoStiffness:
         return "\n".join(lines) + "\n"
 
 
-def face_overlap(values: dict) -> float:
-    """The axial overlap of the two face widths, m."""
-    lo = max(values[f"gear{i}.axial_offset"] - values[f"gear{i}.face_width"] / 2 for i in (1, 2))
-    hi = min(values[f"gear{i}.axial_offset"] + values[f"gear{i}.face_width"] / 2 for i in (1, 2))
-    return hi - lo
-
-
 class NotApplicable(ValueError):
-    """The pair is not an external spur pair: levels 0 and 1 have no ISO input here."""
+    """The pair is not an external spur pair, or ISO's method B has no stiffness for it: levels 0
+    and 1 have no ISO input here."""
 
 
 def iso_stiffness(fmu_path, start_values: dict | None = None) -> IsoStiffness:
     """c_gamma_alpha, c', eps_alpha and the path's roll angles of the pair in `fmu_path` (with
-    `start_values` set on top of its own). External spur pairs only (the table's roll angle is
-    gear 1's; a helical pair's level-2 mean is per transverse line, not needed here)."""
-    params = dict(start_values or {})
-    params.update({"model.stiffness": 2, "model.quasi_static": False, "model.stiffness_table": "",
-                   "model.te_table": "", "model.friction_coefficient": 0.0})
-    for i in (1, 2):
-        params.update({f"gear{i}.{m}": 0.0 for m in _MICRO})
-        params[f"gear{i}.deviations"] = ""
+    `start_values` set on top of its own), as the FMU calculates them at initialization. External
+    spur pairs only (the table's roll angle is gear 1's; a helical pair's level-2 mean is per
+    transverse line, not needed here)."""
+    # level 0 with no file accepts every pair; the values do not depend on the level
+    files = {name: "" for name, use in parameter_use(fmu_path).items() if use.file}
+    params = {**(start_values or {}), **files, "model.stiffness": int(Level.USER_CONSTANT), "model.quasi_static": False}
     with GearMeshFMU(fmu_path, params, instance_name="iso_stiffness") as fmu:
-        g = fmu.get(["pair.internal", "pair.helix_angle", "pair.center_distance",
-                     "geometry.operating_pressure_angle", "geometry.contact_ratio",
-                     "gear1.teeth", "gear1.tip_diameter_used", "gear2.tip_diameter_used",
-                     *(f"gear{i}.{n}" for i in (1, 2)
-                       for n in ("face_width", "axial_offset"))])
-        if g["pair.internal"] or g["pair.helix_angle"] != 0.0:
-            raise NotApplicable("levels 0 and 1 from ISO: external spur pairs only "
-                             f"(pair.internal = {bool(g['pair.internal'])}, pair.helix_angle = "
-                             f"{g['pair.helix_angle']:g} rad; allowed: false, 0)")
-        kin = pair_kinematics(fmu)
-        pitch = 2 * math.pi / g["gear1.teeth"]
-        single = []
-        for phi1 in np.arange(POSITIONS) * pitch / POSITIONS:
-            fmu.step({"gear1.phi": phi1, "gear2.phi": kin.phi2(APPROACH, phi1)})
-            out = fmu.get(["mesh.stiffness", "mesh.pairs_in_contact"])
-            if out["mesh.pairs_in_contact"] == 1:
-                single.append(out["mesh.stiffness"])
-    eps = g["geometry.contact_ratio"]
-    if not single or eps >= 2:
-        raise ValueError(f"geometry.contact_ratio = {eps:.4g}: no single-contact zone to read c' "
-                         "from; allowed: contact ratio < 2")
-    c_prime = max(single) / face_overlap(g)
-    r_a1, r_a2 = g["gear1.tip_diameter_used"] / 2, g["gear2.tip_diameter_used"] / 2
-    line = g["pair.center_distance"] * math.sin(g["geometry.operating_pressure_angle"])
-    start = (line - math.sqrt(r_a2 ** 2 - kin.r_b2 ** 2)) / kin.r_b1
-    end = math.sqrt(r_a1 ** 2 - kin.r_b1 ** 2) / kin.r_b1
-    return IsoStiffness(c_prime * (0.75 * eps + 0.25), c_prime, eps, start, end)
+        g = fmu.get(["pair.internal", "pair.helix_angle", "geometry.contact_ratio", "gear1.base_diameter",
+                     "geometry.path_start", "geometry.path_end", "iso.single_stiffness", "iso.mesh_stiffness"])
+    if g["pair.internal"] or g["pair.helix_angle"] != 0.0:
+        raise NotApplicable("levels 0 and 1 from ISO: external spur pairs only "
+                            f"(pair.internal = {bool(g['pair.internal'])}, pair.helix_angle = "
+                            f"{g['pair.helix_angle']:g} rad; allowed: false, 0)")
+    if not g["iso.single_stiffness"] > 0:
+        raise NotApplicable("levels 0 and 1 from ISO: iso.single_stiffness = 0 (ISO 6336-1 method B's "
+                            "regression gives no positive q'_min for these profile shifts)")
+    r_b1 = g["gear1.base_diameter"] / 2
+    return IsoStiffness(g["iso.mesh_stiffness"], g["iso.single_stiffness"], g["geometry.contact_ratio"],
+                        g["geometry.path_start"] / r_b1, g["geometry.path_end"] / r_b1)
 
 
 def write_table(iso: IsoStiffness, path: pathlib.Path) -> pathlib.Path:

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from gearmesh.accuracy.reference import MIN_POSITIONS
-from gearmesh.accuracy.iso import face_overlap
 from gearmesh.accuracy.timing import StepTimer
 from gearmesh.fmu_driver import GearMeshFMU
 from gearmesh.prescribed_motion import mesh_order_amplitudes, pair_kinematics
@@ -70,7 +69,7 @@ def sweep(fmu_path, parameters: dict, torques: list[float], n_positions: int,
         angles = np.arange(n_positions) * (2 * math.pi / z1) / n_positions
         omega2 = -kin.sign * OMEGA1 * kin.r_b1 / kin.r_b2
         ratio = kin.r_b2 / kin.r_b1  # gear 2's load torque per unit torque on gear 1
-        width = face_overlap(fmu.get(_FACES))
+        width = fmu.get(["geometry.face_overlap"])["geometry.face_overlap"]
         timer = StepTimer(fmu)
         for rep in range(repeats):
             for torque in torques:

@@ -44,7 +44,7 @@ class Geometry:
     sign: int                  # +1 external, -1 internal
     backlash: float
     base_pitch: float
-    tight: float               # tight-mesh centre distance
+    tight: float               # tight-mesh centre distance (the FMU's geometry.tight_center_distance)
     centre: float              # the pair's centre distance
     face: float
     k_pair: float              # level 0: stiffness of one tooth pair on the line of action
@@ -88,6 +88,9 @@ class Case:
     undamped: bool = False                          # judged by the undamped rules (gearmesh.stability)
     rattles: bool = False                           # undamped and rattling by its physics: the
                                                     # oscillation may grow; energy judged only
+    # pair.center_distance = the tight-mesh distance of the case's gears (the FMU's
+    # geometry.tight_center_distance, read at params' pair.center_distance, any that meshes) + this, m
+    above_tight: float | None = None
 
 
 def driven_pair(case: Case, geo: Geometry, te0: float) -> GearPair:
@@ -151,18 +154,6 @@ def balanced_pair(case: Case, geo: Geometry, te0: float) -> GearPair:
                     x0=(0.0, w1, geo.phi2(te0, 0.0), geo.ratio * w1))
 
 
-def _shift_centre(m_n: float, z1: int, z2: int, x1: float, x2: float, alpha=math.radians(20),
-                  beta: float = 0.0) -> float:
-    """Tight-mesh centre distance of an external pair (ISO 21771: inv alpha_wt = inv alpha_t
-    + 2 tan alpha_n (x1 + x2)/(z1 + z2))."""
-    inv = lambda a: math.tan(a) - a
-    a_t = math.atan(math.tan(alpha) / math.cos(beta))
-    target, a = inv(a_t) + 2 * math.tan(alpha) * (x1 + x2) / (z1 + z2), 0.5
-    for _ in range(60):
-        a -= (inv(a) - target) / math.tan(a) ** 2
-    return m_n / math.cos(beta) * (z1 + z2) / 2 * math.cos(a_t) / math.cos(a)
-
-
 def scaled(m_n: float) -> dict:
     """Set A scaled to another module: lengths with m_n (inertia with m_n^5, load with m_n^3
     are set by the case)."""
@@ -205,7 +196,6 @@ body_size_mm = 6.0
 
 
 def all_cases() -> list[Case]:
-    z6_centre = _shift_centre(0.0026, 6, 57, 0.5, 0.0) + 40e-6
     helix = math.radians(44.9)
     mu = lambda m, v0: {"model.friction_coefficient": m, "model.friction_velocity": v0}
     level = lambda n, **p: {"model.stiffness": n, "model.slices": 5, **p}
@@ -255,8 +245,8 @@ def all_cases() -> list[Case]:
              params=scaled(0.02), J=(0.02 * (20 / 2.6) ** 5,) * 2, load=NOMINAL * (20 / 2.6) ** 3),
         Case("pinion_z6", "z 6 pinion (x 0.5, tip 22.8 mm) with the 57-tooth gear, 20 N m",
              params={"gear1.teeth": 6, "gear1.profile_shift": 0.5, "gear1.tip_diameter": 0.0228,
-                     "gear2.profile_shift": 0.0, "pair.center_distance": z6_centre},
-             J=(1e-4, 0.02), load=20.0),
+                     "gear2.profile_shift": 0.0, "pair.center_distance": 0.0835},
+             above_tight=40e-6, J=(1e-4, 0.02), load=20.0),
         Case("ring_difference_5", "internal pair 30/35 (the smallest tooth-count difference "
              "allowed), m 2 mm, 20 N m",
              params={"pair.internal": True, "gear1.teeth": 30, "gear2.teeth": 35,
@@ -264,9 +254,8 @@ def all_cases() -> list[Case]:
                      "pair.normal_module": 0.002, "pair.center_distance": 0.00498},
              J=(0.005, 0.01), load=20.0),
         Case("helix_44.9deg", "helix angle 44.9 deg, 10 slices",
-             params={"pair.helix_angle": helix, "model.slices": 10,
-                     "pair.center_distance": _shift_centre(0.0026, 57, 57, 0.35, 0.35,
-                                                           beta=helix) + 40e-6}),
+             params={"pair.helix_angle": helix, "model.slices": 10, "pair.center_distance": 0.2115},
+             above_tight=40e-6),
         Case("level_0", "stiffness level 0 (user constant), 5 slices", params=level(0)),
         Case("level_1", "stiffness level 1 (user table: scenarios/user_stiffness_example.txt)",
              params=level(1, **{"model.stiffness_table": "stiffness.txt"}),

@@ -116,6 +116,9 @@ def prepare(case: Case, generic_fmu: pathlib.Path, workdir: pathlib.Path) -> Pre
         from gearmesh.scene_fmu import build_scene_fmu
 
         fmu_path = build_scene_fmu(generic_fmu, {}, resources, workdir / f"{case.name}.fmu")
+    if case.above_tight is not None:  # the gears' tight-mesh distance, as the FMU computes it
+        tight = geometry(fmu_path, params).tight
+        params["pair.center_distance"] = tight + case.above_tight
     geo = geometry(fmu_path, params)
     inputs = {k: _value(v, geo) for k, v in case.inputs.items()}
     load = float(_value(case.load, geo))
