@@ -87,7 +87,7 @@ def tool_hash(tool: pathlib.Path) -> str:
 
 def needs_build(scene: Scene) -> list[int]:
     """The gears whose database the tool has to make (level 5, no prebuilt compliance_file)."""
-    if scene.parameters.get("model.stiffness", 0) != Level.FE:
+    if scene.level != Level.FE:
         return []
     return [i for i in (1, 2) if f"gear{i}.compliance" not in scene.parameters]
 

@@ -20,7 +20,7 @@ def write_scene_fmu(scene: Scene, generic_fmu: pathlib.Path, out: pathlib.Path,
     """Write the scene FMU at `out` with `interface` (default: the scene's [fmu] interface, else
     the one its mounting calls for); returns the interface and the names it lists. At level 5
     the compliance databases are built (cached) and shipped; at other levels no database is."""
-    level = scene.parameters.get("model.stiffness", 0)
+    level = scene.level
     if level == Level.FE:
         scene = main_levels.scene_at_level(scene, 5)
     mode = scene.fmu.get("mode")

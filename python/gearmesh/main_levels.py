@@ -27,7 +27,7 @@ DEFAULT_COUPLED = 2            # model.coupled_teeth when a scene is taken to le
 def levels(scene: Scene, run: dict) -> list[int]:
     """[run] levels as whole levels, the scene's own level when absent; the first is the level of
     the engagement sweep and the revolution."""
-    own = int(scene.parameters.get("model.stiffness", 0))
+    own = scene.level
     chosen = run.get("levels") or [own]
     out = []
     for value in chosen:

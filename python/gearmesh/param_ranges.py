@@ -27,6 +27,7 @@ class Range:
     hi: float = math.inf
     lo_open: bool = False
     hi_open: bool = False
+    start: float | None = None  # the FMU's default (its start value), if it declares one
 
     def contains(self, x: float | int) -> bool:
         """x finite and inside (an int of any size is compared exactly)."""
@@ -143,7 +144,9 @@ def _read(path: str, mtime_ns: int, size: int) -> Mapping[str, Range]:
         if sv.get("causality") != "parameter" or ("min" not in typ.attrib and "max" not in typ.attrib):
             continue
         flags = exclusive.get(sv.get("name"), {})
+        start = typ.get("start")
         out[sv.get("name")] = Range(float(typ.get("min", "-inf")), float(typ.get("max", "inf")),
                                     flags.get("minExclusive") == "true",
-                                    flags.get("maxExclusive") == "true")
+                                    flags.get("maxExclusive") == "true",
+                                    float(start) if start is not None and typ.tag != "Boolean" else None)
     return types.MappingProxyType(out)

@@ -179,6 +179,12 @@ class Scene:
     fe: dict[str, float | int] = field(default_factory=dict)                 # [fe] key -> value
     bearing_motion: tuple[int, ...] = ()  # gears whose centres move in the plane ([gear<i>.mounting])
     fmu: dict[str, str | list[str]] = field(default_factory=dict)  # [fmu]: interface, mode, tunable, outputs
+    default_level: int = Level.ANALYTICAL  # the FMU's model.stiffness where the scene sets none (load)
+
+    @property
+    def level(self) -> int:
+        """The stiffness level the scene runs at: its own, else the FMU's default."""
+        return int(self.parameters.get("model.stiffness", self.default_level))
 
 
 def _convert(where: str, key: Key, value, fmu_range: Range | None = None):
@@ -317,7 +323,10 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
                 scene.resources[name] = source
                 value = name
             scene.parameters[spec.variable] = value
-    level = scene.parameters.get("model.stiffness", 0)
+    default = fmu_ranges(fmu).get("model.stiffness", Range()).start
+    if default is not None:
+        scene.default_level = int(default)
+    level = scene.level
     fe = _table("fe", raw.get("fe", {}))
     for key, value in fe.items():
         spec = FE_SCHEMA.get(key)

@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "gearmesh/internal/compliance_db.hpp"
 #include "gearmesh/gearmesh.h"
 #include "gearmesh/internal/geometry.hpp"
@@ -80,13 +82,16 @@ inline gm::ComplianceDb smooth_db(const gm_model_params& p, int gear, const Smoo
 }
 
 // Gear `gear`'s smooth_db (default shape unless given), written to the temporary directory as
-// `name` (benchmarks: level 5 without compliance_tool). The path; "" and msg on failure.
+// `name` prefixed with the process id, so that tests running at once (ctest --parallel, two
+// checkouts' suites) never share a file (benchmarks: level 5 without compliance_tool). The path;
+// "" and msg on failure.
 inline std::string write_smooth_db(const gm_model_params& p, int gear, const std::string& name, std::string& msg,
                                    const SmoothDbShape& shape = SmoothDbShape{}) {
   gm_model_params q = p;
   q.compliance[0] = q.compliance[1] = nullptr;
   const gm::ComplianceDb db = smooth_db(q, gear, shape, msg);
-  const std::string path = (std::filesystem::temp_directory_path() / name).string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_" + name)).string();
   if (!msg.empty() || gm::write_compliance_db(path.c_str(), db, msg) != GM_OK) return "";
   return path;
 }

@@ -85,3 +85,20 @@ def test_fe_scenes_parse_with_their_bodies():
     assert helical.fe == {"profile_elements": 6, "width_elements": 8}
     for s in (fe, light, ring, helical):
         assert s.description and s.assumptions
+
+
+def test_a_scene_without_a_level_runs_at_the_fmus_default(fmu_path):
+    """A scene that sets no [model] stiffness_level runs where the FMU would: at model.stiffness's
+    start value in the FMU's modelDescription.xml (read here with xml.etree), not at level 0;
+    a scene that sets one keeps its own."""
+    import zipfile
+    import xml.etree.ElementTree as ET
+
+    with zipfile.ZipFile(fmu_path) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    start = next(sv[0].get("start") for sv in root.iter("ScalarVariable") if sv.get("name") == "model.stiffness")
+    text = (REPO / "scenarios" / "paper_setA_3U4U.toml").read_text()
+    bare = "\n".join(line for line in text.splitlines() if not line.startswith("stiffness_level"))
+    assert "stiffness_level" not in bare
+    assert parse_scene(bare, fmu=fmu_path).level == int(start) == 4
+    assert parse_scene(bare.replace("[model]", "[model]\nstiffness_level = 2"), fmu=fmu_path).level == 2
