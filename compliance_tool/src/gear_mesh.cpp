@@ -201,6 +201,20 @@ gm_status check_options(int gear, const GearBodyOptions& o, std::string& msg) {
   return GM_OK;
 }
 
+}  // namespace
+
+HolesFit holes_fit(int holes, double hole, double circle, double inner, double outer) {
+  if (!(hole > 0 && circle - hole > inner && circle + hole < outer)) return HolesFit::kOutsideAnnulus;
+  if (!(hole < holes_overlap_limit(holes, circle))) return HolesFit::kOverlap;
+  return HolesFit::kFits;
+}
+
+double holes_overlap_limit(int holes, double circle) {
+  return circle * std::sin(kPi / holes);
+}
+
+namespace {
+
 // Rim, web and holes: checked against each other and the root circle; the axial stages split at
 // the web's faces when the web is narrower than the face.
 gm_status plan_stages(const GearBodyOptions& o, BodyPlan& pl, std::string& msg) {
@@ -213,9 +227,7 @@ gm_status plan_stages(const GearBodyOptions& o, BodyPlan& pl, std::string& msg) 
   const double ann_in = pl.has_web ? o.hub_radius : pl.g.clamped;
   const double ann_out = pl.has_web ? o.rim_inner_radius : r_f;
   if (o.holes > 0) {
-    if (!(o.hole_radius > 0) || o.hole_circle_radius - o.hole_radius <= ann_in ||
-        o.hole_circle_radius + o.hole_radius >= ann_out ||
-        2 * o.hole_radius >= 2 * o.hole_circle_radius * std::sin(kPi / o.holes))
+    if (holes_fit(o.holes, o.hole_radius, o.hole_circle_radius, ann_in, ann_out) != HolesFit::kFits)
       return fail_with(msg, fmt("lightening holes (radius %g m on radius %g m) must lie inside the web "
                                 "annulus and not overlap (annulus %g m ..)",
                                 o.hole_radius, o.hole_circle_radius, ann_in));

@@ -148,6 +148,16 @@ struct GearBodyMesh {
   double mesh_seconds = 0;      // wall time of the gmsh part
 };
 
+// The lightening holes' rule, in one place for the command line (main.cpp) and the body plan:
+// `holes` holes of size `hole` on a circle of size `circle` lie inside the annulus (inner,
+// outer) and do not overlap (all diameters, or all radii, in any one unit).
+enum class HolesFit { kFits,
+                      kOutsideAnnulus,
+                      kOverlap };
+HolesFit holes_fit(int holes, double hole, double circle, double inner, double outer);
+// The largest hole that `holes` holes on a circle of size `circle` can have without overlapping.
+double holes_overlap_limit(int holes, double circle);
+
 // Build the mesh of gear `gear` (0 or 1) of validated parameters p with their geometry g.
 // Initializes and finalizes gmsh within the call (not thread-safe against other gmsh users).
 gm_status build_gear_body(const gm_model_params& p, const gm_pair_geometry& g, int gear,

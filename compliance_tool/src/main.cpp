@@ -40,34 +40,36 @@ namespace {
 
 void usage(FILE* f) {
   std::fprintf(f,
-      "usage: compliance_tool --scene SCENE.toml --gear {1|2} --out FILE.gcdb [--param name=value ...]\n"
-      "  --param NAME=VALUE        FMU parameter in SI (pair.normal_module=0.002, gear1.teeth=20, ...)\n"
-      "                            on top of the defaults; the Python tooling passes the scene's\n"
-      "  gear body (mm, diameters; default a solid disc with a bore of 0.4 d_f):\n"
-      "  --bore-diameter-mm D      bore (clamped) diameter, 0 < D < root diameter\n"
-      "  --rim-inner-diameter-mm D inner diameter of the rim = outer of the web (with --hub-diameter-mm)\n"
-      "  --hub-diameter-mm D       outer diameter of the hub = inner of the web\n"
-      "  --web-thickness-mm T      axial web thickness, 0 < T <= face width (default: full width)\n"
-      "  --web-offset-mm O         axial offset of the web's mid-plane from mid-face (default 0)\n"
-      "  --holes N                 lightening holes, 0..1000 (with --hole-diameter-mm and\n"
-      "  --hole-diameter-mm D        --hole-circle-diameter-mm), equally spaced, hole 0 on tooth 0\n"
-      "  --hole-circle-diameter-mm D\n"
-      "  --ring-outer-diameter-mm D  outer diameter of an internal ring gear (pair.internal=1, gear 2)\n"
-      "  --mesh FILE               user-supplied mesh instead of the generated body (treated as\n"
-      "                            not cyclic: every tooth is loaded)\n"
-      "  mesh and FE:\n"
-      "  --profile-elements N      along the involute, 1..200 (default 8)\n"
-      "  --width-elements N        layers across the face width, 1..200 (default 4)\n"
-      "  --fillet-elements N       along each fillet, 1..200 (default 3)\n"
-      "  --body-size-mm S          target element size in the body, > 0 (default 4 m_n)\n"
-      "  --depth-mm H              depth of the responses below the flank, > 0 (default 0.5)\n"
-      "  --coupled N               neighbour teeth each side, 0..20 (default model.coupled_teeth, else 1)\n"
-      "  --every-tooth             load every distinct tooth even on a cyclic body (cyclic = 0)\n"
-      "  --load-fraction F         share of the flank grid loaded, 0 < F <= 1 (default 1); the other\n"
-      "                            columns come from the reduction space of the loaded ones\n"
-      "  --threads N               threads for gmsh and the BLAS under CHOLMOD, 1..256\n"
-      "  --note TEXT               appended to the database note\n"
-      "  --write-mesh FILE         also write the body mesh used (gmsh .msh; --mesh reads it back)\n");
+               "usage: compliance_tool --scene SCENE.toml --gear {1|2} --out FILE.gcdb [--param name=value ...]\n"
+               "  --param NAME=VALUE        FMU parameter in SI (pair.normal_module=0.002, gear1.teeth=20, ...)\n"
+               "                            on top of the defaults; the Python tooling passes the scene's\n"
+               "  gear body (mm, diameters; default a solid disc with a bore of 0.4 d_f):\n"
+               "  --bore-diameter-mm D      bore (clamped) diameter, 0 < D < root diameter\n"
+               "  --rim-inner-diameter-mm D inner diameter of the rim = outer of the web (with --hub-diameter-mm)\n"
+               "  --hub-diameter-mm D       outer diameter of the hub = inner of the web\n"
+               "  --web-thickness-mm T      axial web thickness, 0 < T <= face width (default: full width)\n"
+               "  --web-offset-mm O         axial offset of the web's mid-plane from mid-face (default 0)\n"
+               "  --holes N                 lightening holes, 0..1000 (with --hole-diameter-mm and\n"
+               "  --hole-diameter-mm D        --hole-circle-diameter-mm), equally spaced, hole 0 on tooth 0\n"
+               "  --hole-circle-diameter-mm D\n"
+               "  --ring-outer-diameter-mm D  outer diameter of an internal ring gear (pair.internal=1, gear 2)\n"
+               "  --mesh FILE               user-supplied mesh instead of the generated body (treated as\n"
+               "                            not cyclic: every tooth is loaded)\n"
+               "  mesh and FE:\n"
+               "  --profile-elements N      along the involute, 1..200 (default 8)\n"
+               "  --width-elements N        layers across the face width, 1..200 (default 4)\n"
+               "  --fillet-elements N       along each fillet, 1..200 (default 3)\n"
+               "  --body-size-mm S          target element size in the body, > 0 (default 4 m_n)\n"
+               "  --depth-mm H              depth of the responses below the flank, > 0 (default 0.5)\n"
+               "  --coupled N               neighbour teeth each side, 0..20 (default model.coupled_teeth, else 1)\n"
+               "  --every-tooth             load every distinct tooth even on a cyclic body (cyclic = 0)\n"
+               "  --load-fraction F         share of the flank grid loaded, 0 < F <= 1 (default 1); the other\n"
+               "                            columns come from the reduction space of the loaded ones\n"
+               "  --threads N               threads for gmsh and the BLAS under CHOLMOD, 1..256\n"
+               "  --note TEXT               appended to the database note\n"
+               "  --check                   check the parameters and the body against the gear, build\n"
+               "                            nothing (exit 0: they fit; 1: what does not fit; --out not needed)\n"
+               "  --write-mesh FILE         also write the body mesh used (gmsh .msh; --mesh reads it back)\n");
 }
 
 bool parse_double(const std::string& s, double& v) {
@@ -173,6 +175,7 @@ struct Cli {
   double ring_d = -1, body_size = -1;
   int holes = 0;
   bool web_o_given = false;
+  bool check_only = false;  // --check: the checks alone, no build
   std::vector<std::string> ignored;
   Cli() {
     gm_default_params(&p);
@@ -227,6 +230,7 @@ const Flag kFlags[] = {
     {"-h", false, [](Cli&, S, S) { usage(stdout); return 0; }},
     {"--help", false, [](Cli&, S, S) { usage(stdout); return 0; }},
     {"--every-tooth", false, [](Cli& c, S, S) { c.o.every_tooth = true; return kGoOn; }},
+    {"--check", false, [](Cli& c, S, S) { c.check_only = true; return kGoOn; }},
     {"--scene", true, [](Cli& c, S, S v) { c.scene = v; return kGoOn; }},
     {"--out", true, [](Cli& c, S, S v) { c.out = v; return kGoOn; }},
     {"--note", true, [](Cli& c, S, S v) { c.o.note = v; return kGoOn; }},
@@ -295,8 +299,8 @@ int parse_args(int argc, char** argv, Cli& c) {
     const int rc = flag->set(c, arg, flag->valued ? std::string(argv[++a]) : std::string());
     if (rc != kGoOn) return rc;
   }
-  if (c.gear == 0 || c.out.empty()) {
-    std::fprintf(stderr, "compliance_tool: --gear and --out are required\n");
+  if (c.gear == 0 || (c.out.empty() && !c.check_only)) {
+    std::fprintf(stderr, "compliance_tool: --gear and --out are required (--out not with --check)\n");
     usage(stderr);
     return 2;
   }
@@ -350,15 +354,17 @@ int check_web(const Cli& c, double bore, double d_f, double b) {
 
 // The lightening holes inside the disc or web annulus, not overlapping (mm).
 int check_holes(const Cli& c, double bore, double d_f) {
+  using gm::mesh::HolesFit;
   const double in = c.rim_d > 0 ? c.hub_d : bore, outer = c.rim_d > 0 ? c.rim_d : d_f;
-  if (!(c.hole_circle_d - c.hole_d > in && c.hole_circle_d + c.hole_d < outer))
+  const HolesFit fit = gm::mesh::holes_fit(c.holes, c.hole_d, c.hole_circle_d, in, outer);
+  if (fit == HolesFit::kOutsideAnnulus)
     return misfit("--hole-circle-diameter-mm " + mm(c.hole_circle_d) + " with --hole-diameter-mm " +
                   mm(c.hole_d) + ": the holes must lie inside the " + (c.rim_d > 0 ? "web" : "disc") +
                   " annulus " + mm(in) + " .. " + mm(outer) + " (hole circle +- hole diameter)");
-  if (!(c.hole_d < c.hole_circle_d * std::sin(3.14159265358979323846 / c.holes)))
+  if (fit == HolesFit::kOverlap)
     return misfit("--hole-diameter-mm " + mm(c.hole_d) + ": " + std::to_string(c.holes) +
                   " holes on the circle " + mm(c.hole_circle_d) + " overlap; allowed below " +
-                  mm(c.hole_circle_d * std::sin(3.14159265358979323846 / c.holes)));
+                  mm(gm::mesh::holes_overlap_limit(c.holes, c.hole_circle_d)));
   return kGoOn;
 }
 
@@ -452,6 +458,7 @@ int main(int argc, char** argv) {
   if (rc == kGoOn) rc = check_combinations(c);
   if (rc == kGoOn) rc = check_body_fits(c);
   if (rc != kGoOn) return rc;
+  if (c.check_only) return 0;  // the body fits the gear: what scene validation asks (gearmesh.compliance)
   apply_body_options(c);
   return build_and_write(c, t_start);
 }

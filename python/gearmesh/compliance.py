@@ -178,6 +178,35 @@ def _explain(scene: Scene, gear: int, message: str) -> str:
     return message + (f" [scene keys given for this build: {', '.join(given)}]" if given else "")
 
 
+def check_bodies(scene: Scene, tool: pathlib.Path | None = None) -> None:
+    """The body of each gear the tool is to build against that gear (compliance_tool --check: the
+    web, the holes, the bore and the ring against each other and the root circle, the tool's rules
+    in one place); ComplianceError with the tool's message and the scene keys it names. Without a
+    compliance_tool nothing is checked here: building the databases then says how to get it."""
+    gears = [i for i in needs_build(scene) if scene.bodies.get(i)]
+    if not gears:
+        return
+    tool = pathlib.Path(tool) if tool is not None else Paths.resolve().compliance_tool
+    if tool is None or not tool.is_file():
+        return
+    for gear in gears:
+        proc = subprocess.run([str(tool), "--check", *tool_arguments(scene, gear)], capture_output=True, text=True)
+        if proc.returncode != 0:
+            lines = [t.removeprefix("compliance_tool: ") for t in proc.stderr.splitlines()
+                     if t.strip() and not t.startswith(("usage:", "  "))]
+            raise ComplianceError(_in_scene_terms(_explain(scene, gear, (lines or ["no message"])[-1]), gear))
+
+
+def _in_scene_terms(message: str, gear: int) -> str:
+    """The tool's message with its flags named as the scene's keys (--hub-diameter-mm ->
+    gear<gear>.body.hub_diameter_mm, --depth-mm -> fe.depth_mm)."""
+    names = {spec.variable: f"gear{gear}.body.{key}" for key, spec in BODY_SCHEMA.items() if spec.variable}
+    names |= {spec.variable: f"fe.{key}" for key, spec in FE_SCHEMA.items()}
+    for flag in sorted(names, key=len, reverse=True):
+        message = re.sub(r"(?<![\w-])" + re.escape(flag) + r"(?![\w-])", names[flag], message)
+    return message
+
+
 def parse_summary(text: str) -> dict:
     """`compliance_tool: nodes=... total_s=... peak_rss_MiB=...` -> {name: number}."""
     out = {}

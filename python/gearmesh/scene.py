@@ -344,6 +344,12 @@ def _parse_scene(text: str, path: pathlib.Path, fmu) -> Scene:
             raise SceneError(f"run.{key}: unknown key; allowed: {', '.join(sorted(RUN_SCHEMA))}")
         scene.run[key] = _convert(f"run.{key}", spec, value)
     _core_check(scene, fmu)
+    from gearmesh.compliance import ComplianceError, check_bodies
+
+    try:
+        check_bodies(scene)
+    except ComplianceError as exc:
+        raise SceneError(str(exc)) from None
     return scene
 
 
@@ -417,7 +423,8 @@ def _resource_file(where: str, value: str, path: pathlib.Path, root: pathlib.Pat
 
 
 def _parse_body(section: str, body, path: pathlib.Path, root: pathlib.Path) -> dict:
-    """[gear<i>.body]: keys, ranges, files, and the consistency that needs no gear geometry."""
+    """[gear<i>.body]: keys, ranges and files; how the body's keys fit together and the gear is
+    compliance_tool's rule (gearmesh.compliance.check_bodies, at the end of parsing)."""
     where = f"{section}.body"
     _table(where, body)
     out: dict = {}
@@ -439,51 +446,6 @@ def _parse_body(section: str, body, path: pathlib.Path, root: pathlib.Path) -> d
             raise SceneError(f"{where}.{shape[0]}: a user mesh (mesh_file) already fixes the body; "
                              "allowed: mesh_file alone, or the body keys without it")
 
-    def diameter(key):
-        return out.get(key)
-
-    bore, hub, rim = (diameter(k) for k in ("bore_diameter_mm", "hub_diameter_mm",
-                                            "rim_inner_diameter_mm"))
-    for (small, d_small), (big, d_big) in (
-            (("bore_diameter_mm", bore), ("hub_diameter_mm", hub)),
-            (("bore_diameter_mm", bore), ("rim_inner_diameter_mm", rim)),
-            (("hub_diameter_mm", hub), ("rim_inner_diameter_mm", rim))):
-        if d_small is not None and d_big is not None and not d_small < d_big:
-            raise SceneError(f"{where}.{big} = {d_big:g} mm: must exceed {where}.{small} = "
-                             f"{d_small:g} mm")
-    for key in ("rim_inner_diameter_mm", "hub_diameter_mm", "web_thickness_mm", "web_offset_mm"):
-        if key in out and (rim is None or hub is None):
-            missing = "rim_inner_diameter_mm" if rim is None else "hub_diameter_mm"
-            raise SceneError(f"{where}.{key}: a web lies between the hub and the rim; allowed: "
-                             f"together with {where}.{missing}")
-    holes = out.get("holes", 0)
-    hole_keys = ("hole_diameter_mm", "hole_circle_diameter_mm")
-    if holes == 0:
-        for key in hole_keys:
-            if key in out:
-                raise SceneError(f"{where}.{key}: no lightening holes (holes = 0); allowed: "
-                                 f"{where}.holes >= 1 with it, or leave it out")
-    else:
-        for key in hole_keys:
-            if key not in out:
-                raise SceneError(f"{where}.holes = {holes}: needs {where}.{key}")
-        d_hole, d_circle = out["hole_diameter_mm"], out["hole_circle_diameter_mm"]
-        inner = hub if hub is not None else bore  # the web's (or disc's) inner edge if known
-        if inner is not None and not d_circle - d_hole > inner:
-            raise SceneError(f"{where}.hole_circle_diameter_mm = {d_circle:g} mm: the holes "
-                             f"({where}.hole_diameter_mm = {d_hole:g} mm) reach into the "
-                             f"{'hub' if hub is not None else 'bore'} ({inner:g} mm); allowed: "
-                             f"hole circle - hole diameter > {inner:g} mm")
-        if rim is not None and not d_circle + d_hole < rim:
-            raise SceneError(f"{where}.hole_circle_diameter_mm = {d_circle:g} mm: the holes "
-                             f"({where}.hole_diameter_mm = {d_hole:g} mm) reach into the rim "
-                             f"({where}.rim_inner_diameter_mm = {rim:g} mm); allowed: hole circle "
-                             f"+ hole diameter < {rim:g} mm")
-        if holes >= 2 and not d_circle * math.sin(math.pi / holes) > d_hole:
-            raise SceneError(f"{where}.holes = {holes}: holes of {d_hole:g} mm on a "
-                             f"{d_circle:g} mm circle overlap; allowed: hole diameter < hole "
-                             f"circle x sin(180 deg / holes) = "
-                             f"{d_circle * math.sin(math.pi / holes):.4g} mm")
     return out
 
 
