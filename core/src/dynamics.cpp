@@ -511,14 +511,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   Aggregator aggregates;
   aggregates.start(x1);
   double t = 0, h = std::clamp(s.step, p.min_step, p.max_step);
-  // The Jacobian (Newton matrix and error filter) is kept over steps and taken anew after
-  // kJacobianAge steps, before a rejected step is retried, and after a stage whose first Newton
-  // correction left more than kStaleContraction of its residual (with a current Jacobian little
-  // more than the stage's nonlinearity is left; a stale one, e.g. from before a tooth pair
-  // entered, costs a Newton iteration per stage). Kept with none of these, a stale one let the
-  // filtered error pass steps across the friction reversal at the pitch point (A_omega changes
-  // there by orders of magnitude), 0.14 um off the quasi-static p-p TE at mu 0.4
-  // (Dynamics.PitchPointReversalConvergesWithTheTolerance).
+  // The Jacobian is kept over the steps tried while trbdf2::keep_jacobian says so.
   bool jacobian_current = false;
   int jacobian_age = 0;  // accepted steps since it was taken
   // The step after a rejected one does not grow (Hairer, Norsett and Wanner, Solving ODEs I,
@@ -573,7 +566,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
       }
       x1 = x3;
       ++jacobian_age;
-      jacobian_current = st.contraction <= kStaleContraction && jacobian_age < kJacobianAge;
+      jacobian_current = keep_jacobian(true, st.contraction, jacobian_age);
       ++s.steps;
       const double growth = std::min(after_rejection ? 1.0 : 2.0, step_factor(fraction / allowed));
       h = std::min(p.max_step, std::max(h, h_try) * growth);
@@ -586,7 +579,7 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     }
     ++s.rejected;
     after_rejection = true;
-    jacobian_current = jacobian_current && jacobian_age == 0;
+    jacobian_current = jacobian_current && keep_jacobian(status == GM_OK, st.contraction, jacobian_age);
     const bool newton_failed = status != GM_OK;
     h = h_try * (newton_failed ? 0.25 : std::min(0.5, step_factor(fraction / allowed)));
     if (h < p.min_step) {

@@ -878,7 +878,7 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
       t = h_try == remaining ? duration : t + h_try;
       x1 = x3;
       ++jacobian_age;
-      jacobian_current = st.contraction <= kStaleContraction && jacobian_age < kJacobianAge;
+      jacobian_current = keep_jacobian(true, st.contraction, jacobian_age);
       ++s.steps;
       const double growth = std::min(after_rejection ? 1.0 : 2.0, step_factor(fraction / allowed));
       h = std::min(params_.max_step, std::max(h, h_try) * growth);
@@ -887,7 +887,7 @@ gm_status Train::advance(const TrainInputs& in, double duration, TrainState& s_i
     }
     ++s.rejected;
     after_rejection = true;
-    jacobian_current = jacobian_current && jacobian_age == 0;
+    jacobian_current = jacobian_current && keep_jacobian(status == GM_OK, st.contraction, jacobian_age);
     const bool newton_failed = status != GM_OK;
     h = h_try * (newton_failed ? 0.25 : std::min(0.5, step_factor(fraction / allowed)));
     if (h < params_.min_step) {

@@ -81,10 +81,23 @@ inline gm::ComplianceDb smooth_db(const gm_model_params& p, int gear, const Smoo
   return db;
 }
 
+// The files write_smooth_db wrote, removed when the process ends normally.
+struct WrittenFiles {
+  std::vector<std::string> paths;
+  ~WrittenFiles() {
+    std::error_code ec;
+    for (const std::string& path : paths) std::filesystem::remove(path, ec);
+  }
+};
+inline WrittenFiles& written_files() {
+  static WrittenFiles files;
+  return files;
+}
+
 // Gear `gear`'s smooth_db (default shape unless given), written to the temporary directory as
 // `name` prefixed with the process id, so that tests running at once (ctest --parallel, two
-// checkouts' suites) never share a file (benchmarks: level 5 without compliance_tool). The path;
-// "" and msg on failure.
+// checkouts' suites) never share a file (benchmarks: level 5 without compliance_tool), and
+// removed at the process's end. The path; "" and msg on failure.
 inline std::string write_smooth_db(const gm_model_params& p, int gear, const std::string& name, std::string& msg,
                                    const SmoothDbShape& shape = SmoothDbShape{}) {
   gm_model_params q = p;
@@ -93,6 +106,7 @@ inline std::string write_smooth_db(const gm_model_params& p, int gear, const std
   const std::string path =
       (std::filesystem::temp_directory_path() / (std::to_string(::getpid()) + "_" + name)).string();
   if (!msg.empty() || gm::write_compliance_db(path.c_str(), db, msg) != GM_OK) return "";
+  written_files().paths.push_back(path);
   return path;
 }
 

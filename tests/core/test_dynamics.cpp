@@ -498,9 +498,11 @@ namespace {
 
 // A master's rounding does not change the integration: communication steps of 1 ms and of
 // 1 ms (1 + 1e-12) (libcosim counts time in nanoseconds) take the same internal steps and end
-// at the same state within the stages' Newton tolerance (1e-7 of each speed; measured 9e-9),
-// over 20 steps of set A driven at 1000 rpm; without the rounding margin the longer step ended
-// in two half steps and the sequences parted.
+// at the same state within the run's speed accuracy (dynamics.tolerance per dynamics.max_step as
+// rim speed, 1.4e-4 rad/s; measured 2.3e-5: the stages stop their Newton iterations at 1e-2 of
+// the tolerance, and a kept Jacobian makes the two runs' iterates part at that level), over 20
+// steps of set A driven at 1000 rpm; without the rounding margin the longer step ended in two
+// half steps and the sequences parted.
 TEST(Dynamics, AMastersRoundingKeepsTheInternalSteps) {
   Instance exact(analytical(0.0, 4e5)), rounded(analytical(0.0, 4e5));
   Drive a = start_drive(exact, 1000, 350, 2e4, 20), b = start_drive(rounded, 1000, 350, 2e4, 20);
@@ -510,7 +512,8 @@ TEST(Dynamics, AMastersRoundingKeepsTheInternalSteps) {
     advance(rounded, b, 1e-3 * (1 + 1e-12));
     ASSERT_EQ(a.s.steps, b.s.steps) << "communication step " << k;
     ASSERT_EQ(a.s.rejected, b.s.rejected) << "communication step " << k;
-    for (int i = 0; i < 2; ++i) EXPECT_NEAR(a.s.omega[i], b.s.omega[i], 1e-7 * std::fabs(a.s.omega[i]));
+    for (int i = 0; i < 2; ++i)
+      EXPECT_NEAR(a.s.omega[i], b.s.omega[i], a.dp.tolerance / (a.dp.max_step * exact.rb(i)));
   }
 }
 
@@ -619,8 +622,10 @@ TEST(Dynamics, StepSensitivityIsTheDerivativeOfTheStep) {
       out[0] = s.phi[0], out[1] = s.phi[1], out[2] = s.omega[0], out[3] = s.omega[1];
     };
     // moves small against each column's nonlinearity (friction's tanh(v / v0) turns within the
-    // pitch point's 5e-6 m of roll at 1000 rpm: the spin angles move by 1e-8 rad there)
-    const double turn = c.mu > 0 ? 0.1 : 1.0;
+    // pitch point's 5e-6 m of roll at 1000 rpm: the spin angles move by 1e-8 rad there; level 0's
+    // mesh stiffness jumps where a tooth pair enters or leaves, and a stage point can lie within
+    // 2e-7 rad of such a jump: the differences then straddle it)
+    const double turn = c.mu > 0 || c.level == 0 ? 0.1 : 1.0;
     const double moves[GM_SENS_COLUMNS] = {1e-7 * turn, 1e-7 * turn, 1e-4, 1e-4, 1e-2, 1e-2, 1e-7, 1e-7, 1e-4, 1e-4};
     double worst_exact = 0, worst_plain = 0, worst_whole = 0;
     for (int col = 0; col < GM_SENS_COLUMNS; ++col) {

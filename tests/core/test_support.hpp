@@ -12,6 +12,7 @@
 
 #include "gearmesh/internal/compliance_db.hpp"
 #include "detection.hpp"
+#include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
 #include "gearmesh/internal/geometry.hpp"
 #include "microgeometry.hpp"
@@ -165,11 +166,13 @@ inline double phi2_for(const gm::MeshLayout& L, double te, double phi1) {
   return (te - L.base_radius[0] * phi1) / (L.sign * L.base_radius[1]);
 }
 
-// Write a compliance database into the test's temporary folder; its path.
+// Write a compliance database into the test's temporary folder (name prefixed with the process id,
+// removed at the process's end: fe_synthetic.hpp); its path.
 inline std::string write_db(const std::string& name, const gm::ComplianceDb& db) {
-  const std::string path = ::testing::TempDir() + name;
+  const std::string path = ::testing::TempDir() + std::to_string(::getpid()) + "_" + name;
   std::string msg;
   EXPECT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
+  written_files().paths.push_back(path);
   return path;
 }
 
