@@ -657,27 +657,27 @@ static int step_derivative_along(fmu_model* m, const gm_fmu_values* seed, gm_fmu
 /* The variables dynamics.step_sensitivities cannot take: 1 with msg naming the first. */
 static int step_refused(const fmu_model* m, const unsigned known[], size_t n_known, const unsigned unknown[],
                         size_t n_unknown, char* msg, size_t n) {
-  static const char* const prefix = "dynamics.step_sensitivities = true";
+  const char* const flag = GM_FMU_NAME(step_sensitivities);
   if (!m->sens_valid)
     return snprintf(msg, n,
-                    "%s: no step to differentiate (the sensitivities are those of the last fmi2DoStep; "
+                    "%s = true: no step to differentiate (the sensitivities are those of the last fmi2DoStep; "
                     "initialization, fmi2SetFMUstate and a new parameter value forget them)",
-                    prefix),
+                    flag),
            1;
   for (size_t i = 0; i < n_known; i++)
     if (!step_known(known[i]))
       return snprintf(msg, n,
-                      "%s: known %s is not held over the step; allowed knowns: gear<i>.torque, .shaft_phi, "
+                      "%s = true: known %s is not held over the step; allowed knowns: gear<i>.torque, .shaft_phi, "
                       ".shaft_omega, drive./load.torque, .shaft_phi, .shaft_omega",
-                      prefix, gm_fmu_variables[known[i]].name),
+                      flag, gm_fmu_variables[known[i]].name),
              1;
   for (size_t i = 0; i < n_unknown; i++)
     if (!step_unknown(unknown[i]))
       return snprintf(msg, n,
-                      "%s: unknown %s has no step sensitivity (the energy account, the step means and dynamics.* "
-                      "are not differentiated); allowed unknowns: the contact outputs, gear<i>.angle, .speed, "
-                      ".shaft_torque, drive./load.angle, .speed, .shaft_torque",
-                      prefix, gm_fmu_variables[unknown[i]].name),
+                      "%s = true: unknown %s has no step sensitivity (the energy account, the step means and "
+                      "dynamics.* are not differentiated); allowed unknowns: the contact outputs, gear<i>.angle, "
+                      ".speed, .shaft_torque, drive./load.angle, .speed, .shaft_torque",
+                      flag, gm_fmu_variables[unknown[i]].name),
              1;
   return 0;
 }

@@ -312,9 +312,10 @@ static int build(fmu_model* m, char* msg, size_t n) {
                                 {m->v.body[b][10], m->v.body[b][11]}};
   const int held = (int)m->v.scalar[16];
   if (m->v.scalar[15] != 0 && m->v.scalar[15] != 1)
-    return snprintf(msg, n, "model.quasi_static = %g; allowed: 0 or 1", m->v.scalar[15]), 1;
+    return snprintf(msg, n, "%s = %g; allowed: 0 or 1", model_variable(15)->name, m->v.scalar[15]), 1;
   if (m->v.scalar[15] == 1 && (held < 1 || held > m->nb || m->fixed[held - 1]))
-    return snprintf(msg, n, "static.held_body = %d; allowed: a body that is not fixed, 1..%d", held, m->nb), 1;
+    return snprintf(msg, n, "%s = %d; allowed: a body that is not fixed, 1..%d", model_variable(16)->name, held, m->nb),
+           1;
   for (int s = 0; s < m->ns; ++s) {
     m->shaft_def[s].stiffness = m->v.shaft[s][0];
     m->shaft_def[s].damping = m->v.shaft[s][1];

@@ -464,6 +464,15 @@ typedef struct gm_fmu_variable {
 
 static const gm_fmu_variable gm_fmu_variables[] = {GM_FMU_VARIABLES(GM_FMU_VARIABLE_ROW)};
 
+/* The name of the variable whose value lives at `offset` in gm_fmu_values (its first row), for the
+ * messages that name a variable: GM_FMU_NAME(step_sensitivities) is "dynamics.step_sensitivities". */
+static inline const char* gm_fmu_name_at(size_t offset) {
+  for (size_t i = 0; i < sizeof gm_fmu_variables / sizeof gm_fmu_variables[0]; i++)
+    if (gm_fmu_variables[i].offset == offset) return gm_fmu_variables[i].name;
+  return "(a field without a variable)";
+}
+#define GM_FMU_NAME(field) gm_fmu_name_at(offsetof(gm_fmu_values, field))
+
 #define GM_FMU_VARIABLE_COUNT (sizeof gm_fmu_variables / sizeof gm_fmu_variables[0])
 
 /* One array as data. */

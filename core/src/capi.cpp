@@ -131,6 +131,16 @@ struct StateHeader {
   double te_estimate;  // quasi-static warm start, m
 };
 
+// The checks gm_model_create and gm_model_check share, in this order: the parameters' ranges,
+// what this build's levels can do (said before the geometry, which may fail for other reasons),
+// the geometry into g.
+gm_status check_design(const gm_model_params* p, gm_pair_geometry& g, std::string& text) {
+  gm_status st = p ? gm::validate_params(*p, text) : GM_ERR_ARGUMENT;
+  if (st == GM_OK) st = gm::check_level(*p, text);
+  if (st == GM_OK) st = build_geometry(p, &g, text);
+  return st;
+}
+
 }  // namespace
 
 extern "C" {
@@ -154,10 +164,7 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
   try {
     std::string text;
     gm_pair_geometry g{};
-    // What this build cannot do is said before the geometry, which may fail for other reasons.
-    gm_status st = p ? gm::validate_params(*p, text) : GM_ERR_ARGUMENT;
-    if (st == GM_OK) st = gm::check_level(*p, text);
-    if (st == GM_OK) st = build_geometry(p, &g, text);
+    gm_status st = check_design(p, g, text);
     if (st != GM_OK) {
       copy_message(text, msg, msg_size);
       return st;
@@ -203,9 +210,7 @@ gm_status gm_model_check(const gm_model_params* p, const gm_kinematics* pose, ch
     std::string text;
     gm_pair_geometry g{};
     // gm_model_create's order, its files not read
-    gm_status st = p ? gm::validate_params(*p, text) : GM_ERR_ARGUMENT;
-    if (st == GM_OK) st = gm::check_level(*p, text);
-    if (st == GM_OK) st = build_geometry(p, &g, text);
+    gm_status st = check_design(p, g, text);
     for (int i = 0; i < 2 && st == GM_OK; ++i) st = check_modifications(*p, g, i, text);
     if (st == GM_OK) st = gm::check_level_build(*p, g, text);
     if (st == GM_OK && pose && !gm::inputs_valid(*pose, text)) st = GM_ERR_INPUT;

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 
 #include "gearmesh/internal/geometry.hpp"
+#include "params.hpp"
 
 namespace gm {
 
@@ -528,7 +529,8 @@ gm_status check_db_matches(const ComplianceDb& db, const gm_model_params& p, int
   if (differs(Q{"d_a", " m", db.tip_diameter, geo.gear[gear].d_a, 1e-15})) return GM_ERR_PARAMETER;
   if (p.coupled_teeth > int(db.n_coupled)) {
     msg = name + ": the model couples " + std::to_string(p.coupled_teeth) +
-          " neighbour teeth each side (model.coupled_teeth), the database only " + std::to_string(db.n_coupled) +
+          " neighbour teeth each side (" + GM_PARAM_NAME(coupled_teeth) + "), the database only " +
+          std::to_string(db.n_coupled) +
           " (allowed: coupled_teeth <= " + std::to_string(db.n_coupled) + ", or regenerate the database)";
     return GM_ERR_PARAMETER;
   }

@@ -5,8 +5,10 @@
 #include <cstring>
 #include <type_traits>
 #include <limits>
+#include <string>
 
 #include "model.hpp"
+#include "params.hpp"
 
 namespace gm {
 namespace {
@@ -73,7 +75,11 @@ ForceSolve solve_separable(const SeparableProblem& p, const SeparableAnswer& a) 
     out.residual = std::max(out.residual, r);
   }
   out.converged = out.residual <= tol;
-  if (!out.converged) out.message = "a slice's force did not converge within solver.max_iterations";
+  if (!out.converged) {  // a static text (allocated once, when first met): this path allocates nothing else
+    static const std::string text =
+        std::string("a slice's force did not converge within ") + GM_PARAM_NAME(solver_max_iterations) + " iterations";
+    out.message = text.c_str();
+  }
   return out;
 }
 

@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "face_basis.hpp"
+#include "params.hpp"
 
 namespace gm {
 namespace {
@@ -364,9 +366,12 @@ ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p) {
   out.residual = res.residual;
   if (res.status != NlcpStatus::converged) {
     out.converged = false;
-    out.message = res.message && *res.message ? res.message
-                                              : "level 5 (FE): the coupled force solve did not "
-                                                "converge; raise solver.max_iterations";
+    // the cap is the model's parameter (a static text: this path allocates once, when first met)
+    static const std::string capped = std::string("the coupled force solve did not converge within ") +
+                                      GM_PARAM_NAME(solver_max_iterations) + " iterations; raise it";
+    out.message = res.capped                    ? capped.c_str()
+                  : res.message && *res.message ? res.message
+                                                : "the coupled force solve did not converge";
     return out;
   }
   dense_store(d, na, !(quasi && std::fabs(out.lambda) > p.next_pass_above));

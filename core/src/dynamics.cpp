@@ -440,13 +440,14 @@ std::string number(double x) {
 
 std::string check_dynamics(const gm_model& m, const gm_dynamics_params& p) {
   if (m.params.quasi_static)
-    return "model.quasi_static = true with the large-step dynamics: the dynamics integrate gear 2's spin "
-           "themselves; allowed: one of the two";
+    return std::string(GM_PARAM_NAME(quasi_static)) +
+           " = true with the large-step dynamics: the dynamics integrate gear 2's spin themselves; allowed: one of "
+           "the two";
   std::string msg;
   if (!check_rows(GM_PARAM_IN_DYNAMICS, &p, msg)) return msg;
   if (!(p.min_step <= p.max_step))
-    return "dynamics.min_step = " + number(p.min_step) + " s: allowed <= dynamics.max_step = " + number(p.max_step) +
-           " s";
+    return std::string(GM_DYNAMICS_PARAM_NAME(min_step)) + " = " + number(p.min_step) + " s: allowed <= " +
+           GM_DYNAMICS_PARAM_NAME(max_step) + " = " + number(p.max_step) + " s";
   return "";
 }
 
@@ -482,7 +483,8 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
   const double longest = GM_DYNAMICS_MAX_INTERNAL_STEPS * p.max_step;
   if (!(duration <= longest)) {
     d.message = "large-step dynamics: step of " + number(duration) + " s needs more than " +
-                std::to_string(GM_DYNAMICS_MAX_INTERNAL_STEPS) + " internal steps of dynamics.max_step = " +
+                std::to_string(GM_DYNAMICS_MAX_INTERNAL_STEPS) + " internal steps of " +
+                GM_DYNAMICS_PARAM_NAME(max_step) + " = " +
                 number(p.max_step) + " s; allowed: at most " + number(longest) +
                 " s per step; retry with a shorter communication step";
     return GM_ERR_SOLVER;
@@ -583,12 +585,13 @@ gm_status dynamics_advance(const gm_model& m, gm_data& d, const gm_dynamics_para
     const bool newton_failed = status != GM_OK;
     h = h_try * (newton_failed ? 0.25 : std::min(0.5, step_factor(fraction / allowed)));
     if (h < p.min_step) {
-      d.message = "large-step dynamics: the internal step fell below dynamics.min_step = " + number(p.min_step) +
-                  " s at " + number(t) + " s into a step of " + number(duration) + " s (" +
+      const std::string tolerance = GM_DYNAMICS_PARAM_NAME(tolerance);
+      d.message = "large-step dynamics: the internal step fell below " + std::string(GM_DYNAMICS_PARAM_NAME(min_step)) +
+                  " = " + number(p.min_step) + " s at " + number(t) + " s into a step of " + number(duration) + " s (" +
                   (newton_failed ? "Newton did not converge: " + (d.message.empty() ? std::string("no contraction")
                                                                                     : d.message)
-                                 : "local error " + number(fraction) + " x dynamics.tolerance") +
-                  "); retry with a shorter communication step or a larger dynamics.tolerance";
+                                 : "local error " + number(fraction) + " x " + tolerance) +
+                  "); retry with a shorter communication step or a larger " + tolerance;
       return GM_ERR_SOLVER;
     }
   }

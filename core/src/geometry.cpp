@@ -18,6 +18,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "params.hpp"
+
 namespace gm {
 
 namespace {
@@ -130,9 +132,9 @@ gm_status transverse_basics(PairWork& c) {
   g.p_bt = kPi * c.m_t * std::cos(c.alpha_t);                    // p_bt = pi m_t cos alpha_t
   g.p_bn = g.p_bt * std::cos(g.beta_b);                          // p_bn = p_bt cos beta_b
   if (c.internal && p.gear[1].teeth - p.gear[0].teeth < 5)
-    return c.fail(format("gear2.teeth = %d: an internal ring needs at least gear1.teeth + 5 = %d "
-                         "teeth to mesh with the pinion",
-                         p.gear[1].teeth, p.gear[0].teeth + 5));
+    return c.fail(format("%s = %d: an internal ring needs at least %s + 5 = %d teeth to mesh with the pinion",
+                         GM_GEAR_PARAM_NAME(1, teeth), p.gear[1].teeth, GM_GEAR_PARAM_NAME(0, teeth),
+                         p.gear[0].teeth + 5));
   return GM_OK;
 }
 
@@ -165,27 +167,26 @@ gm_status check_tips(PairWork& c) {
         c.p.gear[i].tip_diameter > 0.0 ? "" : " (from the basic rack, d + 2 m_n (h_aP* + x))";
     const bool ring = q.z < 0.0;
     if (std::abs(q.d_a) <= std::abs(q.d_b))
-      return c.fail(format("gear%d.tip_diameter = %.6g m%s: the tip circle lies inside the base "
-                           "circle; allowed > %.6g m (the base diameter)",
-                           i + 1, std::abs(q.d_a), src, std::abs(q.d_b)));
+      return c.fail(format("%s = %.6g m%s: the tip circle lies inside the base circle; allowed > %.6g m (the base "
+                           "diameter)",
+                           GM_GEAR_PARAM_NAME(i, tip_diameter), std::abs(q.d_a), src, std::abs(q.d_b)));
     if (q.d_a <= q.d_f)  // signed: also |d_a2| < |d_f2| for the ring
-      return c.fail(format("gear%d.tip_diameter = %.6g m%s: no tooth height above the root "
-                           "diameter %.6g m; allowed %s %.6g m",
-                           i + 1, std::abs(q.d_a), src, std::abs(q.d_f), ring ? "<" : ">",
+      return c.fail(format("%s = %.6g m%s: no tooth height above the root diameter %.6g m; allowed %s %.6g m",
+                           GM_GEAR_PARAM_NAME(i, tip_diameter), std::abs(q.d_a), src, std::abs(q.d_f), ring ? "<" : ">",
                            std::abs(q.d_f)));
     if (!(thickness_at(q.d_a, q.d, q.d_b, q.s_t, c.alpha_t) > 0.0)) {
       // Pointed circle: inv alpha = s_t/d + inv alpha_t (s_yt = 0 above).
       const double alpha_p = inverse_involute(std::max(0.0, q.s_t / q.d + c.inv_t));
       const double d_p = std::abs(q.d_b) / std::cos(alpha_p);
-      return c.fail(format("gear%d.tip_diameter = %.6g m%s: the tooth comes to a point before "
-                           "its tip; allowed %s %.6g m (profile shift %g)",
-                           i + 1, std::abs(q.d_a), src, ring ? ">" : "<", d_p, q.x));
+      return c.fail(format("%s = %.6g m%s: the tooth comes to a point before its tip; allowed %s %.6g m (profile "
+                           "shift %g)",
+                           GM_GEAR_PARAM_NAME(i, tip_diameter), std::abs(q.d_a), src, ring ? ">" : "<", d_p, q.x));
     }
   }
   if (c.internal && std::abs(w[1].d_a) <= w[0].d_a)
-    return c.fail(format("gear2.tip_diameter = %.6g m: the ring's inner tip circle must be larger "
-                         "than the pinion's tip circle; allowed > %.6g m",
-                         std::abs(w[1].d_a), w[0].d_a));
+    return c.fail(format("%s = %.6g m: the ring's inner tip circle must be larger than the pinion's tip circle; "
+                         "allowed > %.6g m",
+                         GM_GEAR_PARAM_NAME(1, tip_diameter), std::abs(w[1].d_a), w[0].d_a));
   return GM_OK;
 }
 
@@ -246,9 +247,8 @@ gm_status operating_mesh(PairWork& c) {
   c.alpha_wt = operating_pressure_angle(c.r_b1, c.r_b2, c.internal, a);
   const double alpha_wt = c.alpha_wt;
   if (!(alpha_wt > 0.0))
-    return c.fail(format("pair.center_distance = %.6g m: no operating pressure angle exists "
-                         "(a must exceed %.6g m); %s",
-                         a, c.internal ? c.r_b2 - c.r_b1 : c.r_b1 + c.r_b2,
+    return c.fail(format("%s = %.6g m: no operating pressure angle exists (a must exceed %.6g m); %s",
+                         GM_PARAM_NAME(pair.center_distance), a, c.internal ? c.r_b2 - c.r_b1 : c.r_b1 + c.r_b2,
                          range_text(c).c_str()));
   g.alpha_wt = alpha_wt;
   const double inv_wt = involute(alpha_wt);
@@ -265,9 +265,8 @@ gm_status operating_mesh(PairWork& c) {
   g.j_wt = kPi * g.gear[0].d_w / c.w[0].z - s_w[0] - s_w[1];  // j_wt = pi d_w1/z1 - s_wt1 - s_wt2
   g.j_bt = g.j_wt * std::cos(alpha_wt);                       // j_bt = j_wt cos alpha_wt
   if (g.j_bt < -kBacklashTolerance * c.m_n)
-    return c.fail(format("pair.center_distance = %.6g m: the teeth overlap (backlash j_bt = %.3g "
-                         "m < 0; tight-mesh distance %.6g m); %s",
-                         a, g.j_bt, g.a_tight, range_text(c).c_str()));
+    return c.fail(format("%s = %.6g m: the teeth overlap (backlash j_bt = %.3g m < 0; tight-mesh distance %.6g m); %s",
+                         GM_PARAM_NAME(pair.center_distance), a, g.j_bt, g.a_tight, range_text(c).c_str()));
   return GM_OK;
 }
 
@@ -282,9 +281,9 @@ gm_status line_of_action(PairWork& c) {
   g.path_end = c.E;
   g.g_alpha = c.E - c.A;
   if (!(g.g_alpha > 0.0))
-    return c.fail(format("pair.center_distance = %.6g m: the tip circles do not overlap on the "
-                         "line of action (path of contact %.3g m <= 0); %s",
-                         c.a, g.g_alpha, range_text(c).c_str()));
+    return c.fail(format("%s = %.6g m: the tip circles do not overlap on the line of action (path of contact %.3g m "
+                         "<= 0); %s",
+                         GM_PARAM_NAME(pair.center_distance), c.a, g.g_alpha, range_text(c).c_str()));
   g.eps_alpha = g.g_alpha / g.p_bt;  // eps_alpha = g_alpha / p_bt
   return GM_OK;
 }
@@ -297,11 +296,10 @@ gm_status check_tip_clearance(PairWork& c) {
     const double cl = c.a_s - 0.5 * w[i].d_a - 0.5 * w[1 - i].d_f;
     if (cl < 0.0) {
       const bool ring = w[i].z < 0.0;
-      return c.fail(format("gear%d.tip_diameter = %.6g m: the tip reaches into the root circle "
-                           "of gear %d (tip clearance %.3g m); allowed %s %.6g m at "
-                           "pair.center_distance = %.6g m",
-                           i + 1, std::abs(w[i].d_a), 2 - i, cl, ring ? ">=" : "<=",
-                           std::abs(2.0 * (c.a_s - 0.5 * w[1 - i].d_f)), c.a));
+      return c.fail(format("%s = %.6g m: the tip reaches into the root circle of gear %d (tip clearance %.3g m); "
+                           "allowed %s %.6g m at %s = %.6g m",
+                           GM_GEAR_PARAM_NAME(i, tip_diameter), std::abs(w[i].d_a), 2 - i, cl, ring ? ">=" : "<=",
+                           std::abs(2.0 * (c.a_s - 0.5 * w[1 - i].d_f)), GM_PARAM_NAME(pair.center_distance), c.a));
     }
   }
   return GM_OK;
@@ -380,9 +378,8 @@ gm_status overlap_ratio(PairWork& c) {
       std::min(lo1 + p.gear[0].face_width, lo2 + p.gear[1].face_width) - std::max(lo1, lo2);
   const double half_sum = 0.5 * (p.gear[0].face_width + p.gear[1].face_width);
   if (!(b > 0.0))
-    return c.fail(format("gear2.axial_offset = %.6g m: the face widths do not overlap; allowed "
-                         "range (%.6g, %.6g) m",
-                         p.gear[1].axial_offset, p.gear[0].axial_offset - half_sum,
+    return c.fail(format("%s = %.6g m: the face widths do not overlap; allowed range (%.6g, %.6g) m",
+                         GM_GEAR_PARAM_NAME(1, axial_offset), p.gear[1].axial_offset, p.gear[0].axial_offset - half_sum,
                          p.gear[0].axial_offset + half_sum));
   c.g.face_overlap = b;
   c.g.eps_beta = b * std::sin(c.beta) / (kPi * c.m_n);

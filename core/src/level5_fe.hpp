@@ -8,6 +8,7 @@
 #include <string>
 
 #include "model.hpp"
+#include "params.hpp"
 
 namespace gm {
 
@@ -17,10 +18,9 @@ struct FeLevel {
   static gm_status check(const gm_model_params& p, std::string& msg) {
     for (int g = 0; g < 2; ++g) {
       if (p.compliance[g] && *p.compliance[g]) continue;
-      msg = "gear" + std::to_string(g + 1) +
-            ".compliance = \"\": model.stiffness = 5 (FE) takes each gear's compliance from its "
-            "compliance database; allowed: the path of a .gcdb file made by compliance_tool for "
-            "this gear (in the FMU the name of a file inside resources/)";
+      msg = std::string(GM_PARAM_ELEMENT_NAME(compliance, g)) + " = \"\": " + GM_PARAM_NAME(stiffness_level) +
+            " = 5 (FE) takes each gear's compliance from its compliance database; allowed: the path of a .gcdb "
+            "file made by compliance_tool for this gear (in the FMU the name of a file inside resources/)";
       return GM_ERR_PARAMETER;
     }
     return GM_OK;

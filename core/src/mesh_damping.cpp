@@ -53,8 +53,10 @@ extern "C" gm_status gm_mesh_damping_for_ratio(const gm_model_params* p, const d
     return done(status);
   };
   try {
-    if (!gm::check_range("dynamics.mesh_damping_ratio", ratio, text) ||
-        !gm::check_range("gear1.inertia", inertia[0], text) || !gm::check_range("gear2.inertia", inertia[1], text))
+    const char* const ratio_name = GM_HOST_PARAM_NAME(mesh_damping_ratio);
+    if (!gm::check_range(ratio_name, ratio, text) ||
+        !gm::check_range(GM_DYNAMICS_PARAM_NAME(inertia[0]), inertia[0], text) ||
+        !gm::check_range(GM_DYNAMICS_PARAM_NAME(inertia[1]), inertia[1], text))
       return done(GM_ERR_PARAMETER);
     *damping = 0;
     if (ratio == 0) return done(GM_OK);
@@ -68,7 +70,7 @@ extern "C" gm_status gm_mesh_damping_for_ratio(const gm_model_params* p, const d
     const gm_pair_geometry& g = *gm_model_geometry(probe);
     gm::IsoStiffness iso;
     st = gm::iso_stiffness(q, g, gm::IsoGearBlank{}, iso, text);
-    if (st != GM_OK) return text = "dynamics.mesh_damping_ratio: " + text, finish(st);
+    if (st != GM_OK) return text = std::string(ratio_name) + ": " + text, finish(st);
     const double te = gm::kIsoReferenceLineLoad / iso.c_gamma_alpha / std::cos(g.beta_b);
     const double rate = 1e-3;  // m/s of TE rate
     const int sign = q.pair.internal ? -1 : 1;
@@ -86,7 +88,7 @@ extern "C" gm_status gm_mesh_damping_for_ratio(const gm_model_params* p, const d
     }
     const double m_eq = 1.0 / (rb1 * rb1 / inertia[0] + rb2 * rb2 / inertia[1]);
     if (!(k_sum > 0 && c_sum > 0))
-      return text = "dynamics.mesh_damping_ratio: the mesh carries no load at ISO's reference line load",
+      return text = std::string(ratio_name) + ": the mesh carries no load at ISO's reference line load",
              finish(GM_ERR_PARAMETER);
     *damping = 2.0 * ratio * std::sqrt(k_sum / kPositions * m_eq) / (c_sum / kPositions);
     return finish(GM_OK);

@@ -289,7 +289,8 @@ NlcpResult NlcpSolver::iterate(const ConstMat& C, const ConstVec& delta,
       break;
     }
     if (res.iterations >= options_.max_iterations) {
-      res.message = "the coupled force solve did not converge within solver.max_iterations";
+      res.message = "no convergence within the iteration cap (NlcpOptions::max_iterations)";
+      res.capped = true;
       break;
     }
     // eps-active set (Bertsekas 1982, eq. 31 with a diagonal scaling D = diag(1/H_ii)):
@@ -674,6 +675,7 @@ NlcpResult NlcpSolver::solve_total(const ConstMat& C, const ConstVec& delta0, co
     res.tolerance = inner.tolerance;
     res.status = inner.status;
     res.message = inner.message;
+    res.capped = inner.capped;
     res.index = inner.index;
     if (inner.status == NlcpStatus::bad_input) return res;
     const double mismatch = weights.dot(force) - total_force;

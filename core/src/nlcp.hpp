@@ -81,6 +81,7 @@ struct NlcpResult {
   double residual = 0;        // m: ||min(diag(C) F, g)||_inf; quasi-static: max with |lambda error|
   double tolerance = 0;       // m, tol used
   int index = -1;             // bad_input: the unknown at fault, if one is
+  bool capped = false;        // iteration_cap: max_iterations reached (else the line search stalled)
   const char* message = "";   // static text; empty when converged
 };
 

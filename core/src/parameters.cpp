@@ -45,6 +45,19 @@ const gm_param_info kRows[] = {GM_PARAMETERS(ROW, _)};
 
 constexpr size_t kRowCount = sizeof kRows / sizeof kRows[0];
 
+// Each HOST row's field as written in the table, for host_parameter_name.
+struct HostField {
+  const char* field;
+  const char* name;
+};
+#define HOST_FIELD_MODEL(field, name)
+#define HOST_FIELD_DYNAMICS(field, name)
+#define HOST_FIELD_HOST(field, name) HostField{#field, name},
+#define HOST_FIELD(_, name, kind, type, where, field, unit, dunit, lo, hi, bounds, levels, modes, group, flags, desc) \
+  HOST_FIELD_##where(field, name)
+const HostField kHostFields[] = {GM_PARAMETERS(HOST_FIELD, _)};
+#undef HOST_FIELD
+
 // The static ranges: the rows that have one, then the outputs that declare their values.
 #define RANGE(_, name, kind, type, where, field, unit, dunit, lo, hi, bounds, levels, modes, group, flags, desc)       \
   +((bounds) != GM_NO_RANGE)
@@ -104,10 +117,16 @@ bool check_range(const char* name, double v, std::string& msg) {
   return false;
 }
 
-const char* parameter_name(size_t offset) {
+const char* parameter_name(gm_param_where where, size_t offset) {
   for (const gm_param_info& r : kRows)
-    if (r.where == GM_PARAM_IN_MODEL && r.offset == offset) return r.name;
+    if (r.where == where && r.offset == offset) return r.name;
   return "(a field without a row in gearmesh/parameters.h)";
+}
+
+const char* host_parameter_name(const char* field) {
+  for (const HostField& h : kHostFields)
+    if (std::strcmp(h.field, field) == 0) return h.name;
+  return "(a host field without a row in gearmesh/parameters.h)";
 }
 
 bool check_rows(gm_param_where where, const void* values, std::string& msg) {

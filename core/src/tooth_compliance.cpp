@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
+
+#include "params.hpp"
 
 namespace gm {
 
@@ -169,9 +172,9 @@ gm_status build_tooth_section(const gm_model_params& p, const gm_pair_geometry& 
   if (gear != 0 && gear != 1) return fail("analytical tooth compliance: gear index must be 0 or 1");
   const std::string name = gear == 0 ? "gear1" : "gear2";
   if (gear == 1 && p.pair.internal)
-    return fail("pair.internal = true: the internal ring has no analytical tooth compliance "
-                "(Sainsot's gear-body formula is for an external gear around a bore); allowed "
-                "levels for a ring: 0-3 and 5");
+    return fail(std::string(GM_PARAM_NAME(pair.internal)) +
+                " = true: the internal ring has no analytical tooth compliance (Sainsot's gear-body formula is for an "
+                "external gear around a bore); allowed levels for a ring: 0-3 and 5");
   const gm_gear_geometry& gg = g.gear[gear];
   if (gg.undercut)
     return fail(name + ".profile_shift: analytical tooth compliance needs a tooth without "

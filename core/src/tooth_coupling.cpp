@@ -124,9 +124,8 @@ gm_status build_tooth_coupling(const gm_model_params& p, const gm_pair_geometry&
       coupling_table_range(z0, z1, w0, w1);
       char text[256];
       std::snprintf(text, sizeof text,
-                    "gear%d.teeth = %d outside level 4's tooth-coupling table (z %g..%g; "
-                    "coefficients of its edge)",
-                    i + 1, c.teeth, z0, z1);
+                    "%s = %d outside level 4's tooth-coupling table (z %g..%g; coefficients of its edge)",
+                    GM_GEAR_PARAM_NAME(i, teeth), c.teeth, z0, z1);
       if (!warning.empty()) warning += "; ";
       warning += text;
     }
@@ -136,9 +135,9 @@ gm_status build_tooth_coupling(const gm_model_params& p, const gm_pair_geometry&
     // measured in docs/model.md, "Tooth coupling at level 4"
     char text[256];
     std::snprintf(text, sizeof text,
-                  "pair.helix_angle = %g deg: level 4's tooth coupling is validated for spur "
-                  "gears; on a helical pair it corrects the mean TE, not the TE ripple",
-                  p.pair.helix_angle * 180 / 3.14159265358979323846);
+                  "%s = %g deg: level 4's tooth coupling is validated for spur gears; on a helical pair it "
+                  "corrects the mean TE, not the TE ripple",
+                  GM_PARAM_NAME(pair.helix_angle), p.pair.helix_angle * 180 / 3.14159265358979323846);
     if (!warning.empty()) warning += "; ";
     warning += text;
   }
