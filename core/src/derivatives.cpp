@@ -189,10 +189,29 @@ void coupled_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>&
   }
 }
 
+// The loaded slices' dual forces F + dF eps (dF: dF_A, in the loaded set's order) into
+// d.dual_forces, and dHx = dH x = (dC_AA + diag df'_A) x, df' the laws' slopes' derivative at
+// those forces (dC_AA in d.dense_dual_c).
+void dual_forces_and_dHx(gm_data& d, int na, const Eigen::Ref<const Eigen::VectorXd>& dF,
+                         const Eigen::Ref<const Eigen::VectorXd>& x, Eigen::Ref<Eigen::VectorXd> dHx) {
+  auto dC = d.dense_dual_c.topLeftCorner(na, na);
+  for (int p = 0; p < na; ++p) {
+    const int i = d.dense_index[p];
+    d.dual_forces[i] = Dual(d.forces[i], dF[p]);
+    double dfp = 0;
+    if (has_local_law(d.laws[i].local)) {
+      Dual f, fp;
+      local_law_approach_slope(d.dual_laws[i].local, d.dual_forces[i], f, fp);
+      dfp = fp.d;
+    }
+    dHx[p] = dfp * x[p];
+    for (int q = 0; q < na; ++q) dHx[p] += dC(p, q) * x[q];
+  }
+}
+
 // The loaded set's dF_A and tangent stiffnesses from the system of coupled_dual_system.
 gm_status coupled_dual_solve(gm_data& d, int na) {
   auto H = d.dense_tangent.topLeftCorner(na, na);
-  auto dC = d.dense_dual_c.topLeftCorner(na, na);
   auto rhs = d.dense_delta.head(na);
   auto x = d.dense_work.head(na);
   auto dx = d.dense_weights.head(na);
@@ -204,18 +223,7 @@ gm_status coupled_dual_solve(gm_data& d, int na) {
   llt.solveInPlace(rhs);  // dF_A
   x.setOnes();
   llt.solveInPlace(x);
-  for (int p = 0; p < na; ++p) {
-    const int i = d.dense_index[p];
-    d.dual_forces[i] = Dual(d.forces[i], rhs[p]);
-    double dfp = 0;
-    if (has_local_law(d.laws[i].local)) {
-      Dual f, fp;
-      local_law_approach_slope(d.dual_laws[i].local, d.dual_forces[i], f, fp);
-      dfp = fp.d;
-    }
-    dx[p] = dfp * x[p];
-    for (int q = 0; q < na; ++q) dx[p] += dC(p, q) * x[q];
-  }
+  dual_forces_and_dHx(d, na, rhs, x, dx);
   llt.solveInPlace(dx);
   for (int p = 0; p < na; ++p) d.dual_stiffness[d.dense_index[p]] = Dual(x[p], -dx[p]);
   return GM_OK;
@@ -324,18 +332,7 @@ gm_status face_dual_solve(gm_data& d, int na) {
   auto x = d.dense_work.head(na);
   x.noalias() = Phi.lazyProduct(y);
   auto dHx = d.dense_weights.head(na);
-  for (int p = 0; p < na; ++p) {
-    const int i = d.dense_index[p];
-    d.dual_forces[i] = Dual(d.forces[i], rhs[p]);
-    double dfp = 0;
-    if (has_local_law(d.laws[i].local)) {
-      Dual f, fp;
-      local_law_approach_slope(d.dual_laws[i].local, d.dual_forces[i], f, fp);
-      dfp = fp.d;
-    }
-    dHx[p] = dfp * x[p];
-    for (int q = 0; q < na; ++q) dHx[p] += dC(p, q) * x[q];
-  }
+  dual_forces_and_dHx(d, na, rhs, x, dHx);
   v.noalias() = dPhi.lazyProduct(y);  // dPhi y
   t.setOnes();
   t.noalias() -= H.lazyProduct(x);

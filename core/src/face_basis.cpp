@@ -256,6 +256,19 @@ bool response_shapes(FaceBasis& w, const FaceProblem& p) {
   return true;
 }
 
+// Quasi-static, the load balance's border on the factorized A (w.A), with w.x1 = A^-1 Phi^T v
+// given: w.x2 := A^-1 Phi^T w (w the TE gains), w.G := Phi^T b (b the balance weights), and the
+// balance row's products u1 = G . x1, u2 = G . x2. false: u2 = 0 (the border is singular).
+bool balance_row(FaceBasis& w, const FaceProblem& p, int r, double& u1, double& u2) {
+  project(w, p.gain, w.x2.data());
+  cholesky_solve(w.A, r, w.x2.data());
+  for (int a = 0; a < p.n; ++a) w.trial[a] = p.balance[p.index[a]];
+  project(w, w.trial.data(), w.G.data());
+  u1 = w.G.head(r).dot(w.x1.head(r));
+  u2 = w.G.head(r).dot(w.x2.head(r));
+  return u2 != 0;
+}
+
 }  // namespace
 
 bool face_cholesky(Eigen::MatrixXd& A, int r) { return cholesky(A, r); }
@@ -343,12 +356,8 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
         for (int a = 0; a < n; ++a) w.trial[a] = -delta[a];
         project(w, w.trial.data(), w.x1.data());
         cholesky_solve(w.A, r, w.x1.data());
-        project(w, p.gain, w.x2.data());
-        cholesky_solve(w.A, r, w.x2.data());
-        for (int a = 0; a < n; ++a) w.trial[a] = p.balance[p.index[a]];
-        project(w, w.trial.data(), w.G.data());
-        const double u1 = w.G.head(r).dot(w.x1.head(r)), u2 = w.G.head(r).dot(w.x2.head(r));
-        if (!(u2 != 0)) return out;
+        double u1, u2;
+        if (!balance_row(w, p, r, u1, u2)) return out;
         // alpha = x2 lambda - x1 with b^T Phi alpha = load
         lambda = (p.load + u1) / u2;
         alpha.head(r) = lambda * w.x2.head(r) - w.x1.head(r);
@@ -411,12 +420,8 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
       if (p.quasi) {
         for (int c = 0; c < r; ++c) w.x1[c] = w.G[c];
         cholesky_solve(w.A, r, w.x1.data());
-        project(w, p.gain, w.x2.data());
-        cholesky_solve(w.A, r, w.x2.data());
-        for (int a = 0; a < n; ++a) w.trial[a] = p.balance[p.index[a]];
-        project(w, w.trial.data(), w.G.data());
-        const double u1 = w.G.head(r).dot(w.x1.head(r)), u2 = w.G.head(r).dot(w.x2.head(r));
-        if (!(u2 != 0)) return out;
+        double u1, u2;
+        if (!balance_row(w, p, r, u1, u2)) return out;
         dlambda = (u1 - h) / u2;
         w.step.head(r) = dlambda * w.x2.head(r) - w.x1.head(r);
       }
