@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "gearmesh/internal/geometry.hpp"
+#include "gearmesh/internal/hertz.hpp"
 
 namespace gm {
 namespace {
@@ -198,6 +199,8 @@ MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
     L.base_radius[i] = 0.5 * gi.d_b;
     L.tip_radius[i] = 0.5 * gi.d_a;
     L.inv_tip[i] = involute(std::acos(gi.d_b / gi.d_a));
+    const double alpha_a = std::acos(gi.d_b / gi.d_a);
+    L.corner_near_field[i] = corner_near_field(0.5 * kPi + (i == 1 && L.sign < 0 ? -alpha_a : alpha_a));
     L.eta[i] = gi.eta_b;
     L.rho_tip[i] = gi.rho_a;
     L.rho_form[i] = gi.rho_Ff;

@@ -39,13 +39,6 @@ void FaceBasis::reserve(int capacity) {
 
 namespace {
 
-bool same_law(const LocalLaw& a, const LocalLaw& b) {
-  return a.width == b.width && a.reduced_radius == b.reduced_radius && a.body[0].depth == b.body[0].depth &&
-         a.body[1].depth == b.body[1].depth && a.body[0].youngs_modulus == b.body[0].youngs_modulus &&
-         a.body[1].youngs_modulus == b.body[1].youngs_modulus && a.body[0].poisson_ratio == b.body[0].poisson_ratio &&
-         a.body[1].poisson_ratio == b.body[1].poisson_ratio;
-}
-
 // In-place Cholesky of the leading r x r block of A (lower triangle); false if not positive
 // definite.
 bool cholesky(Eigen::MatrixXd& A, int r) {
@@ -281,7 +274,7 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
   if (n == 0 || p.shapes <= 0 || !group_pairs(w, p)) return out;
   // the laws prepared once per distinct law (an aligned spur pair's slices share theirs)
   for (int a = 0; a < n; ++a) {
-    if (a > 0 && same_law(p.laws[a], p.laws[a - 1])) {
+    if (a > 0 && same_local_law(p.laws[a], p.laws[a - 1])) {
       w.kern[a] = w.kern[a - 1];
       w.nominal[a] = w.nominal[a - 1];
       continue;

@@ -9,9 +9,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// 2 (1 - nu^2)/(pi E), m^2/N: the factor of w in delta_i (docs/physics.md §4).
+// kappa 2 (1 - nu^2)/(pi E), m^2/N: the factor of w in delta_i (docs/physics.md §4).
 double body_compliance(const HertzBody& b) {
-  return 2.0 * (1.0 - b.poisson_ratio * b.poisson_ratio) / (kPi * b.youngs_modulus);
+  return b.near_field * 2.0 * (1.0 - b.poisson_ratio * b.poisson_ratio) / (kPi * b.youngs_modulus);
 }
 
 }  // namespace
@@ -28,6 +28,12 @@ double reduced_modulus(const HertzBody& body1, const HertzBody& body2) {
     return (1.0 - b.poisson_ratio * b.poisson_ratio) / b.youngs_modulus;
   };
   return 1.0 / (term(body1) + term(body2));
+}
+
+double corner_near_field(double phi) {
+  const double c2 = 0.5 * phi + 0.25 * std::sin(2.0 * phi), s2 = 0.5 * phi - 0.25 * std::sin(2.0 * phi);
+  const double sc = 0.5 * std::sin(phi) * std::sin(phi);
+  return 0.5 * kPi * c2 / (c2 * s2 - sc * sc);
 }
 
 double hertz_half_width(double line_load, double reduced_radius, double reduced_modulus) {
@@ -56,6 +62,7 @@ const char* local_law_error(const LocalLaw& law) {
     if (!(b.poisson_ratio >= 0 && b.poisson_ratio < 0.5))
       return "Poisson ratio must be in [0, 0.5)";
     if (!(b.depth > 0) || !std::isfinite(b.depth)) return "depth h must be finite and > 0";
+    if (!(b.near_field >= 1) || !std::isfinite(b.near_field)) return "near-field factor must be finite and >= 1";
   }
   return nullptr;
 }
@@ -82,8 +89,8 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
   kern.inv_width = 1.0 / law.width;
   const HertzBody& b0 = law.body[0];
   const HertzBody& b1 = law.body[1];
-  const bool same = b0.youngs_modulus == b1.youngs_modulus &&
-                    b0.poisson_ratio == b1.poisson_ratio && b0.depth == b1.depth;
+  const bool same = b0.youngs_modulus == b1.youngs_modulus && b0.poisson_ratio == b1.poisson_ratio &&
+                    b0.depth == b1.depth && b0.near_field == b1.near_field;
   kern.terms = same ? 1 : 2;
   double inv_E_star = 0;  // 1/E* = sum (1 - nu_i^2)/E_i (docs/physics.md §4)
   for (int t = 0; t < kern.terms; ++t) {
@@ -91,7 +98,7 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
     const double weight = same ? 2.0 : 1.0;
     const double term = (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
     inv_E_star += weight * term;
-    kern.a[t] = weight * (2.0 / kPi) * term;  // body_compliance
+    kern.a[t] = weight * body.near_field * (2.0 / kPi) * term;  // body_compliance
     kern.k[t] = body.poisson_ratio / (1.0 - body.poisson_ratio);
     kern.depth[t] = body.depth;
     kern.inv_depth[t] = 1.0 / body.depth;

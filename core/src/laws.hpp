@@ -68,6 +68,8 @@ void build_level_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLa
       law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
       for (int g = 0; g < 2; ++g) {
         law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
+        // a tip corner's near field is a wedge's, not a half-space's (docs/physics.md §4)
+        if (s.kind == (g == 0 ? kTipOfGear1 : kTipOfGear2)) law.local.body[g].near_field = L.corner_near_field[g];
         law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;
       // FE: the database's depth h (along the normal), the depth its displacements were taken at
         law.local.body[g].depth = database ? T(m.compliance[g].depth)

@@ -71,18 +71,7 @@ inline void store_derivative(const ResultT<Dual>& r, gm_result& out) {
 }
 
 
-namespace resultants_detail {
 
-inline bool same_local_law(const LocalLaw& a, const LocalLaw& b) {
-  return a.width == b.width && a.reduced_radius == b.reduced_radius &&
-         a.body[0].depth == b.body[0].depth && a.body[1].depth == b.body[1].depth &&
-         a.body[0].youngs_modulus == b.body[0].youngs_modulus &&
-         a.body[1].youngs_modulus == b.body[1].youngs_modulus &&
-         a.body[0].poisson_ratio == b.body[0].poisson_ratio &&
-         a.body[1].poisson_ratio == b.body[1].poisson_ratio;
-}
-
-}  // namespace resultants_detail
 
 // Elastic potential of the loaded slices at solved forces, J: U = sum_i int_0^Delta_i F dDelta.
 // With the complementary energy Psi(F) = F.C.F/2 + sum_i P_i(F_i) (C the coupled compliance of
@@ -104,7 +93,7 @@ T elastic_energy(gm_data& d, int n) {
     if constexpr (std::is_same_v<T, double>) {
       // the next slice of an aligned spur pair: the same law, force and approach, the same term
       if (i > 0 && F == forces[i - 1] && slices[i].approach == slices[i - 1].approach &&
-          resultants_detail::same_local_law(laws[i].local, laws[i - 1].local)) {
+          same_local_law(laws[i].local, laws[i - 1].local)) {
         u += last;
         continue;
       }

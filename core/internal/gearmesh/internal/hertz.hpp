@@ -22,6 +22,9 @@ struct HertzBodyT {
   double youngs_modulus = 0;  // E_i, Pa
   double poisson_ratio = 0;   // nu_i, 0 <= nu_i < 0.5
   T depth = 0;                // h_i, m: depth of the point the global compliance refers to
+  // kappa_i >= 1: the body's near field over a half-space's (1 on a flank; a tip corner loaded
+  // at its edge: corner_near_field of its angle), a factor on delta_i
+  double near_field = 1.0;
 };
 using HertzBody = HertzBodyT<double>;
 
@@ -56,6 +59,16 @@ double hertz_half_width(double line_load, double reduced_radius, double reduced_
 // as written there; the law below evaluates the same formula in a cancellation-free form.
 double hertz_body_approach(double line_load, double half_width, const HertzBody& body);
 
+// kappa of a body whose contact is the apex of an elastic wedge of interior angle phi (rad,
+// 0 < phi <= pi), loaded normal to one of its faces, against a half-plane's: the wedge's radial
+// stress field sigma_r = (A cos theta + B sin theta)/r (Timoshenko and Goodier, the wedge loaded
+// at its apex) puts the work-conjugate displacement of the apex relative to depth h at kappa times
+// Flamant's, kappa = (pi/2) p^T M^-1 p with M the integrals of (cos, sin)(cos, sin)^T over the
+// wedge and p the load's unit direction (here normal to the face theta = 0):
+// kappa = (pi/2) c2 / (c2 s2 - sc^2), c2 = phi/2 + sin(2 phi)/4, s2 = phi/2 - sin(2 phi)/4,
+// sc = sin^2(phi)/2. 1 at phi = pi (a half-plane), 3.363 at pi/2.
+double corner_near_field(double phi);
+
 // Weber-Banaschek's h >> b_H limit of delta_i:
 // (2 w (1 - nu^2)/(pi E)) [ln(2h/b_H) - nu/(2(1 - nu))].
 double weber_banaschek_approach(double line_load, double half_width, const HertzBody& body);
@@ -64,6 +77,16 @@ double weber_banaschek_approach(double line_load, double half_width, const Hertz
 const char* local_law_error(const LocalLaw& law);
 
 inline bool has_local_law(const LocalLaw& law) { return law.width > 0; }
+
+// Whether two laws are the same law (every field equal): one evaluation serves both.
+inline bool same_local_law(const LocalLaw& a, const LocalLaw& b) {
+  if (a.width != b.width || a.reduced_radius != b.reduced_radius) return false;
+  for (int g = 0; g < 2; ++g)
+    if (a.body[g].depth != b.body[g].depth || a.body[g].youngs_modulus != b.body[g].youngs_modulus ||
+        a.body[g].poisson_ratio != b.body[g].poisson_ratio || a.body[g].near_field != b.body[g].near_field)
+      return false;
+  return true;
+}
 
 // f, f' and P at force F >= 0 (N). Zero for "no local law". At F = 0 (or F so small that b_H
 // underflows): approach = energy = 0, slope = +inf. Through local_law_jet.
@@ -177,7 +200,8 @@ LocalLawValueT<T> local_law_value(const LocalLawT<T>& law, const T& force) {
   }
   T slope_w = 0, energy_ww = 0;
   for (const auto& body : law.body) {
-    const double a = 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
+    const double a =
+        body.near_field * 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
     const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
     const T q = b / body.depth;
     const T r = sqrt(1.0 + q * q);
