@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <type_traits>
 #include <limits>
@@ -75,10 +76,13 @@ ForceSolve solve_separable(const SeparableProblem& p, const SeparableAnswer& a) 
     out.residual = std::max(out.residual, r);
   }
   out.converged = out.residual <= tol;
-  if (!out.converged) {  // a static text (allocated once, when first met): this path allocates nothing else
-    static const std::string text =
-        std::string("a slice's force did not converge within ") + GM_PARAM_NAME(solver_max_iterations) + " iterations";
-    out.message = text.c_str();
+  if (!out.converged) {
+    // a static text, built once: a char array, which nothing destroys at exit (a std::string's
+    // destructor would run from exit after an importer unloaded the FMU: a crash) and no allocation
+    static char text[128];
+    static const bool built = std::snprintf(text, sizeof text, "a slice's force did not converge within %s iterations",
+                                            GM_PARAM_NAME(solver_max_iterations)) > 0;
+    out.message = built ? text : "a slice's force did not converge";
   }
   return out;
 }

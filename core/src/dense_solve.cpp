@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -366,10 +367,13 @@ ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p) {
   out.residual = res.residual;
   if (res.status != NlcpStatus::converged) {
     out.converged = false;
-    // the cap is the model's parameter (a static text: this path allocates once, when first met)
-    static const std::string capped = std::string("the coupled force solve did not converge within ") +
-                                      GM_PARAM_NAME(solver_max_iterations) + " iterations; raise it";
-    out.message = res.capped                    ? capped.c_str()
+    // the cap is the model's parameter; a static text built once (a char array: nothing for exit
+    // to destroy after an importer unloaded the FMU, contact_forces.cpp)
+    static char capped[128];
+    static const bool built =
+        std::snprintf(capped, sizeof capped, "the coupled force solve did not converge within %s iterations; raise it",
+                      GM_PARAM_NAME(solver_max_iterations)) > 0;
+    out.message = res.capped && built           ? capped
                   : res.message && *res.message ? res.message
                                                 : "the coupled force solve did not converge";
     return out;

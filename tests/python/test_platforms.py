@@ -485,3 +485,11 @@ def test_vdmcheck2_finds_a_broken_model_description(multi_fmu, tmp_path):
     (tmp_path / "modelDescription.xml").write_text(broken)
     done = vdmcheck(tmp_path / "modelDescription.xml")
     assert done.returncode != 0 and "No errors found." not in done.stdout, done.stdout
+
+
+def test_the_linux_binary_leaves_nothing_to_run_at_exit(multi_fmu):
+    """The Zig-built linux64 binary (libc++) unloaded by the importer, then the process exits
+    (tests/python/test_fmu_unload.py: a static with a destructor crashed this at exit)."""
+    from test_fmu_unload import check_unload
+
+    check_unload(multi_fmu)
