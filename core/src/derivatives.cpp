@@ -68,7 +68,7 @@ gm_status separable_dual_forces(const gm_model& m, gm_data& d, int n) {
       law.local.body[g].youngs_modulus = dl.local.body[g].youngs_modulus;
       law.local.body[g].poisson_ratio = dl.local.body[g].poisson_ratio;
       law.local.body[g].depth = dl.local.body[g].depth.v;
-      law.local.body[g].near_field = dl.local.body[g].near_field;
+      law.local.body[g].near_field = dl.local.body[g].near_field.v;
     }
     d.approach[i] = slices[i].approach.v;
   }

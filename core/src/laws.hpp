@@ -27,6 +27,25 @@ inline Dual tooth_contact_depth_s(const ToothSection& s, const Dual& rho) {
   return tooth_contact_depth_t<Dual>(s, rho);
 }
 
+// kappa of gear g's body at slice s (hertz.hpp, HertzBodyT::near_field): the wedge's
+// (MeshLayout::corner_near_field) at a contact on its tip corner, 1 on the flank farther than the
+// depth h from the corner, and in between blended over the involute's arc length a to the tip,
+// 1 + (kappa_w - 1) (1 - a/h)^2 (the near field of a load within h of the edge is the edge's;
+// continuous, with a continuous slope at a = h, so that a contact moving onto the corner sees no
+// step in its compliance).
+template <class T>
+T corner_near_field_at(const MeshLayout& L, int g, const ContactSliceT<T>& s, const T& depth) {
+  const double kw = L.corner_near_field[g];
+  if (s.kind == (g == 0 ? kTipOfGear1 : kTipOfGear2)) return T(kw);
+  if (s.kind != kFlankContact || kw == 1.0) return T(1.0);
+  using std::fabs;
+  const T rho = s.roll[g];
+  const T arc = fabs(L.rho_tip[g] * L.rho_tip[g] - rho * rho) / (2.0 * L.base_radius[g]);
+  if (!(arc < depth)) return T(1.0);
+  const T u = 1.0 - arc / depth;
+  return 1.0 + (kw - 1.0) * u * u;
+}
+
 }  // namespace laws_detail
 
 // Per-slice compliance laws along the normal (docs/physics.md §5), for the level `Level`
@@ -68,12 +87,11 @@ void build_level_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLa
       law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
       for (int g = 0; g < 2; ++g) {
         law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
-        // a tip corner's near field is a wedge's, not a half-space's (docs/physics.md §4)
-        if (s.kind == (g == 0 ? kTipOfGear1 : kTipOfGear2)) law.local.body[g].near_field = L.corner_near_field[g];
         law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;
       // FE: the database's depth h (along the normal), the depth its displacements were taken at
         law.local.body[g].depth = database ? T(m.compliance[g].depth)
                                            : tooth_contact_depth_s(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
+        law.local.body[g].near_field = corner_near_field_at(L, g, s, law.local.body[g].depth);
       }
     }
   }

@@ -24,7 +24,7 @@ struct HertzBodyT {
   T depth = 0;                // h_i, m: depth of the point the global compliance refers to
   // kappa_i >= 1: the body's near field over a half-space's (1 on a flank; a tip corner loaded
   // at its edge: corner_near_field of its angle), a factor on delta_i
-  double near_field = 1.0;
+  T near_field = 1.0;
 };
 using HertzBody = HertzBodyT<double>;
 
@@ -200,8 +200,7 @@ LocalLawValueT<T> local_law_value(const LocalLawT<T>& law, const T& force) {
   }
   T slope_w = 0, energy_ww = 0;
   for (const auto& body : law.body) {
-    const double a =
-        body.near_field * 2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus);
+    const T a = body.near_field * (2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus));
     const double k = body.poisson_ratio / (1.0 - body.poisson_ratio);
     const T q = b / body.depth;
     const T r = sqrt(1.0 + q * q);
