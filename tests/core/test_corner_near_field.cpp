@@ -1,0 +1,125 @@
+// Tests of the tip corner's near field (docs/physics.md §4): the wedge's factor against the
+// wedge's stress field integrated independently (energy, not displacement), the corner's reach
+// against ISO 21771's tip thickness, and the blend along the flank (laws.hpp) continuous at the
+// corner and at its reach, its dual derivative the difference quotient's.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "dual.hpp"
+#include "gearmesh/internal/hertz.hpp"
+#include "laws.hpp"
+#include "test_support.hpp"
+
+namespace {
+
+using gm_test::kPi;
+
+// The apex-loaded wedge of interior angle phi, unit load normal to its face theta = 0: the radial
+// field sigma_r = (A cos theta + B sin theta)/r with (A, B) from the load's balance, both by
+// trapezoidal quadrature over theta; the complementary energy in the annulus b < r < h is
+// ln(h/b)/(2E') times the integral of (A cos + B sin)^2, so the ratio of these integrals to the
+// half-plane's (phi = pi) is the ratio of the load point's approaches.
+double wedge_energy(double phi) {
+  const int n = 20000;
+  const double dt = phi / n;
+  double m[3] = {0, 0, 0};  // integrals of cos^2, cos sin, sin^2
+  for (int k = 0; k <= n; ++k) {
+    const double w = (k == 0 || k == n) ? 0.5 : 1.0, t = k * dt;
+    m[0] += w * std::cos(t) * std::cos(t) * dt;
+    m[1] += w * std::cos(t) * std::sin(t) * dt;
+    m[2] += w * std::sin(t) * std::sin(t) * dt;
+  }
+  // [m0 m1; m1 m2] (A, B) = (0, 1)
+  const double det = m[0] * m[2] - m[1] * m[1];
+  const double A = -m[1] / det, B = m[0] / det;
+  double e = 0;
+  for (int k = 0; k <= n; ++k) {
+    const double w = (k == 0 || k == n) ? 0.5 : 1.0, t = k * dt;
+    const double s = A * std::cos(t) + B * std::sin(t);
+    e += w * s * s * dt;
+  }
+  return e;
+}
+
+}  // namespace
+
+TEST(CornerNearField, IsTheWedgesEnergyOverTheHalfPlanes) {
+  EXPECT_NEAR(gm::corner_near_field(kPi), 1.0, 1e-12);
+  const double half_plane = wedge_energy(kPi);
+  for (double phi : {0.5 * kPi, 0.5 * kPi + 0.35, 0.5 * kPi + 0.6, 2.5, 3.0}) {
+    const double ratio = wedge_energy(phi) / half_plane;
+    EXPECT_NEAR(gm::corner_near_field(phi), ratio, 1e-7 * ratio) << "phi = " << phi;
+  }
+  EXPECT_NEAR(gm::corner_near_field(0.5 * kPi), 3.36295, 1e-5);  // the quarter plane
+}
+
+// The layout's kappa and reach per gear: the wedge between the tip circle and the flank, and half
+// the chordal tip thickness from ISO 21771's s_a = d_a (s_t/d + inv alpha_t - inv alpha_a).
+TEST(CornerNearField, LayoutTakesTheTipsAngleAndThickness) {
+  const auto inv = [](double a) { return std::tan(a) - a; };
+  const gm_test::Pair P = gm_test::make_pair(gm_test::paper());
+  for (int i = 0; i < 2; ++i) {
+    const gm_gear_geometry& gi = P.g.gear[i];
+    const double alpha_a = std::acos(gi.d_b / gi.d_a);
+    EXPECT_NEAR(P.L.corner_near_field[i], gm::corner_near_field(0.5 * kPi + alpha_a), 1e-12);
+    const double psi = gi.s_t / gi.d + inv(P.g.alpha_t) - inv(alpha_a);
+    EXPECT_NEAR(P.L.corner_reach[i], 0.5 * gi.d_a * std::sin(psi), 1e-9 * gi.d_a) << "gear " << i + 1;
+    EXPECT_GT(P.L.corner_reach[i], 0.1 * P.p.pair.normal_module);
+  }
+  // the ring's tooth widens towards its tip: the wedge's angle is pi/2 - alpha_a, kappa larger
+  const gm_test::Pair R = gm_test::make_pair(gm_test::ring());
+  const gm_gear_geometry& ring = R.g.gear[1];
+  const double alpha_a = std::acos(ring.d_b / ring.d_a);
+  EXPECT_NEAR(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi - alpha_a), 1e-12);
+  EXPECT_GT(R.L.corner_near_field[1], R.L.corner_near_field[0]);
+  EXPECT_GT(R.L.corner_reach[1], 0.1 * R.p.pair.normal_module);
+}
+
+// Along gear g's flank: kappa at the corner contact, the same on the flank at the tip, 1 beyond
+// the reach, falling in between; the dual number's slope the central difference's.
+TEST(CornerNearField, BlendAlongTheFlankIsContinuousAndItsSlopeExact) {
+  const gm_test::Pair P = gm_test::make_pair(gm_test::paper());
+  const gm::MeshLayout& L = P.L;
+  for (int g = 0; g < 2; ++g) {
+    gm::ContactSlice s;
+    s.kind = g == 0 ? gm::kTipOfGear1 : gm::kTipOfGear2;
+    const double kw = gm::laws_detail::corner_near_field_at(L, g, s);
+    EXPECT_EQ(kw, L.corner_near_field[g]);
+    s.kind = gm::kFlankContact;
+    // roll distance at arc length a below the tip: rho^2 = rho_a^2 - 2 r_b a
+    const auto at = [&](double a) {
+      gm::ContactSlice f = s;
+      f.roll[g] = std::sqrt(L.rho_tip[g] * L.rho_tip[g] - 2 * L.base_radius[g] * a);
+      return gm::laws_detail::corner_near_field_at(L, g, f);
+    };
+    const double l = L.corner_reach[g];
+    EXPECT_NEAR(at(0), kw, 1e-12);
+    EXPECT_NEAR(at(1e-9 * l), kw, 1e-6 * kw);                  // continuous onto the corner
+    EXPECT_NEAR(at(0.5 * l), 1 + 0.25 * (kw - 1), 1e-9);         // (1 - a/l)^2 at a = l/2
+    EXPECT_EQ(at(l * (1 + 1e-12)), 1.0);
+    EXPECT_NEAR(at(l * (1 - 1e-6)), 1.0, 1e-9);                  // continuous at the reach
+    double last = kw;
+    for (int k = 1; k <= 20; ++k) {
+      const double kappa = at(l * k / 20.0);
+      EXPECT_LT(kappa, last);
+      last = kappa;
+    }
+    // the slope along the roll distance, dual against central differences
+    for (double a : {0.1 * l, 0.4 * l, 0.8 * l}) {
+      const double rho = std::sqrt(L.rho_tip[g] * L.rho_tip[g] - 2 * L.base_radius[g] * a), e = 1e-8;
+      gm::ContactSliceT<gm::Dual> d;
+      d.kind = gm::kFlankContact;
+      d.roll[g] = gm::Dual(rho, 1.0);
+      const gm::Dual k = gm::laws_detail::corner_near_field_at(L, g, d);
+      gm::ContactSlice up = s, down = s;
+      up.roll[g] = rho + e;
+      down.roll[g] = rho - e;
+      const double fd = (gm::laws_detail::corner_near_field_at(L, g, up) -
+                         gm::laws_detail::corner_near_field_at(L, g, down)) /
+                        (2 * e);
+      EXPECT_NEAR(k.d, fd, 1e-6 * std::fabs(fd)) << "gear " << g + 1 << ", a/l = " << a / l;
+      EXPECT_GT(k.d, 0);  // kappa grows towards the tip, where rho grows
+    }
+  }
+}
