@@ -202,9 +202,6 @@ MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
     const double alpha_a = std::acos(gi.d_b / gi.d_a);
     const bool ring = i == 1 && L.sign < 0;
     L.corner_near_field[i] = corner_near_field(0.5 * kPi + (ring ? -alpha_a : alpha_a));
-    // the tooth's half-angle at the tip circle (a ring's tooth: the pitch's half less its space's)
-    const double psi_a = ring ? kPi / p.gear[i].teeth - (gi.eta_b - L.inv_tip[i]) : gi.eta_b - L.inv_tip[i];
-    L.corner_reach[i] = L.tip_radius[i] * std::sin(psi_a);
     L.eta[i] = gi.eta_b;
     L.rho_tip[i] = gi.rho_a;
     L.rho_form[i] = gi.rho_Ff;

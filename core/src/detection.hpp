@@ -44,10 +44,6 @@ struct MeshLayout {
   // between its tip circle and its flank, pi/2 + alpha_a (a ring's tooth widens to its tip:
   // pi/2 - alpha_a), alpha_a the transverse pressure angle at the tip circle
   double corner_near_field[2] = {1, 1};
-  // the reach of that corner's near field along the flank, m: half the tooth's chordal thickness
-  // at its tip circle, r_a sin(psi_a) (psi_a the tooth's half-angle there), a property of the
-  // tooth alone, so that every level blends over the same length (laws.hpp)
-  double corner_reach[2] = {0, 0};
   double rho_form[2] = {0, 0};     // roll distance of the form circle, m
   double tan_beta_b = 0;           // tan of the base helix angle (magnitude)
   double cos_beta_b = 1, sin_beta_b = 0;

@@ -28,23 +28,29 @@ inline Dual tooth_contact_depth_s(const ToothSection& s, const Dual& rho) {
 }
 
 // kappa of gear g's body at slice s (hertz.hpp, HertzBodyT::near_field): the wedge's
-// (MeshLayout::corner_near_field) at a contact on its tip corner, 1 on the flank farther than the
-// corner's reach l (MeshLayout::corner_reach) from it, and in between blended over the involute's
-// arc length a to the tip, 1 + (kappa_w - 1) (1 - a/l)^2: the near field of a load close to the
-// edge is the edge's, and the blend falls steeply near the corner as the wedge's share of the
-// near field's logarithm does; continuous, with a continuous slope at a = l. The same l at every
-// level, so that a database reproduces level 4 there as elsewhere.
+// (MeshLayout::corner_near_field) at a contact on its tip corner, 1 on the flank beyond
+// kCornerBlend h of the corner (h the body's depth), and in between 1 + (kappa_w - 1) s(u),
+// s(u) = u^2 (3 - 2u), u = 1 - a/(kCornerBlend h), a the involute's arc length to the tip.
+// Where the contact's half-width b_H reaches the edge the whole near field is the wedge's; a
+// contact at a from it sees the wedge's field beyond a only, a share ln(h/a)/ln(h/b_H) of the
+// logarithm (about a half at a = 0.3 h for b_H = h/10). The smooth step is sharper than that
+// share, as the CalculiX references favour (docs/validation.md), and flat at both ends: a contact
+// moving onto the corner sees no step in its compliance nor in its slope, which the integrator's
+// Newton and the step's derivative need.
+inline constexpr double kCornerBlend = 0.3;
+
 template <class T>
-T corner_near_field_at(const MeshLayout& L, int g, const ContactSliceT<T>& s) {
+T corner_near_field_at(const MeshLayout& L, int g, const ContactSliceT<T>& s, const T& depth) {
   const double kw = L.corner_near_field[g];
   if (s.kind == (g == 0 ? kTipOfGear1 : kTipOfGear2)) return T(kw);
   if (s.kind != kFlankContact || kw == 1.0) return T(1.0);
   using std::fabs;
   const T rho = s.roll[g];
   const T arc = fabs(L.rho_tip[g] * L.rho_tip[g] - rho * rho) / (2.0 * L.base_radius[g]);
-  if (!(arc < L.corner_reach[g])) return T(1.0);
-  const T u = 1.0 - arc / L.corner_reach[g];
-  return 1.0 + (kw - 1.0) * u * u;
+  const T length = kCornerBlend * depth;
+  if (!(arc < length)) return T(1.0);
+  const T u = 1.0 - arc / length;
+  return 1.0 + (kw - 1.0) * u * u * (3.0 - 2.0 * u);
 }
 
 }  // namespace laws_detail
@@ -92,7 +98,7 @@ void build_level_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLa
       // FE: the database's depth h (along the normal), the depth its displacements were taken at
         law.local.body[g].depth = database ? T(m.compliance[g].depth)
                                            : tooth_contact_depth_s(m.tooth[g], g == 0 ? rho1 : rho2) * cb;
-        law.local.body[g].near_field = corner_near_field_at(L, g, s);
+        law.local.body[g].near_field = corner_near_field_at(L, g, s, law.local.body[g].depth);
       }
     }
   }

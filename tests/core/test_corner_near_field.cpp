@@ -1,7 +1,7 @@
 // Tests of the tip corner's near field (docs/physics.md §4): the wedge's factor against the
-// wedge's stress field integrated independently (energy, not displacement), the corner's reach
-// against ISO 21771's tip thickness, and the blend along the flank (laws.hpp) continuous at the
-// corner and at its reach, its dual derivative the difference quotient's.
+// wedge's stress field integrated independently (energy, not displacement), the layout's corner
+// angles, and the blend along the flank (laws.hpp) flat at the corner and at its end, its dual
+// derivative the difference quotient's.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -54,72 +54,72 @@ TEST(CornerNearField, IsTheWedgesEnergyOverTheHalfPlanes) {
   EXPECT_NEAR(gm::corner_near_field(0.5 * kPi), 3.36295, 1e-5);  // the quarter plane
 }
 
-// The layout's kappa and reach per gear: the wedge between the tip circle and the flank, and half
-// the chordal tip thickness from ISO 21771's s_a = d_a (s_t/d + inv alpha_t - inv alpha_a).
-TEST(CornerNearField, LayoutTakesTheTipsAngleAndThickness) {
-  const auto inv = [](double a) { return std::tan(a) - a; };
+// The layout's kappa per gear: the wedge between the tip circle and the flank, pi/2 + alpha_a
+// (alpha_a from the tip and base diameters); a ring's tooth widens towards its tip: pi/2 - alpha_a.
+TEST(CornerNearField, LayoutTakesTheTipsAngle) {
   const gm_test::Pair P = gm_test::make_pair(gm_test::paper());
   for (int i = 0; i < 2; ++i) {
     const gm_gear_geometry& gi = P.g.gear[i];
     const double alpha_a = std::acos(gi.d_b / gi.d_a);
     EXPECT_NEAR(P.L.corner_near_field[i], gm::corner_near_field(0.5 * kPi + alpha_a), 1e-12);
-    const double psi = gi.s_t / gi.d + inv(P.g.alpha_t) - inv(alpha_a);
-    EXPECT_NEAR(P.L.corner_reach[i], 0.5 * gi.d_a * std::sin(psi), 1e-9 * gi.d_a) << "gear " << i + 1;
-    EXPECT_GT(P.L.corner_reach[i], 0.1 * P.p.pair.normal_module);
+    EXPECT_GT(P.L.corner_near_field[i], 1.0);
   }
-  // the ring's tooth widens towards its tip: the wedge's angle is pi/2 - alpha_a, kappa larger
   const gm_test::Pair R = gm_test::make_pair(gm_test::ring());
   const gm_gear_geometry& ring = R.g.gear[1];
   const double alpha_a = std::acos(ring.d_b / ring.d_a);
   EXPECT_NEAR(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi - alpha_a), 1e-12);
-  EXPECT_GT(R.L.corner_near_field[1], R.L.corner_near_field[0]);
-  EXPECT_GT(R.L.corner_reach[1], 0.1 * R.p.pair.normal_module);
+  EXPECT_GT(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi));  // sharper than a right angle
 }
 
-// Along gear g's flank: kappa at the corner contact, the same on the flank at the tip, 1 beyond
-// the reach, falling in between; the dual number's slope the central difference's.
-TEST(CornerNearField, BlendAlongTheFlankIsContinuousAndItsSlopeExact) {
+// Along gear g's flank at depth h: kappa at the corner contact, the same on the flank at the tip,
+// 1 beyond kCornerBlend h, falling in between with a flat start and end; the dual number's slope
+// (along the roll distance and the depth) the central difference's.
+TEST(CornerNearField, BlendAlongTheFlankIsSmoothAndItsSlopeExact) {
+  using gm::laws_detail::corner_near_field_at;
   const gm_test::Pair P = gm_test::make_pair(gm_test::paper());
   const gm::MeshLayout& L = P.L;
+  const double h = 0.5e-3, l = gm::laws_detail::kCornerBlend * h;
   for (int g = 0; g < 2; ++g) {
     gm::ContactSlice s;
     s.kind = g == 0 ? gm::kTipOfGear1 : gm::kTipOfGear2;
-    const double kw = gm::laws_detail::corner_near_field_at(L, g, s);
+    const double kw = corner_near_field_at(L, g, s, h);
     EXPECT_EQ(kw, L.corner_near_field[g]);
     s.kind = gm::kFlankContact;
     // roll distance at arc length a below the tip: rho^2 = rho_a^2 - 2 r_b a
+    const auto roll_at = [&](double a) {
+      return std::sqrt(L.rho_tip[g] * L.rho_tip[g] - 2 * L.base_radius[g] * a);
+    };
     const auto at = [&](double a) {
       gm::ContactSlice f = s;
-      f.roll[g] = std::sqrt(L.rho_tip[g] * L.rho_tip[g] - 2 * L.base_radius[g] * a);
-      return gm::laws_detail::corner_near_field_at(L, g, f);
+      f.roll[g] = roll_at(a);
+      return corner_near_field_at(L, g, f, h);
     };
-    const double l = L.corner_reach[g];
     EXPECT_NEAR(at(0), kw, 1e-12);
-    EXPECT_NEAR(at(1e-9 * l), kw, 1e-6 * kw);                  // continuous onto the corner
-    EXPECT_NEAR(at(0.5 * l), 1 + 0.25 * (kw - 1), 1e-9);         // (1 - a/l)^2 at a = l/2
-    EXPECT_EQ(at(l * (1 + 1e-12)), 1.0);
-    EXPECT_NEAR(at(l * (1 - 1e-6)), 1.0, 1e-9);                  // continuous at the reach
+    EXPECT_NEAR(at(1e-4 * l), kw, 1e-6 * (kw - 1));  // flat onto the corner
+    EXPECT_NEAR(at(0.5 * l), 1 + 0.5 * (kw - 1), 1e-9);
+    EXPECT_EQ(at(l * (1 + 1e-9)), 1.0);
+    EXPECT_NEAR(at(l * (1 - 1e-4)), 1.0, 1e-6 * (kw - 1));  // flat at the end
     double last = kw;
     for (int k = 1; k <= 20; ++k) {
       const double kappa = at(l * k / 20.0);
       EXPECT_LT(kappa, last);
       last = kappa;
     }
-    // the slope along the roll distance, dual against central differences
     for (double a : {0.1 * l, 0.4 * l, 0.8 * l}) {
-      const double rho = std::sqrt(L.rho_tip[g] * L.rho_tip[g] - 2 * L.base_radius[g] * a), e = 1e-8;
-      gm::ContactSliceT<gm::Dual> d;
-      d.kind = gm::kFlankContact;
-      d.roll[g] = gm::Dual(rho, 1.0);
-      const gm::Dual k = gm::laws_detail::corner_near_field_at(L, g, d);
-      gm::ContactSlice up = s, down = s;
-      up.roll[g] = rho + e;
-      down.roll[g] = rho - e;
-      const double fd = (gm::laws_detail::corner_near_field_at(L, g, up) -
-                         gm::laws_detail::corner_near_field_at(L, g, down)) /
-                        (2 * e);
-      EXPECT_NEAR(k.d, fd, 1e-6 * std::fabs(fd)) << "gear " << g + 1 << ", a/l = " << a / l;
-      EXPECT_GT(k.d, 0);  // kappa grows towards the tip, where rho grows
+      const double rho = roll_at(a), e = 1e-9;
+      for (int along = 0; along < 2; ++along) {  // the roll distance, then the depth
+        gm::ContactSliceT<gm::Dual> d;
+        d.kind = gm::kFlankContact;
+        d.roll[g] = gm::Dual(rho, along == 0 ? 1.0 : 0.0);
+        const gm::Dual k = corner_near_field_at(L, g, d, gm::Dual(h, along == 1 ? 1.0 : 0.0));
+        gm::ContactSlice up = s, down = s;
+        up.roll[g] = rho + (along == 0 ? e : 0);
+        down.roll[g] = rho - (along == 0 ? e : 0);
+        const double hu = h + (along == 1 ? e : 0), hd = h - (along == 1 ? e : 0);
+        const double fd = (corner_near_field_at(L, g, up, hu) - corner_near_field_at(L, g, down, hd)) / (2 * e);
+        EXPECT_NEAR(k.d, fd, 1e-5 * std::fabs(fd)) << "gear " << g + 1 << ", a/l = " << a / l << ", along " << along;
+        EXPECT_GT(k.d, 0);  // kappa grows towards the tip (rho grows) and with the depth
+      }
     }
   }
 }

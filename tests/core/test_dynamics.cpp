@@ -532,10 +532,10 @@ TEST(Dynamics, AMastersRoundingKeepsTheInternalSteps) {
 // fourth-order central difference of whole steps that take the same internal steps
 // (StepOptions::replay: the derivative holds them, as the integrator's own linearization does),
 // each stage's Newton to rounding. Levels 0, 4 (without and with friction and mesh damping,
-// which bring the speed directions) and 5 on its synthetic databases, its coupled solve to 1e-13
+// which bring the speed directions) and 5 on its synthetic databases, the contact solve to 1e-13
 // (solver.tolerance; at the default 1e-10 the solve's last iterate is a smooth function of the
-// pose whose derivative differs from the converged solve's by 3e-6 of a column where tip-corner
-// contacts stiffen the law's curvature, whatever the difference step). Per entry within 1e-6 of
+// pose whose derivative differs from the converged solve's by up to 3e-6 of a column where a
+// contact near a tip corner curves the law strongly, whatever the difference step). Per entry within 1e-6 of
 // its column's largest entry in the same unit (measured: 1.3e-7 to 5.7e-7). The sensitivity
 // taken along the plain step (stages to 1e-2 of the tolerance) is within 5e-4 of the replayed
 // one (measured: 7e-8 without friction, 1.5e-4 with). Printed, not checked: the difference
@@ -565,10 +565,10 @@ TEST(Dynamics, StepSensitivityIsTheDerivativeOfTheStep) {
     p0.stiffness_level = static_cast<gm_stiffness_level>(c.level);
     // friction at the core's default v0 = 1e-3 m/s (analytical() takes 1e-5; see below)
     if (c.mu > 0) p0.friction_velocity = 1e-3;
+    p0.solver_tolerance = 1e-13;  // the contact solve to rounding too (see above)
     std::string db[2];
     if (c.level == 5) {
       p0.coupled_teeth = 2;
-      p0.solver_tolerance = 1e-13;
       for (int g = 0; g < 2; ++g) {
         std::string msg;
         db[g] = gm_test::write_smooth_db(p0, g, "sensitivity_gear" + std::to_string(g + 1) + ".gcdb", msg);
