@@ -664,3 +664,30 @@ TEST(Jacobian, RefusesBadInputsAndLeavesTheWarmStart) {
 }
 
 }  // namespace
+
+TEST(Jacobian, TmpSweep) {
+  for (int level : {4, 5}) {
+    gm_model_params p = gm_test::paper();
+    p.slices = 7;
+    p.solver_tolerance = 1e-15;
+    p.stiffness_level = GM_STIFFNESS_ANALYTICAL;
+    if (level == 5) fe_level(p, 2);
+    Instance I(p);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> U(0, 1);
+    const double tau1 = 2 * kPi / p.gear[0].teeth;
+    Stats st;
+    for (int pose = 0; pose < 80; ++pose) {
+      gm_kinematics at{};
+      at.phi[0] = tau1 * (pose + 0.5) / 80;
+      at.phi[1] = phi2(I, 6e-6, at.phi[0]);
+      at.omega[0] = 100;
+      at.omega[1] = -I.sign() * at.omega[0] * I.rb(0) / I.rb(1);
+      I.eval(at);
+      gm_kinematics seed{};
+      seed.phi[0] = 1e-3;  // along gear 1's spin
+      compare(I, at, seed, st, "sweep level " + std::to_string(level) + " pose " + std::to_string(pose));
+    }
+    std::printf("  sweep level %d: checked %d skipped %d worst %.3g\n", level, st.checked, st.skipped, st.worst);
+  }
+}

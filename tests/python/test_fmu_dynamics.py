@@ -245,19 +245,27 @@ def test_step_sensitivities_are_the_derivative_of_whole_steps(fmu_path):
     steps are fixed (dynamics.min_step = max_step = 2.5e-6 s), since a step that chose them anew
     would not be differentiable (tests/core/test_dynamics.cpp, StepSensitivityIsTheDerivativeOfTheStep:
     0.1 to 10 off), and the tolerance is 1e-12 m so that the stages' Newton (stopped at 1e-2 of
-    it) leaves no noise in the differences. The moves stay below the contact's kinks (a slice
-    entering contact): with 1 N m on a torque the difference is 1e-2 off in gear1.mz, with
-    0.01 N m 5e-6. Undamped (dynamics.mesh_damping_ratio = 0): the damping's clamp where a slice
-    unloads is another kink within 1e-3 N m here (the core's test covers the damped step's
-    derivative). Each within 1e-5 relative (measured: 4.4e-7 for the spins and shafts, 4.9e-6
-    for the contact, gear1.mz). Refused,
+    it) leaves little noise in the differences; the contact solve runs to 1e-13 (solver.tolerance).
+    The moves stay below the contact's kinks (a slice entering contact): with 1 N m on a torque the
+    difference is 1e-2 off in gear1.mz, with 0.01 N m 5e-6. Undamped
+    (dynamics.mesh_damping_ratio = 0): the damping's clamp where a slice unloads is another kink
+    within 1e-3 N m here (the core's test covers the damped step's derivative). The spins and
+    shafts within 3e-4 relative (measured 2e-5 to 1.1e-4, 4e-7 before the tip-corner near field:
+    a contact here moves through the corner's blend, where the law's stiffness changes fast, the
+    kept Newton matrix contracts more slowly, and 400 stages stopped at 1e-2 of the tolerance
+    leave 1e-12 rad of noise in each end state; the core's replayed test, stages to rounding, holds
+    the sensitivity itself to 1e-6), the contact outputs and shaft torques within 1e-2 (measured
+    1.5e-3 to 5.6e-3: the TE, and with it the forces, is a difference of the two spins 60 to 300
+    times smaller than either, a shaft torque's derivative a difference of its stiffness's and its
+    damping's terms many times smaller than either, which multiplies their error); a missing or misplaced term in the chain is off by the
+    order of the derivative itself. Refused,
     naming the variable: an unknown without a step derivative (the energy account), a known not
     held over the step (a pose input), and any derivative before the first step or after a
     state set."""
     start = {**start_values(fmu_path, 0.0), "dynamics.step_sensitivities": True, "dynamics.tolerance": 1e-12,
              "dynamics.min_step": 2.5e-6, "dynamics.max_step": 2.5e-6,
              "dynamics.mesh_damping_ratio": 0.0, "gear2.shaft_stiffness": 2e3,
-             "gear2.shaft_damping": 1.0}
+             "gear2.shaft_damping": 1.0, "solver.tolerance": 1e-13}
     knowns = {"gear1.torque": 1e-2, "load.torque": 1e-2, "gear1.shaft_phi": 1e-7, "gear1.shaft_omega": 1e-5,
               "gear2.shaft_phi": 1e-7, "drive.shaft_omega": 1e-5}
     contact = {"mesh.te", "mesh.normal_force", "gear1.mz", "gear2.fx"}
@@ -291,7 +299,8 @@ def test_step_sensitivities_are_the_derivative_of_whole_steps(fmu_path):
                 fd = (ends[0][n] - ends[1][n]) / (2 * h)
                 d = derivative[known][n]
                 worst[n in contact] = max(worst[n in contact], abs(d - fd) / abs(fd))
-                assert d == pytest.approx(fd, rel=1e-5, abs=1e-12), (known, n)
+                derived = n in contact or n.endswith("shaft_torque")
+                assert d == pytest.approx(fd, rel=1e-2 if derived else 3e-4, abs=1e-12), (known, n)
         print(f"step sensitivities against whole-step differences: worst relative {worst[False]:.1e} "
               f"(spins, shafts), {worst[True]:.1e} (contact)")
         f.fmu.setFMUstate(state)
