@@ -257,9 +257,9 @@ def test_step_sensitivities_are_the_derivative_of_whole_steps(fmu_path):
     the sensitivity itself to 1e-6), the contact outputs and shaft torques within 1e-2 (measured
     1.5e-3 to 5.6e-3: the TE, and with it the forces, is a difference of the two spins 60 to 300
     times smaller than either, a shaft torque's derivative a difference of its stiffness's and its
-    damping's terms many times smaller than either, which multiplies their error); a missing or misplaced term in the chain is off by the
-    order of the derivative itself. Refused,
-    naming the variable: an unknown without a step derivative (the energy account), a known not
+    damping's terms many times smaller than either, which multiplies their error); a missing or
+    misplaced term in the chain is off by the order of the derivative itself. Refused, naming the
+    variable: an unknown without a step derivative (the energy account), a known not
     held over the step (a pose input), and any derivative before the first step or after a
     state set."""
     start = {**start_values(fmu_path, 0.0), "dynamics.step_sensitivities": True, "dynamics.tolerance": 1e-12,
