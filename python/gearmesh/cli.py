@@ -64,7 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
     _cluster_options(p_study)
     p_ref = sub.add_parser("reference", help="compare the scenes' loaded TE with their reference "
                            "curves, or (--write) regenerate them on purpose")
-    p_ref.add_argument("scenes", nargs="*", type=pathlib.Path, help="scene files (default: the paper's sets A and B)")
+    p_ref.add_argument("scenes", nargs="*", type=pathlib.Path,
+                       help="scene files (default: every scene in the scenes folder with a reference curve)")
     p_ref.add_argument("--fmu", type=pathlib.Path, help=FMU_HELP)
     p_ref.add_argument("--write", action="store_true", help="overwrite the reference curves")
     p_comp = sub.add_parser("compliance", help="build the scenes' compliance databases (FE "
@@ -204,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
         paths = [p for p in paths if p not in trains]
     if not args.scenes:
         try:
-            paths = default_scenes(DEFAULT_SCENES)
+            paths = default_scenes(DEFAULT_SCENES) if args.command != "reference" else referenced_scenes()
         except NotFound as exc:
             print(f"gearmesh: {exc}", file=sys.stderr)
             return 2
@@ -279,6 +280,12 @@ def default_scenes(names: list[str]) -> list[pathlib.Path]:
     """The default scenes in the scenes folder (gearmesh.paths)."""
     folder = Paths.resolve().require("scenes")
     return [folder / n for n in names]
+
+
+def referenced_scenes() -> list[pathlib.Path]:
+    """The scenes in the scenes folder that have a reference TE curve (the CI regression's)."""
+    folder = Paths.resolve().require("scenes")
+    return sorted(p for p in folder.glob("*.toml") if (folder / f"{p.stem}.reference_te.csv").is_file())
 
 
 def _scene_fmu(scene, args) -> int:
