@@ -785,19 +785,26 @@ def main(fmu: pathlib.Path | str | None = None, check: bool = False,
     except (OSError, subprocess.CalledProcessError) as exc:
         print(f"gearmesh-dev reference-docs: {exc}", file=sys.stderr)
         return 2
-    readme = level_table.README.read_text(encoding="utf-8")
-    fresh_readme = level_table.readme_with_table(readme, level_table.table())
+    # the pages that carry a table generated from the ledgers: path -> (its text, the fresh text)
+    tables = {}
+    for path, fresh in ((level_table.README, lambda t: level_table.readme_with_table(t, level_table.table())),
+                        (level_table.VALIDATION,
+                         lambda t: level_table.validation_with_tables(t, level_table.case_tables()))):
+        text = path.read_text(encoding="utf-8")
+        tables[path] = (text, fresh(text))
     if check:
         differ = stale(pages, out)
         for name in differ:
             print(f"gearmesh-dev reference-docs: {out / name} is stale", file=sys.stderr)
-        if readme != fresh_readme:
-            print(f"gearmesh-dev reference-docs: {level_table.README}'s level table is stale", file=sys.stderr)
-        return 1 if differ or readme != fresh_readme else 0
+        old_tables = [path for path, (text, fresh) in tables.items() if text != fresh]
+        for path in old_tables:
+            print(f"gearmesh-dev reference-docs: {path}'s ledger table is stale", file=sys.stderr)
+        return 1 if differ or old_tables else 0
     out.mkdir(parents=True, exist_ok=True)
     for name, text in pages.items():
         (out / name).write_text(text, encoding="utf-8")
         print(f"gearmesh-dev reference-docs: wrote {out / name}")
-    level_table.README.write_text(fresh_readme, encoding="utf-8")
-    print(f"gearmesh-dev reference-docs: wrote {level_table.README}'s level table")
+    for path, (_, fresh) in tables.items():
+        path.write_text(fresh, encoding="utf-8")
+        print(f"gearmesh-dev reference-docs: wrote {path}'s ledger tables")
     return 0
