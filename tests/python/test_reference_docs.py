@@ -253,3 +253,27 @@ def test_readme_level_table_is_a_fresh_generation_of_the_ledgers():
     row = next(line for line in readme.splitlines() if line.startswith("| set A, spur (2-D band) |"))
     level4 = [c.strip() for c in row.split("|")[1:-1]][3]
     assert float(level4.split(" / ")[1].replace("−", "-")) == round(100 * expected)
+
+
+def test_validation_case_tables_are_a_fresh_generation_of_the_ledgers():
+    """docs/validation.md's tables per reference case equal a fresh generation from the committed
+    ledgers, and a cell read back from the page equals the ledger's signed errors read here with the
+    csv module alone (the internal ring at level 5: order 1 at each torque, against the 2-D band)."""
+    import csv
+
+    from gearmesh_dev import level_table
+
+    page = (REPO / "docs" / "validation.md").read_text(encoding="utf-8")
+    assert level_table.validation_with_tables(page, level_table.case_tables()) == page, \
+        f"docs/validation.md's reference case tables are stale: run `{COMMAND}`"
+    with open(REPO / "scenarios" / "reference" / "ledger_level5.csv", newline="") as f:
+        next(f)
+        errors = {float(r["torque_Nm"]): float(r["band_error"]) for r in csv.DictReader(f)
+                  if (r["scene"], r["reference"], r["setting"], r["quantity"])
+                  == ("internal_ring_fe", "2d", "L5 s10 c2", "order1")}
+    section = page[page.index("**internal ring (2-D band)**"):]
+    row = next(line for line in section.splitlines() if line.startswith("| 5, FE"))
+    cells = [c.strip() for c in row.split("|")[1:-1]]
+    assert cells[1] == " / ".join(f"{t:g}" for t in sorted(errors))
+    shown = [0.0 if v == "in" else float(v.replace("−", "-").replace("±", "")) for v in cells[4].split(" / ")]
+    assert shown == [round(100 * errors[t], 1) for t in sorted(errors)]
