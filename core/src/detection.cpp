@@ -1,6 +1,7 @@
 // Contact detection: helical and spur, external and internal, both flanks, slices, tilts (two
 // steps), micro-geometry, tip contact, contact velocities (docs/physics.md §3).
 #include "detection.hpp"
+#include "touch_point.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -532,6 +533,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
         // micro-geometry gaps are along the flank normal (docs/physics.md §2): Delta_n = Delta_t cos(beta_b) - gap
         if (L.micro[0].any) approach_t -= micro_gap(L.micro[0], fl, tooth1, G.roll1, y1) / L.cos_beta_b;
         if (L.micro[1].any) approach_t -= micro_gap(L.micro[1], fl, tooth2, G.roll2, y2) / L.cos_beta_b;
+        if (micro && G.kind == kFlankContact) approach_t += touch_gain(L, fl, G.roll1, G.roll2);
         if (approach_t > 0.25 * pb) {
           approach_too_large(L, sigma, approach_t, msg);
           return -1;

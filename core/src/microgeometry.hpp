@@ -62,6 +62,7 @@
 #include <vector>
 
 #include "gearmesh/gearmesh.h"
+#include "dual.hpp"
 
 namespace gm {
 
@@ -141,6 +142,12 @@ double flank_gap(const GearMicrogeometry& m, int flank, int tooth, double rho, d
 // flank_gap and its partial derivatives along rho and y (for the Jacobian).
 double flank_gap_slope(const GearMicrogeometry& m, int flank, int tooth, double rho, double y,
                        double& d_rho, double& d_y);
+
+// The part of the flank's design gap that is smooth over the whole profile (profile crowning and
+// profile slope; not the reliefs, which start at a point, nor measured deviations), m, with its
+// derivative along rho: where modified flanks touch (touch_point.hpp).
+double smooth_profile_gap(const GearMicrogeometry& m, int flank, double rho, double& d_rho);
+Dual smooth_profile_gap(const GearMicrogeometry& m, int flank, const Dual& rho);
 
 // Check one flank's modification against the bounds that depend on the gear (its static ranges
 // and shape flags are the parameter table's, checked by validate_params). prefix is the FMU name
