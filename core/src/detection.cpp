@@ -492,6 +492,7 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
   int count = 0, pair = 0;
   for (int sigma = 1; sigma >= -1; sigma -= 2) {
     const int fl = sigma > 0 ? 0 : 1;  // flank index for the micro-geometry
+    const bool touch = touch_applies(L, fl);
     // Reduce the unbounded angles to a period so that roll distances keep full precision. The
     // helical sections turn by h_i y_i tan(beta_b)/r_bi, y_i along gear i's axis from its centre.
     double n1, n2;
@@ -514,6 +515,8 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
       int first = -1;                // the pair's first slice
       bool emitted = false;
       SliceContact<T> G;
+      T touch_growth = 0;
+      bool touch_known = false;
       for (int k = 0; k < L.slices; ++k) {
         const Section<T>& S = F.aligned ? mid : F.sections[k];
         const T z = F.zlo + (k + 0.5) * F.width;
@@ -533,7 +536,12 @@ int detect_impl(const MeshLayout& L, const K& kin, ContactSliceT<T>* out, int ca
         // micro-geometry gaps are along the flank normal (docs/physics.md §2): Delta_n = Delta_t cos(beta_b) - gap
         if (L.micro[0].any) approach_t -= micro_gap(L.micro[0], fl, tooth1, G.roll1, y1) / L.cos_beta_b;
         if (L.micro[1].any) approach_t -= micro_gap(L.micro[1], fl, tooth2, G.roll2, y2) / L.cos_beta_b;
-        if (micro && G.kind == kFlankContact) approach_t += touch_gain(L, fl, G.roll1, G.roll2);
+        // where modified flanks touch: the same for every slice of an aligned spur pair
+        if (touch && G.kind == kFlankContact) {
+          if (!uniform || k == 0 || !touch_known) touch_growth = touch_gain(L, fl, G.roll1, G.roll2);
+          touch_known = true;
+          approach_t += touch_growth;
+        }
         if (approach_t > 0.25 * pb) {
           approach_too_large(L, sigma, approach_t, msg);
           return -1;

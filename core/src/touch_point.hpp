@@ -82,15 +82,19 @@ inline TouchSearch touch_search(const MeshLayout& L, int fl, double rho1, double
   double slope = 0;
   const double G0 = gap(0, slope);
   if (slope == 0) return out;
-  double x = 0;
-  for (int k = 0; k < 30; ++k) {
-    const double next = std::fmin(std::fmax(-R * slope, lo), hi);
-    const bool done = std::fabs(next - x) <= 1e-12 * R;
-    x = next;
-    gap(x, slope);
-    if (done) break;
+  // the root of phi(x) = x + R' G'(x) by secant steps from the fixed point's first two iterates
+  // (phi' = 1 + R' G'', near 1), kept within [lo, hi]
+  double x0 = 0, phi0 = R * slope, x = std::fmin(std::fmax(-R * slope, lo), hi);
+  double G = gap(x, slope);
+  for (int k = 0; k < 20; ++k) {
+    const double phi = x + R * slope;
+    if (std::fabs(phi) <= 1e-9 * std::fabs(x) + 1e-16 || phi == phi0) break;
+    const double next = std::fmin(std::fmax(x - phi * (x - x0) / (phi - phi0), lo), hi);
+    if (next == x) break;  // held at an end
+    x0 = x, phi0 = phi, x = next;
+    G = gap(x, slope);
   }
-  out.gain = G0 - gap(x, slope) - 0.5 * x * x / R;
+  out.gain = G0 - G - 0.5 * x * x / R;
   out.x = x;
   if (x == lo && x != 0) out.edge = lo_gear, out.edge_rho = lo_rho;
   if (x == hi && x != 0) out.edge = hi_gear, out.edge_rho = hi_rho;
@@ -106,6 +110,11 @@ inline double touch_profile_gap(const GearMicrogeometry& m, int fl, double rho) 
 }
 inline Dual touch_profile_gap(const GearMicrogeometry& m, int fl, const Dual& rho) {
   return smooth_profile_gap(m, fl, rho);
+}
+
+// Whether either gear's flank fl has a profile modification touch_search takes.
+inline bool touch_applies(const MeshLayout& L, int fl) {
+  return L.micro[0].profile_any[fl] || L.micro[1].profile_any[fl];
 }
 
 template <class T>
