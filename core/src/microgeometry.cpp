@@ -556,32 +556,6 @@ double flank_gap_slope(const GearMicrogeometry& m, int flank, int tooth, double 
   return by_rho.v;
 }
 
-namespace {
-
-template <class T>
-T smooth_profile_gap_t(const GearMicrogeometry& m, int flank, const T& rho) {
-  const gm_flank_modification& d = m.flank[flank];
-  if (!m.profile_any[flank]) return T(0);
-  const T s = (rho - m.active.rho_start) * m.profile_dir;
-  const T u = s * m.inv_profile_length;
-  T gap = 0;
-  if (d.profile_crowning != 0) gap += d.profile_crowning * (2 * u - 1) * (2 * u - 1);
-  if (d.profile_slope != 0) gap += d.profile_slope * (u - 0.5);
-  return gap;
-}
-
-}  // namespace
-
-double smooth_profile_gap(const GearMicrogeometry& m, int flank, double rho, double& d_rho) {
-  const Dual g = smooth_profile_gap_t(m, flank, Dual(rho, 1));
-  d_rho = g.d;
-  return g.v;
-}
-
-Dual smooth_profile_gap(const GearMicrogeometry& m, int flank, const Dual& rho) {
-  return smooth_profile_gap_t(m, flank, rho);
-}
-
 gm_status validate_modification(const char* prefix, const gm_flank_modification& mod,
                                 const ActiveFlank& active, std::string& msg) {
   ModChecker c(prefix, msg);

@@ -144,10 +144,17 @@ double flank_gap_slope(const GearMicrogeometry& m, int flank, int tooth, double 
                        double& d_rho, double& d_y);
 
 // The part of the flank's design gap that is smooth over the whole profile (profile crowning and
-// profile slope; not the reliefs, which start at a point, nor measured deviations), m, with its
-// derivative along rho: where modified flanks touch (touch_point.hpp).
-double smooth_profile_gap(const GearMicrogeometry& m, int flank, double rho, double& d_rho);
-Dual smooth_profile_gap(const GearMicrogeometry& m, int flank, const Dual& rho);
+// profile slope; not the reliefs, which start at a point, nor measured deviations): its first and
+// second derivatives along rho, d1 over the scalar type (where modified flanks touch:
+// touch_point.hpp). Quadratic in rho, so d2 is a constant.
+template <class T>
+void smooth_profile_jet(const GearMicrogeometry& m, int flank, const T& rho, T& d1, double& d2) {
+  const gm_flank_modification& d = m.flank[flank];
+  const double du = m.profile_dir * m.inv_profile_length;  // du/drho
+  const T u = (rho - m.active.rho_start) * du;              // 0 at the SAP, 1 at the tip
+  d1 = (4.0 * d.profile_crowning * (2.0 * u - 1.0) + d.profile_slope) * du;
+  d2 = 8.0 * d.profile_crowning * du * du;
+}
 
 // Check one flank's modification against the bounds that depend on the gear (its static ranges
 // and shape flags are the parameter table's, checked by validate_params). prefix is the FMU name
@@ -155,7 +162,7 @@ Dual smooth_profile_gap(const GearMicrogeometry& m, int flank, const Dual& rho);
 // <value> m: allowed range ...": relief lengths > 0 when their relief is nonzero, tip + root <=
 // the active profile length, end relief length <= b/2.
 gm_status validate_modification(const char* prefix, const gm_flank_modification& mod,
-                                 const ActiveFlank& active, std::string& msg);
+                                const ActiveFlank& active, std::string& msg);
 
 // Check that the measured roll range of a deviation table overlaps the active profile (a file
 // written in diameters or roll angles instead of roll distances would otherwise be held at its

@@ -378,7 +378,9 @@ TEST(DetectionEffects, ProfileCrowningGivesTheParabolicTeAndItsMeshOrders) {
     }
     te_closed[s] = closed;
   }
-  for (int s = 0; s < n; ++s) EXPECT_NEAR(te_detect[s], te_closed[s], 1e-12) << s;
+  // detection takes the growth's quadratic model at the conjugate point (touch_point.hpp): off the
+  // exact largest by the arc's curvature in rho, measured 0.21 nm of the 0.35 um growth
+  for (int s = 0; s < n; ++s) EXPECT_NEAR(te_detect[s], te_closed[s], 0.5e-9) << s;
   EXPECT_NEAR(max_gain, 0.35e-6, 0.03e-6);
   // mesh orders 1 and 2 (per base pitch) by a direct DFT of both curves
   for (int order : {1, 2}) {
@@ -390,7 +392,7 @@ TEST(DetectionEffects, ProfileCrowningGivesTheParabolicTeAndItsMeshOrders) {
     }
     const double amp_d = 2 * std::abs(a) / n, amp_c = 2 * std::abs(b) / n;
     EXPECT_GT(amp_c, 0.05e-6) << order;  // the crowning gives real orders
-    EXPECT_NEAR(amp_d, amp_c, 1e-12) << order;
+    EXPECT_NEAR(amp_d, amp_c, 0.5e-9) << order;
   }
 }
 

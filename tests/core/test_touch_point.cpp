@@ -38,13 +38,14 @@ TEST(TouchPoint, SmallSlopeGivesHalfRTimesTheSlopeSquared) {
     const double rho1 = L.rho_form[0] + f * (L.rho_tip[0] - L.rho_form[0]), rho2 = line - rho1;
     const double R = 1 / (1 / rho1 + 1 / rho2);
     const double slope = S / length * L.base_radius[0] / rho1;  // d gap / d arc
-    const gm::TouchSearch t = gm::touch_search(L, 0, rho1, rho2);
+    gm::TouchPoint t;
+    gm::touch_gain(L, 0, rho1, rho2, &t);
     EXPECT_NEAR(t.gain, 0.5 * R * slope * slope, 1e-3 * 0.5 * R * slope * slope) << f;
     EXPECT_NEAR(t.x, -R * slope, 1e-3 * R * slope) << f;
     EXPECT_EQ(t.edge, -1);
   }
   const gm_test::Pair plain = pair_with(0.0, 0.0);
-  EXPECT_EQ(gm::touch_search(plain.L, 0, 0.5 * line, 0.5 * line).gain, 0.0);
+  EXPECT_EQ(gm::touch_gain(plain.L, 0, 0.5 * line, 0.5 * line), 0.0);
 }
 
 TEST(TouchPoint, DualDerivativeIsTheDifferenceQuotient) {
@@ -64,7 +65,9 @@ TEST(TouchPoint, DualDerivativeIsTheDifferenceQuotient) {
     for (const double rho1 : rolls) {
       for (double off : {-3e-4, 0.0, 3e-4}) {  // off the conjugate line as a loaded pose is
         const double rho2 = line - rho1 + off;
-        if (gm::touch_search(L, 0, rho1, rho2).edge >= 0) ++at_edge;
+        gm::TouchPoint where;
+        gm::touch_gain(L, 0, rho1, rho2, &where);
+        if (where.edge >= 0) ++at_edge;
         for (int dir = 0; dir < 2; ++dir) {
           const gm::Dual d = gm::touch_gain(L, 0, gm::Dual(rho1, dir == 0), gm::Dual(rho2, dir == 1));
           const double e = 1e-8;
