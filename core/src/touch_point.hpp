@@ -3,7 +3,6 @@
 // (detection.cpp) over double and dual numbers.
 #pragma once
 
-#include <algorithm>
 #include <cmath>
 
 #include "detection.hpp"
@@ -43,7 +42,6 @@ struct TouchPoint {
 
 template <class T>
 T touch_gain(const MeshLayout& L, int fl, const T& rho1, const T& rho2, TouchPoint* where = nullptr) {
-  GM_AD_USING;
   if (where) *where = TouchPoint{};
   const T inv_r = 1.0 / rho1 + L.sign / rho2;
   if (!(val(rho1) > 0 && val(rho2) > 0 && val(inv_r) > 0)) return T(0);
