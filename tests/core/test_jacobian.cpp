@@ -695,7 +695,8 @@ TEST(Jacobian, AlongTheSpinOverAPitchThroughTheCornersAndTheTouchPoints) {
         I.eval(at);
         gm_kinematics seed{};
         seed.phi[0] = 1e-3;
-        compare(I, at, seed, st, "level " + std::to_string(level) + ", crowning " + std::to_string(crowning) + ", pose " + std::to_string(pose));
+        const std::string what = "level " + std::to_string(level) + ", crowning " + std::to_string(crowning);
+        compare(I, at, seed, st, what + ", pose " + std::to_string(pose));
       }
       std::printf("  level %d, crowning %g um: checked %d skipped %d worst error/allowed %.3g\n", level,
                   crowning * 1e6, st.checked, st.skipped, st.worst);
