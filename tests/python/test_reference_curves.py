@@ -1,4 +1,4 @@
-"""CI regression of every scene's loaded TE against its reference curves in scenarios/ (issue 5):
+"""CI regression of every scene's loaded TE against its reference curves in scenarios/:
 fails beyond reference_curves.TOLERANCE; the references are regenerated only on purpose."""
 from __future__ import annotations
 
