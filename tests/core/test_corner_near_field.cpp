@@ -69,6 +69,9 @@ TEST(CornerNearField, LayoutTakesTheTipsAngle) {
   const double alpha_a = std::acos(ring.d_b / ring.d_a);
   EXPECT_NEAR(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi - alpha_a), 1e-12);
   EXPECT_GT(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi));  // sharper than a right angle
+  // the figures docs/physics.md §4 quotes
+  EXPECT_NEAR(P.L.corner_near_field[0], 1.55, 0.005);
+  EXPECT_NEAR(R.L.corner_near_field[1], 5.95, 0.005);
 }
 
 // Along gear g's flank at depth h: kappa at the corner contact, the same on the flank at the tip,
