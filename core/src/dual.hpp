@@ -115,6 +115,10 @@ using ad::Dual;
 // The value of a scalar: the identity for double.
 inline double val(double x) { return x; }
 inline double val(const Dual& x) { return x.v; }
+// Whether a term can be left out: its value and its derivative are 0 (a weight that is 0 at a
+// node can still move with the seed).
+inline bool vanishes(double x) { return x == 0; }
+inline bool vanishes(const Dual& x) { return x.v == 0 && x.d == 0; }
 // Exact identity of two scalars, derivative included (shortcuts that reuse a computation must
 // not merge slices whose values agree but whose derivatives differ).
 inline bool identical(double a, double b) { return a == b; }

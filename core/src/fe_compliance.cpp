@@ -18,33 +18,67 @@
 namespace gm {
 namespace {
 
-// Where a slice sits on a gear's flank grid: its lower roll node and weight, its face interval
-// and the face nodes whose strips it touches.
+// How many roll nodes a slice reads on database db: 3 (its element's corner, mid and corner node,
+// quadratic shape functions) when the database is a quadratic mesh's flank nodes (mesh_order 2,
+// an odd count: corners at even indices, compliance_tool's lattice), else 2 (linear), 1 for a
+// single node.
+int roll_reads(const ComplianceDb& db) {
+  const int nr = int(db.roll.size());
+  if (nr == 1) return 1;
+  return db.mesh_order == 2 && nr >= 3 && nr % 2 == 1 ? 3 : 2;
+}
+
+// Where a slice sits along a gear's flank grid: the first of its `roll_reads` roll nodes and
+// their weights (they sum to 1).
 template <class T>
-struct FeSpot {
-  int roll_node = 0;          // lower roll node a (a + 1 also, unless n_roll = 1)
-  T roll_weight = 1;          // weight of node a; 1 - it for a + 1
-  T lo = 0, hi = 0;           // face interval of the slice, m
-  int face_lo = 0, face_hi = 0;
+struct RollSpot {
+  int node = 0;
+  T w[3] = {T(1.0), T(0.0), T(0.0)};
 };
 
-// Lower roll node and weight of roll distance `roll` (clamped at the grid ends: weight 1 on the
-// first node below the grid, 0 on node n - 2 above it).
+// The roll nodes and weights of roll distance `roll` (clamped at the grid ends: weight 1 on the
+// end node). Quadratic: the Lagrange polynomials of the element's three nodes in the roll
+// distance, i.e. the element's shape functions, by which the FE's response to a load between
+// nodes is exactly the nodal responses' combination (a unit point load at a flank point is the
+// load vector of the shape functions there) and the displacement between nodes is read as the
+// element interpolates it. The linear weights misread both: the database's diagonal zigzags
+// between corner and mid nodes (docs/physics.md §5).
 template <class T>
-void roll_spot(const std::vector<double>& R, const T& roll, int& node, T& weight) {
-  const int nr = int(R.size());
-  if (nr == 1 || roll <= R[0]) {
-    node = 0;
-    weight = T(1.0);
-  } else if (roll >= R[nr - 1]) {
-    node = nr - 2;
-    weight = T(0.0);
-  } else {
-    const int a = int(std::upper_bound(R.begin(), R.end(), val(roll)) - R.begin()) - 1;
-    node = a;
-    weight = (R[a + 1] - roll) / (R[a + 1] - R[a]);
+RollSpot<T> roll_spot(const ComplianceDb& db, const T& roll) {
+  const std::vector<double>& R = db.roll;
+  const int nr = int(R.size()), reads = roll_reads(db);
+  RollSpot<T> p;
+  if (reads == 1 || roll <= R[0]) return p;  // node 0, weight 1
+  if (roll >= R[nr - 1]) {
+    p.node = nr - reads;
+    for (int k = 0; k < reads; ++k) p.w[k] = T(k == reads - 1 ? 1.0 : 0.0);
+    return p;
   }
+  const int a = int(std::upper_bound(R.begin(), R.end(), val(roll)) - R.begin()) - 1;
+  if (reads == 2) {
+    p.node = a;
+    p.w[0] = (R[a + 1] - roll) / (R[a + 1] - R[a]);
+    p.w[1] = 1 - p.w[0];
+    return p;
+  }
+  const int e = std::min(a / 2, (nr - 1) / 2 - 1);  // the element
+  p.node = 2 * e;
+  const double x0 = R[std::size_t(2 * e)], x1 = R[std::size_t(2 * e + 1)], x2 = R[std::size_t(2 * e + 2)];
+  const T d0 = roll - x0, d1 = roll - x1, d2 = roll - x2;
+  p.w[0] = d1 * d2 / ((x0 - x1) * (x0 - x2));
+  p.w[1] = d0 * d2 / ((x1 - x0) * (x1 - x2));
+  p.w[2] = d0 * d1 / ((x2 - x0) * (x2 - x1));
+  return p;
 }
+
+// Where a slice sits on a gear's flank grid: its roll nodes and weights, its face interval and
+// the face nodes whose strips it touches.
+template <class T>
+struct FeSpot {
+  RollSpot<T> roll;
+  T lo = 0, hi = 0;  // face interval of the slice, m
+  int face_lo = 0, face_hi = 0;
+};
 
 // Face nodes whose tributary strips the interval [lo, hi] touches.
 void face_range(const std::vector<double>& Z, double lo, double hi, int& face_lo, int& face_hi) {
@@ -165,7 +199,7 @@ T face_position(const FeView& m, int g, const ContactSliceT<T>& s, const T& uz) 
 template <class T>
 FeSpot<T> fe_spot(const ComplianceDb& db, const T& roll, const T& face, const T& width) {
   FeSpot<T> p;
-  roll_spot(db.roll, roll, p.roll_node, p.roll_weight);
+  p.roll = roll_spot(db, roll);
   p.lo = face - 0.5 * width;
   p.hi = face + 0.5 * width;
   face_range(db.face, val(p.lo), val(p.hi), p.face_lo, p.face_hi);
@@ -200,21 +234,21 @@ T fe_entry(const FeView& m, int g, const ContactSliceT<T>& si, const FeSpot<T>& 
   if (k < 0) return T(0.0);
   const std::vector<double>& C = db.blocks[std::size_t(k)];
   const std::size_t nf = db.face.size(), ng = db.n_grid();
-  const int nr = int(db.roll.size());
+  const int reads = roll_reads(db);
   T sum = 0;
-  for (int ai = 0; ai < std::min(2, nr); ++ai) {
-    const T ra = ai == 0 ? pi.roll_weight : 1 - pi.roll_weight;
-    if (ra == 0) continue;
+  for (int ai = 0; ai < reads; ++ai) {
+    const T ra = pi.roll.w[ai];
+    if (vanishes(ra)) continue;
     for (int mi = pi.face_lo; mi <= pi.face_hi; ++mi) {
       const T qa = ra * face_share(db.face, pi.lo, pi.hi, mi);
-      if (qa == 0) continue;
-      const std::size_t row = (std::size_t(pi.roll_node + ai) * nf + mi) * ng;
-      for (int bj = 0; bj < std::min(2, nr); ++bj) {
-        const T rb = bj == 0 ? pj.roll_weight : 1 - pj.roll_weight;
-        if (rb == 0) continue;
+      if (vanishes(qa)) continue;
+      const std::size_t row = (std::size_t(pi.roll.node + ai) * nf + mi) * ng;
+      for (int bj = 0; bj < reads; ++bj) {
+        const T rb = pj.roll.w[bj];
+        if (vanishes(rb)) continue;
         for (int nj = pj.face_lo; nj <= pj.face_hi; ++nj) {
           const T qb = rb * face_share(db.face, pj.lo, pj.hi, nj);
-          if (qb != 0) sum += qa * qb * C[row + std::size_t(pj.roll_node + bj) * nf + nj];
+          if (!vanishes(qb)) sum += qa * qb * C[row + std::size_t(pj.roll.node + bj) * nf + nj];
         }
       }
     }
@@ -253,8 +287,9 @@ void fe_assemble_reference(const FeView& m, const ContactSlice* slices, const in
 
 void FeDualAssembly::reserve(const FeView& m, int capacity) {
   const std::size_t c = std::size_t(std::max(capacity, 0));
-  std::size_t per = 0;  // weights of one candidate over both gears: 2 roll nodes x face nodes
-  for (int g = 0; g < 2; ++g) per += 2 * std::max<std::size_t>(1, m.compliance[g].face.size());
+  std::size_t per = 0;  // weights of one candidate over both gears: its roll nodes x face nodes
+  for (int g = 0; g < 2; ++g)
+    per += std::size_t(roll_reads(m.compliance[g])) * std::max<std::size_t>(1, m.compliance[g].face.size());
   weights_.reserve(c * per);
   for (auto& s : spots_) s.reserve(c);
 }
@@ -267,7 +302,7 @@ void FeDualAssembly::assemble(const FeView& m, const ContactSliceT<Dual>* slices
   for (int g = 0; g < 2; ++g) {
     const ComplianceDb& db = m.compliance[g];
     const std::size_t nf = db.face.size();
-    const int nr = int(db.roll.size());
+    const int reads = roll_reads(db);
     spots_[g].resize(std::size_t(n));
     for (int a = 0; a < n; ++a) {
       const ContactSliceT<Dual>& s = slices[index[a]];
@@ -276,13 +311,13 @@ void FeDualAssembly::assemble(const FeView& m, const ContactSliceT<Dual>* slices
       spot.first = int(weights_.size());
       spot.flank = s.flank;
       spot.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
-      for (int ai = 0; ai < std::min(2, nr); ++ai) {
-        const Dual ra = ai == 0 ? p.roll_weight : 1 - p.roll_weight;
-        if (ra == 0) continue;
+      for (int ai = 0; ai < reads; ++ai) {
+        const Dual ra = p.roll.w[ai];
+        if (vanishes(ra)) continue;
         for (int mi = p.face_lo; mi <= p.face_hi; ++mi) {
           const Dual q = ra * face_share(db.face, p.lo, p.hi, mi);
-          if (q == 0) continue;
-          weights_.push_back(Weight{int(std::size_t(p.roll_node + ai) * nf + std::size_t(mi)), q});
+          if (vanishes(q)) continue;
+          weights_.push_back(Weight{int(std::size_t(p.roll.node + ai) * nf + std::size_t(mi)), q});
         }
       }
       spot.count = int(weights_.size()) - spot.first;
@@ -478,9 +513,11 @@ GM_FE_STAGE void FeAssembly::locate_spots(const FeView& m, const ContactSlice* s
         const Spot* prev = a > 0 ? &G.spots[std::size_t(a) - 1] : nullptr;
         if (prev && s.roll[g] == slices[index[a - 1]].roll[g]) {  // an aligned spur pair's slices
           p.roll_node = prev->roll_node;
-          p.roll_weight = prev->roll_weight;
+          std::copy(prev->roll_w, prev->roll_w + 3, p.roll_w);
         } else {
-          roll_spot(db.roll, s.roll[g], p.roll_node, p.roll_weight);
+          const RollSpot<double> r = roll_spot(db, s.roll[g]);
+          p.roll_node = r.node;
+          std::copy(r.w, r.w + 3, p.roll_w);
         }
         const double face = face_position(m, g, s, uz[g]);
         // a tooth pair's slices usually follow the strips one by one: try the next one first
@@ -501,8 +538,9 @@ GM_FE_STAGE void FeAssembly::locate_spots(const FeView& m, const ContactSlice* s
   }
 }
 
-// A group is uniform on gear g when its candidates share the roll node and weight there (an
-// aligned spur pair): its entries then share four chunk values' positions and weights. Its
+// A group is uniform on gear g when its candidates share the roll nodes and weights there (an
+// aligned spur pair): its entries then share the chunk values' positions and weights (four
+// read linearly, nine quadratically). Its
 // strips are consecutive when they follow the candidates one by one.
 GM_FE_STAGE void FeAssembly::classify_groups(int ng) {
   uniform_.assign(std::size_t(2 * ng), 1);
@@ -513,7 +551,7 @@ GM_FE_STAGE void FeAssembly::classify_groups(int ng) {
       const Spot& p0 = gear_[g].spots[std::size_t(a0)];
       for (int a = a0 + 1; a < group_first_[std::size_t(q) + 1]; ++a) {
         const Spot& p = gear_[g].spots[std::size_t(a)];
-        if (p.roll_node != p0.roll_node || p.roll_weight != p0.roll_weight)
+        if (p.roll_node != p0.roll_node || !std::equal(p.roll_w, p.roll_w + 3, p0.roll_w))
           uniform_[std::size_t(g * ng + q)] = 0;
         if (p.strip != p0.strip + a - a0) consecutive_[std::size_t(g * ng + q)] = 0;
       }
@@ -528,25 +566,25 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
   Gear& G = gear_[g];
   const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
   const int S = int(G.strips.size());
-  const int nr = std::min(2, int(m.compliance[g].roll.size()));
+  const int reads = roll_reads(m.compliance[g]);
   const Spot& pa = G.spots[std::size_t(a0)];
   const Spot& pb = G.spots[std::size_t(b0)];
-  double w[4];
-  int at[4];
-  const double* v[4];
+  double w[9];
+  int at[9];
+  const double* v[9];
   int nt = 0;
-  for (int al = 0; al < nr; ++al) {
-    const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
+  for (int al = 0; al < reads; ++al) {
+    const double ra = pa.roll_w[al];
     if (ra == 0) continue;
-    for (int be = 0; be < nr; ++be) {
-      const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
+    for (int be = 0; be < reads; ++be) {
+      const double rb = pb.roll_w[be];
       if (rb == 0) continue;
       w[nt] = ra * rb;
       at[nt++] = chunk_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
     }
   }
   for (int t = 0; t < nt; ++t) v[t] = B.pool.data() + at[t];  // pool no longer grows
-  const bool fast = nt == 4 && q.b_consecutive[g];
+  const bool fast = q.b_consecutive[g];
   if (assign && !fast) zero_entries(q, C);
   if (fast) {
     // group b's strips are consecutive: each column segment C(b0.., a) reads a contiguous run
@@ -556,13 +594,9 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
       const int base = G.spots[std::size_t(a)].strip * S + s0;
       const int len = std::min(b1, a + 1) - b0;
       double* col = &C(b0, a);
-      const double *v0 = v[0] + base, *v1 = v[1] + base, *v2 = v[2] + base, *v3 = v[3] + base;
       for (int k = 0; k < len; ++k) {
         double e = 0;
-        e += w[0] * v0[k];
-        e += w[1] * v1[k];
-        e += w[2] * v2[k];
-        e += w[3] * v3[k];
+        for (int t = 0; t < nt; ++t) e += w[t] * v[t][base + k];
         col[k] = assign ? e : col[k] + e;
       }
     }
@@ -582,8 +616,9 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
 // The same for a cached, non-uniform group pair (helical, tilted). The roll nodes the two
 // groups' candidates touch span a few nodes each: every chunk of those node pairs is resolved
 // first (computed when new; the pool may then grow, so pointers are taken only afterwards),
-// then each entry is four weighted values, summed in add_direct's order (a zero weight, where
+// then each entry is Reads^2 weighted values, summed in add_direct's order (a zero weight, where
 // a candidate sits on a node, multiplies a finite value of a neighbouring chunk and adds 0).
+template <int Reads>
 GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const GroupPair& q,
                                         Eigen::MatrixXd& C) {
   Gear& G = gear_[g];
@@ -597,7 +632,7 @@ GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const 
     for (int c = c0; c < c1; ++c) {
       const Spot& p = G.spots[std::size_t(c)];
       lo[side] = std::min(lo[side], p.roll_node);
-      hi[side] = std::max(hi[side], std::min(p.roll_node + 1, nrr - 1));
+      hi[side] = std::max(hi[side], p.roll_node + Reads - 1);
     }
   }
   const int span_a = hi[0] - lo[0] + 1, span_b = hi[1] - lo[1] + 1;
@@ -612,23 +647,16 @@ GM_FE_STAGE void FeAssembly::add_cached(const FeView& m, int g, Block& B, const 
   const double* pool = B.pool.data();  // it no longer grows
   for (int a = q.a0; a < q.a1; ++a) {
     const Spot& pa = G.spots[std::size_t(a)];
-    const double ra0 = pa.roll_weight, ra1 = 1 - pa.roll_weight;
-    const int ia0 = pa.roll_node - lo[0];
-    const int ia1 = pa.roll_node + 1 < nrr ? ia0 + 1 : ia0;  // one node: ra1 = 0 there
-    const int* va0 = at + ia0 * span_b;
-    const int* va1 = at + ia1 * span_b;
+    const int* va = at + (pa.roll_node - lo[0]) * span_b;
     const int row = pa.strip * S;
     for (int b = q.b0; b < std::min(q.b1, a + 1); ++b) {
       const Spot& pb = G.spots[std::size_t(b)];
-      const double rb0 = pb.roll_weight, rb1 = 1 - pb.roll_weight;
-      const int ib0 = pb.roll_node - lo[1];
-      const int ib1 = pb.roll_node + 1 < nrr ? ib0 + 1 : ib0;
+      const int ib = pb.roll_node - lo[1];
       const int off = row + pb.strip;
       double e = 0;
-      e += ra0 * rb0 * pool[va0[ib0] + off];
-      e += ra0 * rb1 * pool[va0[ib1] + off];
-      e += ra1 * rb0 * pool[va1[ib0] + off];
-      e += ra1 * rb1 * pool[va1[ib1] + off];
+      for (int al = 0; al < Reads; ++al)
+        for (int be = 0; be < Reads; ++be)
+          e += pa.roll_w[al] * pb.roll_w[be] * pool[va[al * span_b + ib + be] + off];
       C(b, a) += e;
     }
   }
@@ -639,17 +667,17 @@ GM_FE_STAGE void FeAssembly::add_direct(const FeView& m, int g, const Block& B, 
                                         Eigen::MatrixXd& C) const {
   const Gear& G = gear_[g];
   const int a0 = q.a0, a1 = q.a1, b0 = q.b0, b1 = q.b1;
-  const int nr = std::min(2, int(m.compliance[g].roll.size()));
+  const int reads = roll_reads(m.compliance[g]);
   for (int a = a0; a < a1; ++a) {
     const Spot& pa = G.spots[std::size_t(a)];
     for (int b = b0; b < std::min(b1, a + 1); ++b) {
       const Spot& pb = G.spots[std::size_t(b)];
       double e = 0;
-      for (int al = 0; al < nr; ++al) {
-        const double ra = al == 0 ? pa.roll_weight : 1 - pa.roll_weight;
+      for (int al = 0; al < reads; ++al) {
+        const double ra = pa.roll_w[al];
         if (ra == 0) continue;
-        for (int be = 0; be < nr; ++be) {
-          const double rb = be == 0 ? pb.roll_weight : 1 - pb.roll_weight;
+        for (int be = 0; be < reads; ++be) {
+          const double rb = pb.roll_w[be];
           if (rb == 0) continue;
           e += ra * rb * strip_value(m, g, B.index, pa.roll_node + al, pb.roll_node + be,
                                      pa.strip, pb.strip);
@@ -705,8 +733,12 @@ void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int
           add_direct(m, g, B, q, C);
         else if (q.uniform[g])
           add_uniform(m, g, B, q, !assigned, C);
+        else if (roll_reads(m.compliance[g]) == 3)
+          add_cached<3>(m, g, B, q, C);
+        else if (roll_reads(m.compliance[g]) == 2)
+          add_cached<2>(m, g, B, q, C);
         else
-          add_cached(m, g, B, q, C);
+          add_cached<1>(m, g, B, q, C);
         assigned = true;
       }
       if (!assigned) zero_entries(q, C);

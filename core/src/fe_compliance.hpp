@@ -15,8 +15,10 @@
 //
 //   C^g[i][j] = sum_{a,m} sum_{b,n} r_ia q_im r_jb q_jn C_d[(a, m)][(b, n)]
 //
-// Roll (on gear g's flank): r_ia are the linear interpolation weights of the slice's roll
-// distance between grid nodes a (clamped at the grid ends). Face (along gear g's axis from its
+// Roll (on gear g's flank): r_ia are the weights of the slice's roll distance on the grid nodes a
+// (clamped at the grid ends): the shape functions of the quadratic element (three nodes) it lies
+// in when the database is a quadratic mesh's flank nodes, as compliance_tool's are, else the
+// linear interpolation weights between two nodes (fe_compliance.cpp, roll_spot). Face (along gear g's axis from its
 // mid-face): q_im = |slice_i n strip_m| / w_i, the share of slice i's width inside node m's
 // tributary strip (strips end half-way between nodes; the end strips are unbounded). SCALING:
 // a database column is the response to a unit POINT load at a node, which the core reads as the
@@ -32,12 +34,12 @@
 // the axial offsets) is, so the face sums are cached: per database block C_d in use and per pair
 // of roll nodes (a, b) a "chunk" S x S of strip values
 //   V_ab[s][s'] = sum_m q_sm (sum_n q_s'n C_d[(a, m)][(b, n)])
-// over the S slice strips; an entry is then sum_{alpha, beta} r_alpha r_beta V over the two
-// roll nodes of each slice (four values per gear). Chunks are computed when first needed; the
-// blocks of teeth that left the candidate set are dropped after the call; the strips (and with
-// them every chunk) are rebuilt when a face interval changes, and that call computes the strip
-// values directly with the same function, so the cached and the direct results are the same
-// bits whatever the history (FMU get/set state stays bit for bit).
+// over the S slice strips; an entry is then sum_{alpha, beta} r_alpha r_beta V over the roll
+// nodes of each slice (nine values per gear read quadratically, four linearly). Chunks are
+// computed when first needed; the blocks of teeth that left the candidate set are dropped after
+// the call; the strips (and with them every chunk) are rebuilt when a face interval changes, and
+// that call computes the strip values directly with the same function, so the cached and the
+// direct results are the same bits whatever the history (FMU get/set state stays bit for bit).
 #pragma once
 
 #include <cstddef>
@@ -105,8 +107,8 @@ class FeAssembly {
     std::vector<double> pool;     // chunks of strips.size()^2 values
   };
   struct Spot {
-    int roll_node = 0;
-    double roll_weight = 1;
+    int roll_node = 0;                // first of its roll nodes (fe_compliance.cpp, roll_reads)
+    double roll_w[3] = {1, 0, 0};     // their weights
     int strip = 0;
     int tooth = 0;                // the database's tooth (modulo z) of the slice's flank
   };
@@ -140,6 +142,7 @@ class FeAssembly {
   void add_uniform(const FeView& m, int g, Block& B, const GroupPair& q, bool assign,
                    Eigen::MatrixXd& C);
   static void zero_entries(const GroupPair& q, Eigen::MatrixXd& C);
+  template <int Reads>
   void add_cached(const FeView& m, int g, Block& B, const GroupPair& q, Eigen::MatrixXd& C);
   void add_direct(const FeView& m, int g, const Block& B, const GroupPair& q, Eigen::MatrixXd& C) const;
   void drop_unused_blocks(const FeView& m);

@@ -46,7 +46,7 @@ struct Coupling {
 
 // Gear `gear`'s synthetic database: roll grid over the analytical section's table range, face
 // nodes at the slice centres; C_0[(a, m)][(b, n)] = sqrt(c(rho_a) c(rho_b)) cos^2(beta_b) /
-// Delta_face for m = n (smooth in roll, so that linear interpolation in roll reproduces c(rho);
+// Delta_face for m = n (smooth in roll, so that the roll reading reproduces c(rho);
 // a roll-diagonal database would be a delta kernel, which no interpolation reproduces), times
 // coupling.slice for m != n; C_{+-1} = coupling.tooth C_0; other offsets 0. Depth: the level 4
 // depth at mid-profile.
@@ -146,6 +146,107 @@ TEST(FeLevel, UncoupledSyntheticDatabaseReproducesLevel4) {
     // length in proportion to h (laws.hpp); the rest from the roll interpolation of sqrt(c) on 41
     // nodes
     EXPECT_LT(worst, 0.015 * te_max);
+  }
+}
+
+// The roll reading of a database (fe_compliance.cpp, roll_spot): compliance_tool's flank grid is
+// the nodes of quadratic elements (corner, mid, corner), so a slice reads its element's three
+// nodes with the element's shape functions, which reproduce a compliance quadratic in the roll
+// over each element exactly; a database that declares linear elements (mesh_order 1) or an even
+// node count is read linearly between two nodes. The database here: C_0[(a, m)][(b, n)] =
+// f(rho_a) f(rho_b) / Delta_face for m = n, 0 otherwise, f(rho) = c (1 + 0.8 u + 0.6 u^2),
+// u = (rho - rho_mid) / (rho_max - rho_min), 17 nodes (8 elements). A slice at roll rho_g on gear
+// g's grid then has the self-compliance sum_g f_g(rho_g)^2 / Delta_face,g (closed form) when read
+// quadratically, and (sum_a r_a f_a)^2 / Delta with the linear weights r when read linearly,
+// which differs from the closed form by up to 1.2e-3 of it here; the derivative along gear 1's
+// roll is 2 f f' / Delta, at the nodes too (there the neighbours' weights are 0 but move: a
+// reading that left them out, as one did, had the derivative wrong at every node).
+TEST(FeLevel, RollReadingIsTheElementsShapeFunctions) {
+  gm_model_params p = fe_paper(3);
+  p.coupled_teeth = 0;
+  const auto f_of = [](const gm::ComplianceDb& db, double rho) {
+    const double lo = db.roll.front(), hi = db.roll.back();
+    const double u = (rho - 0.5 * (lo + hi)) / (hi - lo);
+    return 2e-11 * (1 + 0.8 * u + 0.6 * u * u);
+  };
+  const auto df_of = [](const gm::ComplianceDb& db, double rho) {
+    const double lo = db.roll.front(), hi = db.roll.back();
+    const double u = (rho - 0.5 * (lo + hi)) / (hi - lo);
+    return 2e-11 * (0.8 + 1.2 * u) / (hi - lo);
+  };
+  for (int order : {2, 1}) {
+    gm::ComplianceDb db[2];
+    std::string path[2];
+    for (int g = 0; g < 2; ++g) {
+      db[g] = synthetic_db(p, g, {}, 17);
+      db[g].mesh_order = std::uint32_t(order);
+      const int nr = int(db[g].roll.size()), nf = int(db[g].face.size());
+      const std::size_t ng = db[g].n_grid();
+      const double dz = p.gear[g].face_width / nf;
+      std::vector<double>& c0 = db[g].blocks[std::size_t(db[g].n_coupled)];  // offset 0
+      std::fill(c0.begin(), c0.end(), 0.0);
+      for (int a = 0; a < nr; ++a)
+        for (int b = 0; b < nr; ++b)
+          for (int m = 0; m < nf; ++m)
+            c0[(std::size_t(a) * nf + m) * ng + std::size_t(b) * nf + m] =
+                f_of(db[g], db[g].roll[a]) * f_of(db[g], db[g].roll[b]) / dz;
+      path[g] = write_db("roll_reading" + std::to_string(order) + "_g" + std::to_string(g + 1) + ".gcdb", db[g]);
+    }
+    gm_model_params q = p;
+    q.stiffness_level = GM_STIFFNESS_FE;
+    q.compliance[0] = path[0].c_str();
+    q.compliance[1] = path[1].c_str();
+    Instance I(q);
+    const gm_model& m = *I.m;
+    std::vector<gm::ContactSliceT<gm::Dual>> slices(static_cast<std::size_t>(m.slice_capacity));
+    gm::KinematicsT<gm::Dual> k{};
+    k.phi[0] = gm::Dual(0.0);
+    k.phi[1] = gm::Dual(3e-6 / I.rb(1));
+    std::string msg;
+    ASSERT_GT(gm::detect_contacts(m.layout, k, slices.data(), m.slice_capacity, msg), 0) << msg;
+    gm::ContactSliceT<gm::Dual> s = slices[0];
+    const gm::Dual uz[2] = {gm::Dual(0.0), gm::Dual(0.0)};
+    double worst = 0, worst_slope = 0, apart = 0;
+    for (int t = 0; t <= 160; ++t) {  // nodes, element middles and in between, both grids
+      double rho[2], expected = 0, slope = 0;
+      for (int g = 0; g < 2; ++g) {
+        const double lo = db[g].roll.front(), hi = db[g].roll.back();
+        rho[g] = lo + (hi - lo) * (g == 0 ? t : 160 - t) / 160.0;
+        const double dz = p.gear[g].face_width / int(db[g].face.size());
+        double f = f_of(db[g], rho[g]);
+        if (order == 1) {  // the linear weights, computed here
+          const auto& R = db[g].roll;
+          const int a = std::min(int(std::upper_bound(R.begin(), R.end(), rho[g]) - R.begin()) - 1, int(R.size()) - 2);
+          const double w = (R[a + 1] - rho[g]) / (R[a + 1] - R[a]);
+          f = w * f_of(db[g], R[a]) + (1 - w) * f_of(db[g], R[a + 1]);
+        }
+        expected += f * f / dz;
+        if (g == 0 && order == 2) slope = 2 * f * df_of(db[g], rho[g]) / dz;
+      }
+      s.roll[0] = gm::Dual(rho[0], 1.0);
+      s.roll[1] = gm::Dual(rho[1], 0.0);
+      const gm::Dual c = gm::fe_pair_compliance(gm::fe_view(m), s, s, uz);
+      worst = std::max(worst, std::fabs(c.v - expected) / expected);
+      if (order == 2 && t > 0 && t < 160)  // inside the grid (held at its ends: slope 0)
+        worst_slope = std::max(worst_slope, std::fabs(c.d - slope) / std::fabs(slope));
+      if (order == 2) {  // the linear reading would differ from the closed form here
+        double lin = 0;
+        for (int g = 0; g < 2; ++g) {
+          const auto& R = db[g].roll;
+          const int a = std::min(int(std::upper_bound(R.begin(), R.end(), rho[g]) - R.begin()) - 1, int(R.size()) - 2);
+          const double w = (R[a + 1] - rho[g]) / (R[a + 1] - R[a]);
+          const double f = w * f_of(db[g], R[a]) + (1 - w) * f_of(db[g], R[a + 1]);
+          lin += f * f / (p.gear[g].face_width / int(db[g].face.size()));
+        }
+        apart = std::max(apart, std::fabs(lin - expected) / expected);
+      }
+    }
+    std::printf("mesh_order %d: self-compliance within %.2e of the closed form, slope within %.2e (the linear "
+                "reading %.2e off)\n",
+                order, worst, worst_slope, apart);
+    if (order == 2) EXPECT_GT(apart, 1e-4) << "the test cannot tell the readings apart";
+    EXPECT_LT(worst, 1e-13) << "mesh_order " << order;
+    if (order == 2) EXPECT_LT(worst_slope, 1e-9);
   }
 }
 

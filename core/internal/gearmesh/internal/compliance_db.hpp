@@ -28,7 +28,10 @@
 //   105     poisson_ratio       f64    nu, -
 //   113     bore_radius         f64    radius of the clamped bore (the displacement reference), m
 //   121     mesh_size           f64    target element edge length used on the flanks, m
-//   129     mesh_order          u32    element order used, 1 or 2
+//   129     mesh_order          u32    element order used, 1 or 2 (2 with an odd n_roll: the
+//                                      roll grid is the elements' corner and mid nodes, corners
+//                                      at even indices, and level 5 reads it with the quadratic
+//                                      shape functions; else linearly)
 //   133     mesh_face_layers    u32    element layers across the face width, >= 1
 //   137     depth               f64    h, depth below the flank at which displacements are
 //                                      taken (docs/physics.md §5), m, > 0
