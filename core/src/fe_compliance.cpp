@@ -558,6 +558,23 @@ GM_FE_STAGE void FeAssembly::classify_groups(int ng) {
     }
 }
 
+namespace {
+
+// col[k] (= or +=) sum_t w[t] v[t][base + k], k < len, over NT terms (0: nt of them), the terms
+// summed in order.
+template <int NT>
+inline void weighted_run(const double* w, const double* const* v, int base, int len, bool assign, double* col,
+                         int nt = NT) {
+  const int n = NT > 0 ? NT : nt;
+  for (int k = 0; k < len; ++k) {
+    double e = 0;
+    for (int t = 0; t < n; ++t) e += w[t] * v[t][base + k];
+    col[k] = assign ? e : col[k] + e;
+  }
+}
+
+}  // namespace
+
 // Gear g's part of the entries of a group pair (columns a0..a1, rows b0..b1, upper triangle)
 // for a uniform group pair from the cache: the same terms for every entry, in the
 // general order of add_cached.
@@ -594,11 +611,12 @@ GM_FE_STAGE void FeAssembly::add_uniform(const FeView& m, int g, Block& B, const
       const int base = G.spots[std::size_t(a)].strip * S + s0;
       const int len = std::min(b1, a + 1) - b0;
       double* col = &C(b0, a);
-      for (int k = 0; k < len; ++k) {
-        double e = 0;
-        for (int t = 0; t < nt; ++t) e += w[t] * v[t][base + k];
-        col[k] = assign ? e : col[k] + e;
-      }
+      if (nt == 9)
+        weighted_run<9>(w, v, base, len, assign, col);
+      else if (nt == 4)
+        weighted_run<4>(w, v, base, len, assign, col);
+      else
+        weighted_run<0>(w, v, base, len, assign, col, nt);
     }
     return;
   }
