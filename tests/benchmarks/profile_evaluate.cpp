@@ -7,7 +7,7 @@
 // then optionally, in any order: "helical" (the 15 deg variant of
 // tests/benchmarks/bench_evaluate.cpp), "fe" (level 5 with bench_evaluate's synthetic databases,
 // written to the temporary directory), "baseline" (bench_evaluate's baseline: the default
-// parameters; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K) and a
+// parameters at level 0 and one slice; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K) and a
 // slice count (default 10).
 #include <cmath>
 #include <cstdio>
@@ -48,8 +48,10 @@ int main(int argc, char** argv) {
   p.coupled_teeth = coupled;
   p.quasi_static = quasi;
   p.solver_face_shapes = shapes;
-  if (baseline) {
+  if (baseline) {  // bench_evaluate's time_case: the level-0, one-slice pair
     gm_default_params(&p);
+    p.stiffness_level = GM_STIFFNESS_USER_CONSTANT;
+    p.slices = 1;
     p.quasi_static = quasi;
   }
   if (helical) {
