@@ -440,6 +440,10 @@ def run_fmi4j(jars: pathlib.Path, cases: list[dict], folder: pathlib.Path) -> di
                            str(folder / "out.txt")], capture_output=True, text=True, timeout=600)
     if done.returncode:
         fail_with("FMI4j (tests/masters/Fmi4jDriver.java)", done)
+    # FMI4j's native bridge prints the FMUs' log messages to stdout, one line each; the ones that
+    # are not OK go with a case's error (the driver's own message says only which call failed)
+    log = [line for line in done.stdout.splitlines() if line.startswith("[FMI native bridge]")
+           and any(word in line for word in ("Warning", "Discard", "Error", "Fatal"))]
     results, outputs, current = {}, {c["name"]: c["outputs"] for c in cases}, None
     for line in (folder / "out.txt").read_text().splitlines():
         word, _, rest = line.partition(" ")
@@ -452,7 +456,7 @@ def run_fmi4j(jars: pathlib.Path, cases: list[dict], folder: pathlib.Path) -> di
             for n, v in zip(outputs[name], values[1:]):
                 current[n].append(v)
         elif word == "error":
-            current["error"] = rest
+            current["error"] = rest + (f"; the FMUs' last log messages: {' | '.join(log[-5:])}" if log else "")
     return results
 
 
@@ -461,6 +465,18 @@ def test_fmi4j(jars, cases, reference, tmp_path):
     results = run_fmi4j(jars, cases, tmp_path)
     TIMES["FMI4j"] = time.perf_counter() - start
     compare("FMI4j", results, reference)
+
+
+def test_fmi4j_error_carries_the_fmus_message(jars, fmus, tmp_path):
+    """A case the FMU refuses (level 5 without its databases: an Error at
+    fmi2ExitInitializationMode) reports the FMU's own message, which names the parameter, not only
+    the call that failed."""
+    case = make_case("generic", "plain", STEPS[0], fmus)
+    case["name"] = "refused"
+    case["parameters"] = {"model.stiffness": ("Integer", 5)}
+    result = run_fmi4j(jars, [case], tmp_path)["refused"]
+    assert "exitInitializationMode" in result.get("error", ""), result.keys()
+    assert "gear1.compliance" in result["error"], result["error"]
 
 
 # ---------------------------------------------------------------------------------------------
