@@ -36,6 +36,7 @@ struct SmoothDbShape {
   double l_roll = 3e-3, l_face = 3e-3;   // m
   double kappa = 0.15;                   // neighbour tooth share
   double depth = 1e-3;                   // h, m
+  std::uint32_t mesh_order = 2;          // 2: read with the elements' shape functions; 1: linearly
 };
 
 // Gear `gear` (0 or 1) of p; msg and a default database on failure.
@@ -49,6 +50,7 @@ inline gm::ComplianceDb smooth_db(const gm_model_params& p, int gear, const Smoo
   db.bore_radius = 0.2 * gi.d_f;
   db.mesh_size = 1e-3;
   db.depth = s.depth;
+  db.mesh_order = s.mesh_order;
   db.note = "synthetic smooth database (tests/core/fe_synthetic.hpp)";
   db.n_coupled = std::uint32_t(s.n_coupled);
   // roll: the active profile (start of active profile to tip) and 10 % beyond each end

@@ -78,7 +78,8 @@ gm::ComplianceDb synthetic_db(const gm_model_params& p, int gear, const Coupling
       for (int m = 0; m < nf; ++m)
         for (int n = 0; n < nf; ++n) {
           const double v = std::sqrt(gm::tooth_compliance(sec, db.roll[a]) *
-                                     gm::tooth_compliance(sec, db.roll[b])) * cb * cb / dz;
+                                     gm::tooth_compliance(sec, db.roll[b])) *
+                           cb * cb / dz;
           c0[(a * nf + m) * ng + b * nf + n] = m == n ? v : coupling.slice * v;
         }
   for (int d = -int(db.n_coupled); d <= int(db.n_coupled); ++d) {
@@ -138,7 +139,8 @@ TEST(FeLevel, UncoupledSyntheticDatabaseReproducesLevel4) {
       EXPECT_NEAR(r5[s].stiffness, r4[s].stiffness, 0.05 * r4[s].stiffness) << s;
     }
     std::printf("slices %d: level 4 loaded TE up to %.4g um, level 5 - level 4 up to %.3g um "
-                "(%.3g %%)\n", slices, te_max * 1e6, worst * 1e6, 100 * worst / te_max);
+                "(%.3g %%)\n",
+                slices, te_max * 1e6, worst * 1e6, 100 * worst / te_max);
     EXPECT_GT(te_max, 1e-6);
     // measured 1.12 % of the peak TE (0.166 um of 14.85 um at 300 N m), at the tooth's entry and
     // exit: the database's one Hertz depth h against level 4's, which follows the profile (0.43 %
@@ -308,7 +310,8 @@ TEST(FeLevel, CoupledSyntheticDatabaseReproducesCoupledLevel4) {
       EXPECT_NEAR(r5[s].stiffness, r4[s].stiffness, 0.05 * r4[s].stiffness) << s;
     }
     std::printf("torque %g: coupled level 4 TE up to %.4g um, the coupling moves it up to %.3g um, "
-                "level 5 - level 4 up to %.3g um (%.3g %%)\n", torque, te_max * 1e6, effect * 1e6,
+                "level 5 - level 4 up to %.3g um (%.3g %%)\n",
+                torque, te_max * 1e6, effect * 1e6,
                 worst * 1e6, 100 * worst / te_max);
     EXPECT_GT(effect, 1e-6);  // the coupling matters here (2.4 um measured)
     // and both levels read it alike: what is left (0.15 um measured) is the uncoupled test's
@@ -459,122 +462,128 @@ TEST(FeLevel, QuasiStaticTeExtrapolationReachesTheSameAnswer) {
 }
 
 TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
-  for (double beta : {0.0, 15.0}) {
-    gm_model_params base = fe_paper(6);
-    base.pair.helix_angle = beta * kPi / 180;
-    if (beta != 0) {  // as bench_evaluate: unshifted, a little backlash
-      base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
-      base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
-    }
-    const SmoothFe fe(base, "sweep" + std::to_string(int(beta)));
-    Instance I(fe.p);
-    const gm_model& m = *I.m;
-    const int cap = m.slice_capacity;
-    std::vector<gm::ContactSlice> slices(std::size_t(cap), gm::ContactSlice{});
-    std::vector<int> index(static_cast<std::size_t>(cap), 0);
-    Eigen::MatrixXd Cc(cap, cap), Cf(cap, cap), Cr(cap, cap);
-    gm::FeAssembly cached;
-    int events = 0, cached_calls = 0, direct_calls = 0, last_pairs = -1, checked = 0, flank_b = 0;
-    double worst = 0;
-    const int steps = 150;
-    for (int s = 0; s < steps; ++s) {
-      gm_kinematics k{};
-      k.phi[0] = 2.5 * 2 * kPi / 57 * s / steps;  // two and a half pitches
-      k.phi[1] = (3e-6 - I.rb(0) * k.phi[0]) / I.rb(1);
-      if (s >= 70 && s < 75) k.u[1][2] = 20e-6 * (s - 69);  // axial motion of gear 2
-      std::string msg;
-      const int n = gm::detect_contacts(m.layout, k, slices.data(), cap, msg);
-      ASSERT_GE(n, 0) << msg;
-      int na = 0, pairs = 0, last = -1;
-      for (int i = 0; i < n; ++i) {
-        // near candidates, flank B too (its face is read reversed through a helical mirror)
-        if (slices[std::size_t(i)].approach <= -100e-6) continue;
-        flank_b += slices[std::size_t(i)].flank < 0;
-        index[std::size_t(na++)] = i;
-        if (slices[std::size_t(i)].pair != last) ++pairs, last = slices[std::size_t(i)].pair;
+  for (std::uint32_t order : {2u, 1u})  // the roll read quadratically and linearly
+    for (double beta : {0.0, 15.0}) {
+      gm_model_params base = fe_paper(6);
+      base.pair.helix_angle = beta * kPi / 180;
+      if (beta != 0) {  // as bench_evaluate: unshifted, a little backlash
+        base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
+        base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
       }
-      if (na == 0) continue;
-      if (pairs != last_pairs) ++events;
-      last_pairs = pairs;
-      const double uz[2] = {k.u[0][2], k.u[1][2]};
-      cached.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, Cc);
-      (cached.cached(0) && cached.cached(1) ? cached_calls : direct_calls)++;
-      gm::FeAssembly fresh;
-      fresh.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, Cf);
-      gm::fe_assemble_reference(gm::fe_view(m), slices.data(), index.data(), na, uz, Cr);
-      const double scale = Cr.topLeftCorner(na, na).cwiseAbs().maxCoeff();
-      ASSERT_GT(scale, 0);
-      for (int a = 0; a < na; ++a)
-        for (int b = 0; b < na; ++b) {
-          worst = std::max(worst, std::fabs(Cc(a, b) - Cr(a, b)) / scale);
-          ASSERT_EQ(Cc(a, b), Cf(a, b)) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
-          ASSERT_EQ(Cc(a, b), Cc(b, a));
+      gm_test::SmoothDbShape shape;
+      shape.mesh_order = order;
+      const SmoothFe fe(base, "sweep" + std::to_string(int(beta)) + "_" + std::to_string(order), shape);
+      Instance I(fe.p);
+      const gm_model& m = *I.m;
+      const int cap = m.slice_capacity;
+      std::vector<gm::ContactSlice> slices(std::size_t(cap), gm::ContactSlice{});
+      std::vector<int> index(static_cast<std::size_t>(cap), 0);
+      Eigen::MatrixXd Cc(cap, cap), Cf(cap, cap), Cr(cap, cap);
+      gm::FeAssembly cached;
+      int events = 0, cached_calls = 0, direct_calls = 0, last_pairs = -1, checked = 0, flank_b = 0;
+      double worst = 0;
+      const int steps = 150;
+      for (int s = 0; s < steps; ++s) {
+        gm_kinematics k{};
+        k.phi[0] = 2.5 * 2 * kPi / 57 * s / steps;  // two and a half pitches
+        k.phi[1] = (3e-6 - I.rb(0) * k.phi[0]) / I.rb(1);
+        if (s >= 70 && s < 75) k.u[1][2] = 20e-6 * (s - 69);  // axial motion of gear 2
+        std::string msg;
+        const int n = gm::detect_contacts(m.layout, k, slices.data(), cap, msg);
+        ASSERT_GE(n, 0) << msg;
+        int na = 0, pairs = 0, last = -1;
+        for (int i = 0; i < n; ++i) {
+        // near candidates, flank B too (its face is read reversed through a helical mirror)
+          if (slices[std::size_t(i)].approach <= -100e-6) continue;
+          flank_b += slices[std::size_t(i)].flank < 0;
+          index[std::size_t(na++)] = i;
+          if (slices[std::size_t(i)].pair != last) ++pairs, last = slices[std::size_t(i)].pair;
         }
-      ++checked;
+        if (na == 0) continue;
+        if (pairs != last_pairs) ++events;
+        last_pairs = pairs;
+        const double uz[2] = {k.u[0][2], k.u[1][2]};
+        cached.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, Cc);
+        (cached.cached(0) && cached.cached(1) ? cached_calls : direct_calls)++;
+        gm::FeAssembly fresh;
+        fresh.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, Cf);
+        gm::fe_assemble_reference(gm::fe_view(m), slices.data(), index.data(), na, uz, Cr);
+        const double scale = Cr.topLeftCorner(na, na).cwiseAbs().maxCoeff();
+        ASSERT_GT(scale, 0);
+        for (int a = 0; a < na; ++a)
+          for (int b = 0; b < na; ++b) {
+            worst = std::max(worst, std::fabs(Cc(a, b) - Cr(a, b)) / scale);
+            ASSERT_EQ(Cc(a, b), Cf(a, b)) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
+            ASSERT_EQ(Cc(a, b), Cc(b, a));
+          }
+        ++checked;
+      }
+      std::printf("mesh_order %u, beta %g: %d poses (%d flank B slices), %d set changes, %d cached / %d direct "
+                  "calls, cached - reference up to %.3g of the largest entry, %zu values cached\n",
+                  order, beta, checked, flank_b, events, cached_calls, direct_calls, worst, cached.cached_values());
+      EXPECT_LT(worst, 1e-14);
+      EXPECT_GE(events, 4);
+      EXPECT_GE(direct_calls, 6);  // the first call and each axial move
+      EXPECT_GE(cached_calls, checked - 10);
     }
-    std::printf("beta %g: %d poses (%d flank B slices), %d set changes, %d cached / %d direct calls, cached - "
-                "reference up to %.3g of the largest entry, %zu values cached\n",
-                beta, checked, flank_b, events, cached_calls, direct_calls, worst, cached.cached_values());
-    EXPECT_LT(worst, 1e-14);
-    EXPECT_GE(events, 4);
-    EXPECT_GE(direct_calls, 6);  // the first call and each axial move
-    EXPECT_GE(cached_calls, checked - 10);
-  }
 }
 
 // The derivative's assembly (FeDualAssembly) against fe_pair_compliance<Dual> entry by entry
 // (lower triangle, mirrored), values and derivatives bit for bit, over a sweep of two and a half pitches with tooth changes,
 // flank B and axial motion, spur and helical, along the spin and along the axial displacement.
 TEST(FeLevel, DualAssemblyMatchesThePairwiseReferenceBitForBit) {
-  for (double beta : {0.0, 15.0}) {
-    gm_model_params base = fe_paper(6);
-    base.pair.helix_angle = beta * kPi / 180;
-    if (beta != 0) {
-      base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
-      base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
-    }
-    const SmoothFe fe(base, "dual_sweep" + std::to_string(int(beta)));
-    Instance I(fe.p);
-    const gm_model& m = *I.m;
-    const int cap = m.slice_capacity;
-    std::vector<gm::ContactSliceT<gm::Dual>> slices(static_cast<std::size_t>(cap));
-    std::vector<int> index(static_cast<std::size_t>(cap), 0);
-    Eigen::MatrixXd C(cap, cap), dC(cap, cap);
-    gm::FeDualAssembly assembly;
-    assembly.reserve(gm::fe_view(m), cap);
-    int checked = 0, moving = 0;
-    for (int s = 0; s < 60; ++s) {
-      gm::KinematicsT<gm::Dual> k{};
-      const double phi1 = 2.5 * 2 * kPi / 57 * s / 60;
-      k.phi[0] = gm::Dual(phi1, s % 2 == 0 ? 1.0 : 0.0);
-      k.phi[1] = gm::Dual((3e-6 - I.rb(0) * phi1) / I.rb(1));
-      k.u[1][2] = gm::Dual(s >= 30 && s < 35 ? 20e-6 * (s - 29) : 0.0, s % 2 == 0 ? 0.0 : 1.0);
-      std::string msg;
-      const int n = gm::detect_contacts(m.layout, k, slices.data(), cap, msg);
-      ASSERT_GE(n, 0) << msg;
-      int na = 0;
-      for (int i = 0; i < n; ++i)
-        if (slices[std::size_t(i)].approach > -100e-6) index[std::size_t(na++)] = i;
-      if (na == 0) continue;
-      const gm::Dual uz[2] = {k.u[0][2], k.u[1][2]};
-      assembly.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, C, dC);
+  for (std::uint32_t order : {2u, 1u})  // the roll read quadratically and linearly
+    for (double beta : {0.0, 15.0}) {
+      gm_model_params base = fe_paper(6);
+      base.pair.helix_angle = beta * kPi / 180;
+      if (beta != 0) {
+        base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
+        base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
+      }
+      gm_test::SmoothDbShape shape;
+      shape.mesh_order = order;
+      const SmoothFe fe(base, "dual_sweep" + std::to_string(int(beta)) + "_" + std::to_string(order), shape);
+      Instance I(fe.p);
+      const gm_model& m = *I.m;
+      const int cap = m.slice_capacity;
+      std::vector<gm::ContactSliceT<gm::Dual>> slices(static_cast<std::size_t>(cap));
+      std::vector<int> index(static_cast<std::size_t>(cap), 0);
+      Eigen::MatrixXd C(cap, cap), dC(cap, cap);
+      gm::FeDualAssembly assembly;
+      assembly.reserve(gm::fe_view(m), cap);
+      int checked = 0, moving = 0;
+      for (int s = 0; s < 60; ++s) {
+        gm::KinematicsT<gm::Dual> k{};
+        const double phi1 = 2.5 * 2 * kPi / 57 * s / 60;
+        k.phi[0] = gm::Dual(phi1, s % 2 == 0 ? 1.0 : 0.0);
+        k.phi[1] = gm::Dual((3e-6 - I.rb(0) * phi1) / I.rb(1));
+        k.u[1][2] = gm::Dual(s >= 30 && s < 35 ? 20e-6 * (s - 29) : 0.0, s % 2 == 0 ? 0.0 : 1.0);
+        std::string msg;
+        const int n = gm::detect_contacts(m.layout, k, slices.data(), cap, msg);
+        ASSERT_GE(n, 0) << msg;
+        int na = 0;
+        for (int i = 0; i < n; ++i)
+          if (slices[std::size_t(i)].approach > -100e-6) index[std::size_t(na++)] = i;
+        if (na == 0) continue;
+        const gm::Dual uz[2] = {k.u[0][2], k.u[1][2]};
+        assembly.assemble(gm::fe_view(m), slices.data(), index.data(), na, uz, C, dC);
       // the lower triangle from the reference (receiver a, load b), mirrored, as the derivative
       // assembled it before
-      for (int a = 0; a < na; ++a)
-        for (int b = 0; b <= a; ++b) {
-          const gm::Dual r = gm::fe_pair_compliance(gm::fe_view(m), slices[std::size_t(index[std::size_t(a)])],
-                                                    slices[std::size_t(index[std::size_t(b)])], uz);
-          ASSERT_EQ(C(a, b), r.v) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
-          ASSERT_EQ(dC(a, b), r.d) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
-          ASSERT_EQ(C(b, a), r.v);
-          ASSERT_EQ(dC(b, a), r.d);
-          moving += r.d != 0;
-        }
-      ++checked;
+        for (int a = 0; a < na; ++a)
+          for (int b = 0; b <= a; ++b) {
+            const gm::Dual r = gm::fe_pair_compliance(gm::fe_view(m), slices[std::size_t(index[std::size_t(a)])],
+                                                      slices[std::size_t(index[std::size_t(b)])], uz);
+            ASSERT_EQ(C(a, b), r.v) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
+            ASSERT_EQ(dC(a, b), r.d) << "beta " << beta << " pose " << s << " (" << a << ", " << b << ")";
+            ASSERT_EQ(C(b, a), r.v);
+            ASSERT_EQ(dC(b, a), r.d);
+            moving += r.d != 0;
+          }
+        ++checked;
+      }
+      EXPECT_GE(checked, 50);
+      EXPECT_GT(moving, 0);  // the derivatives are not all zero
     }
-    EXPECT_GE(checked, 50);
-    EXPECT_GT(moving, 0);  // the derivatives are not all zero
-  }
 }
 
 // Level 5 on p's own synthetic databases, gear `gear`'s replaced by db (written as `name`).
@@ -626,7 +635,8 @@ TEST(FeLevel, DatabaseValuesBeyondTheirPhysicalRangeAreRefused) {
   soft.blocks[1][5] = 1e212;
   std::string msg = refusal(with_database(p, f, 1, soft, "values_soft.gcdb", path));
   EXPECT_NE(msg.find("gear2.compliance: block 1 entry 5 = 1e+212 m/N; allowed |value| <= 0.001 m/N"),
-            std::string::npos) << msg;
+            std::string::npos)
+      << msg;
   soft.blocks[1][5] = -1e-3;  // the range's end, and negative
   gm_model* m = nullptr;
   char text[512] = "";
