@@ -388,6 +388,20 @@ struct SmoothFe {
   }
 };
 
+// The sweeps' pair on smooth databases read with mesh_order `order`: fe_paper(6), spur or, at
+// beta (deg) != 0, helical as bench_evaluate's (unshifted, a little backlash).
+SmoothFe sweep_fe(double beta, std::uint32_t order, const std::string& tag) {
+  gm_model_params base = fe_paper(6);
+  base.pair.helix_angle = beta * kPi / 180;
+  if (beta != 0) {
+    base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
+    base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
+  }
+  gm_test::SmoothDbShape shape;
+  shape.mesh_order = order;
+  return SmoothFe(base, tag + std::to_string(int(beta)) + "_" + std::to_string(order), shape);
+}
+
 // The cached dynamic assembly against the straightforward reference over a rotation sweep that
 // crosses mesh events (pairs entering and leaving), spur and helical (slices at different roll
 // distances), with an axial motion in the middle (the face strips change: that call computes
@@ -464,15 +478,7 @@ TEST(FeLevel, QuasiStaticTeExtrapolationReachesTheSameAnswer) {
 TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
   for (std::uint32_t order : {2u, 1u})  // the roll read quadratically and linearly
     for (double beta : {0.0, 15.0}) {
-      gm_model_params base = fe_paper(6);
-      base.pair.helix_angle = beta * kPi / 180;
-      if (beta != 0) {  // as bench_evaluate: unshifted, a little backlash
-        base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
-        base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
-      }
-      gm_test::SmoothDbShape shape;
-      shape.mesh_order = order;
-      const SmoothFe fe(base, "sweep" + std::to_string(int(beta)) + "_" + std::to_string(order), shape);
+      const SmoothFe fe = sweep_fe(beta, order, "sweep");
       Instance I(fe.p);
       const gm_model& m = *I.m;
       const int cap = m.slice_capacity;
@@ -534,15 +540,7 @@ TEST(FeLevel, CachedAssemblyMatchesTheReferenceOverARotationSweep) {
 TEST(FeLevel, DualAssemblyMatchesThePairwiseReferenceBitForBit) {
   for (std::uint32_t order : {2u, 1u})  // the roll read quadratically and linearly
     for (double beta : {0.0, 15.0}) {
-      gm_model_params base = fe_paper(6);
-      base.pair.helix_angle = beta * kPi / 180;
-      if (beta != 0) {
-        base.gear[0].profile_shift = base.gear[1].profile_shift = 0;
-        base.pair.center_distance = 0.0026 / std::cos(base.pair.helix_angle) * 57 + 50e-6;
-      }
-      gm_test::SmoothDbShape shape;
-      shape.mesh_order = order;
-      const SmoothFe fe(base, "dual_sweep" + std::to_string(int(beta)) + "_" + std::to_string(order), shape);
+      const SmoothFe fe = sweep_fe(beta, order, "dual_sweep");
       Instance I(fe.p);
       const gm_model& m = *I.m;
       const int cap = m.slice_capacity;
