@@ -61,17 +61,17 @@ def _hold_gear1_torque(fmu: GearMeshFMU, timer: StepTimer, inputs: dict, torque:
     load and the last reading. The correction steps are left out of the timing (each pose is
     timed once, at its first step, as in plain mode)."""
     timed = len(timer.seconds)
-    for _ in range(MAX_CORRECTIONS):
+    for corrections in range(MAX_CORRECTIONS + 1):
         moment = abs(row["gear1.mz"])
         if moment == 0 or abs(moment - torque) <= TORQUE_TOLERANCE * torque:
             break
+        if corrections == MAX_CORRECTIONS:
+            raise RuntimeError(f"gear 1's torque {moment:.9g} N m not held at "
+                               f"{torque:g} N m within {TORQUE_TOLERANCE:g} after {MAX_CORRECTIONS} "
+                               "corrections of gear 2's load")
         load *= torque / moment
         fmu.step({**inputs, "mesh.load_torque": load})
         row = fmu.get(_READ)
-    else:
-        raise RuntimeError(f"gear 1's torque {abs(row['gear1.mz']):.9g} N m not held at "
-                           f"{torque:g} N m within {TORQUE_TOLERANCE:g} after {MAX_CORRECTIONS} "
-                           "corrections of gear 2's load")
     del timer.seconds[timed:]
     return load, row
 
