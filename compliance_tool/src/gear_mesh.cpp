@@ -164,6 +164,7 @@ struct BodyPlan {
   int web_stage = -1;              // the stage that holds the web (-1: every stage)
   int fine_teeth = 0, elements_on_tip = 0;
   double h_t = 0, h_c = 0, h_b = 0, fine = 0, sector = 0, growth = 0;
+  double h_h = 0, hole_in = 0, hole_out = 0;  // hole band: size (0 = none) and radii
   double tip_land = 0, root_land = 0;  // arc lengths of the tip and root lands, m
   double rot0 = 0;                 // turn of the meshed section (at z = -b/2)
   int stages() const { return static_cast<int>(zs.size()) - 1; }
@@ -196,8 +197,8 @@ gm_status check_options(int gear, const GearBodyOptions& o, std::string& msg) {
     return fail_with(msg, "element counts must be >= 1");
   if (!(o.size_growth > 0) || !std::isfinite(o.size_growth))
     return fail_with(msg, fmt("size_growth %g must be > 0", o.size_growth));
-  if (o.body_size < 0 || o.fine_depth < 0 || o.mesh_tolerance < 0)
-    return fail_with(msg, "body_size, fine_depth and mesh_tolerance must be >= 0 (0 = default)");
+  if (o.body_size < 0 || o.hole_band_size < 0 || o.fine_depth < 0 || o.mesh_tolerance < 0)
+    return fail_with(msg, "body_size, hole_band_size, fine_depth and mesh_tolerance must be >= 0 (0 = default)");
   return GM_OK;
 }
 
@@ -263,6 +264,11 @@ gm_status plan_sizes(const GearBodyOptions& o, const ToothOutline& to, double m_
   pl.h_c = pl.all_fine ? pl.h_t : polyline_length(to.involute) / o.far_elements_along_profile;
   pl.sector = pl.all_fine ? kPi : (o.fine_teeth + 0.5) * 2.0 * kPi / z;
   pl.h_b = o.body_size > 0 ? o.body_size : 4.0 * m_n;
+  if (o.holes > 0) {
+    pl.h_h = std::min(pl.h_b, o.hole_band_size > 0 ? o.hole_band_size : 0.2 * o.hole_radius);
+    pl.hole_in = o.hole_circle_radius - o.hole_radius;
+    pl.hole_out = o.hole_circle_radius + o.hole_radius;
+  }
   pl.fine = o.fine_depth > 0 ? o.fine_depth : 1.0 * m_n;
   pl.growth = o.size_growth;
   pl.tip_land = 2.0 * (pl.g.ring ? kPi / z - to.tip_half_angle : to.tip_half_angle) * to.tip_radius;
@@ -299,6 +305,7 @@ void set_size_field(const BodyPlan& pl) {
   const bool ring = pl.g.ring;
   const double r_f = pl.r_f, fine = pl.fine, sector = pl.sector, rot_sec = pl.rot0;
   const double h_t = pl.h_t, h_c = pl.h_c, h_b = pl.h_b, growth = pl.growth;
+  const double h_h = pl.h_h, hole_in = pl.hole_in, hole_out = pl.hole_out;
   gmsh::model::mesh::setSizeCallback(
       [=](int, int, double x, double y, double, double lc) {
         const double R = std::hypot(x, y);
@@ -316,7 +323,9 @@ void set_size_field(const BodyPlan& pl) {
         auto ramp = [&](double h0, double dist) {
           return h_b >= h0 ? std::min(h_b, h0 + growth * dist) : std::max(h_b, h0 - growth * dist);
         };
-        return std::min(lc, std::min(ramp(h_t, d), ramp(h_c, below)));
+        double h = std::min(lc, std::min(ramp(h_t, d), ramp(h_c, below)));
+        if (h_h > 0) h = std::min(h, h_h + growth * std::max({0.0, hole_in - R, R - hole_out}));
+        return h;
       });
 }
 
@@ -420,7 +429,7 @@ void add_regions(const BodyPlan& pl, const GearBodyOptions& o, BodyModel& m) {
   for (int h = 0; h < o.holes; ++h) {
     const double ah = pl.rot0 + 2.0 * kPi * h / o.holes;
     holes.push_back(B.circle_at({o.hole_circle_radius * std::cos(ah), o.hole_circle_radius * std::sin(ah)},
-                                o.hole_radius, std::min(h_b, 2.0 * kPi * o.hole_radius / 12.0)));
+                                o.hole_radius, std::min(pl.h_h, 2.0 * kPi * o.hole_radius / 12.0)));
   }
   if (pl.g.ring) {
     m.regions.push_back({{m.clamp_c, m.loop}, 0});

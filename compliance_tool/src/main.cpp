@@ -60,6 +60,7 @@ void usage(FILE* f) {
                "  --width-elements N        layers across the face width, 1..200 (default 4)\n"
                "  --fillet-elements N       along each fillet, 1..200 (default 3)\n"
                "  --body-size-mm S          target element size in the body, > 0 (default 4 m_n)\n"
+               "  --hole-band-size-mm S     element size around lightening holes, > 0 (default hole diameter / 10)\n"
                "  --depth-mm H              depth of the responses below the flank, > 0 (default 0.5)\n"
                "  --coupled N               neighbour teeth each side, 0..20 (default model.coupled_teeth, else 1)\n"
                "  --every-tooth             load every distinct tooth even on a cyclic body (cyclic = 0)\n"
@@ -172,7 +173,7 @@ struct Cli {
   int gear = 0, coupled = -1, threads = 0;
   // Body flags in mm (diameters); < 0 = not given.
   double bore_d = -1, rim_d = -1, hub_d = -1, web_t = -1, web_o = 0, hole_d = -1, hole_circle_d = -1;
-  double ring_d = -1, body_size = -1;
+  double ring_d = -1, body_size = -1, hole_band_size = -1;
   int holes = 0;
   bool web_o_given = false;
   bool check_only = false;  // --check: the checks alone, no build
@@ -271,6 +272,8 @@ const Flag kFlags[] = {
     {"--ring-outer-diameter-mm", true, [](Cli& c, S f, S v) { return diameter_flag(c.ring_d, f, v); }},
     {"--body-size-mm", true,
      [](Cli& c, S f, S v) { return real_flag(c.body_size, f, v, 0, false, kBig, "a size in mm > 0"); }},
+    {"--hole-band-size-mm", true,
+     [](Cli& c, S f, S v) { return real_flag(c.hole_band_size, f, v, 0, false, kBig, "a size in mm > 0"); }},
     {"--load-fraction", true,
      [](Cli& c, S f, S v) {
        return real_flag(c.o.load_fraction, f, v, 0, false, 1, "a fraction 0 < F <= 1");
@@ -412,6 +415,7 @@ void apply_body_options(Cli& c) {
     o.mesh.hole_circle_radius = 0.5e-3 * c.hole_circle_d;
   }
   if (c.body_size > 0) o.mesh.body_size = 1e-3 * c.body_size;
+  if (c.hole_band_size > 0) o.mesh.hole_band_size = 1e-3 * c.hole_band_size;
   if (c.threads > 0) {
     o.mesh.threads = c.threads;
     set_blas_threads(c.threads);

@@ -130,6 +130,7 @@ FE_SCHEMA: dict[str, Key] = {
     "width_elements": Key("--width-elements", 1, 1, 200, kind=int),
     "fillet_elements": Key("--fillet-elements", 1, 1, 200, kind=int),
     "body_size_mm": Key("--body-size-mm", 1.0, 0.01, 1000, unit="mm"),
+    "hole_band_size_mm": Key("--hole-band-size-mm", 1.0, 0.01, 1000, unit="mm"),
     "load_fraction": Key("--load-fraction", 1.0, 0.01, 1.0),
 }
 GEOMETRY_BODY_KEYS = [k for k in BODY_SCHEMA if k not in ("mesh_file", "compliance_file")]

@@ -254,6 +254,68 @@ TEST(GearMesh, WebHubAndHoles) {
   for (int id : m.clamped_nodes) EXPECT_NEAR(std::hypot(m.nodes[id].x(), m.nodes[id].y()), 0.004, 1e-9);
 }
 
+// The longest in-plane corner edge of the tetrahedra whose centroid lies at a radius in [r0, r1].
+double longest_edge_between(const gm::mesh::GearBodyMesh& m, double r0, double r1) {
+  double worst = 0;
+  for (const auto& t : m.tets) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (int a = 0; a < 4; ++a) c += 0.25 * m.nodes[t[a]];
+    const double R = std::hypot(c.x(), c.y());
+    if (R < r0 || R > r1) continue;
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b)
+        worst = std::max(worst, (m.nodes[t[a]] - m.nodes[t[b]]).head<2>().norm());
+  }
+  return worst;
+}
+
+// The annulus of the lightening holes is meshed at a tenth of the hole diameter by default
+// (gear_mesh.hpp, "Size field"), whatever the body size; hole_band_size sets it; a body
+// without holes is meshed as before.
+TEST(GearMesh, HoleBandSize) {
+  const Gear G = small_gear();
+  gm::mesh::GearBodyOptions o;
+  o.bore_radius = 0.004;
+  o.holes = 4;
+  o.hole_radius = 0.002;
+  o.hole_circle_radius = 0.010;
+  o.body_size = 0.004;
+  o.elements_along_profile = 6;
+  o.elements_across_width = 2;
+  const double r0 = 0.008, r1 = 0.012, h_h = 0.2 * o.hole_radius;
+  const auto def = mesh_of(G, o);
+  // gmsh's triangles reach about 1.5 times the target size along their longest edge.
+  EXPECT_LT(longest_edge_between(def, r0, r1), 1.6 * h_h);
+  o.hole_band_size = 0.004;  // = body_size: no band
+  const auto coarse = mesh_of(G, o);
+  EXPECT_GT(longest_edge_between(coarse, r0, r1), 2.0 * h_h);
+  auto in_band = [&](const gm::mesh::GearBodyMesh& m) {
+    int n = 0;
+    for (const auto& t : m.tets) {
+      const Eigen::Vector3d c = 0.25 * (m.nodes[t[0]] + m.nodes[t[1]] + m.nodes[t[2]] + m.nodes[t[3]]);
+      n += std::hypot(c.x(), c.y()) > r0 && std::hypot(c.x(), c.y()) < r1;
+    }
+    return n;
+  };
+  EXPECT_GT(in_band(def), 3 * in_band(coarse));
+  o.hole_band_size = 1e-3;
+  const auto mid = mesh_of(G, o);
+  EXPECT_LT(longest_edge_between(mid, r0, r1), 1.6e-3);
+  EXPECT_GT(longest_edge_between(mid, r0, r1), 1.6 * h_h);
+  // Without holes the option changes nothing.
+  o.holes = 0;
+  o.hole_band_size = 0;
+  const auto plain = mesh_of(G, o);
+  o.hole_band_size = 0.5e-3;
+  const auto plain2 = mesh_of(G, o);
+  EXPECT_EQ(plain.tets.size(), plain2.tets.size());
+  o.hole_band_size = -1e-3;
+  gm::mesh::GearBodyMesh m;
+  std::string msg;
+  EXPECT_NE(gm::mesh::build_gear_body(G.p, G.g, 0, o, m, msg), GM_OK);
+  EXPECT_NE(msg.find("hole_band_size"), std::string::npos) << msg;
+}
+
 // Internal pair 21/62, m 2 mm, b 10 mm; gear 2 is the ring.
 Gear ring_pair() {
   Gear G;
