@@ -201,8 +201,9 @@ MeshLayout make_mesh_layout(const gm_model_params& p, const gm_pair_geometry& g,
     L.tip_radius[i] = 0.5 * gi.d_a;
     L.inv_tip[i] = involute(std::acos(gi.d_b / gi.d_a));
     const double alpha_a = std::acos(gi.d_b / gi.d_a);
-    const bool ring = i == 1 && L.sign < 0;
-    L.corner_near_field[i] = corner_near_field(0.5 * kPi + (ring ? -alpha_a : alpha_a));
+    // The tooth narrows towards its tip, a ring's too (its tooth widens outwards, to its root),
+    // so the tip corner's interior angle is pi/2 + alpha_a on both gears.
+    L.corner_near_field[i] = corner_near_field(0.5 * kPi + alpha_a);
     L.eta[i] = gi.eta_b;
     L.rho_tip[i] = gi.rho_a;
     L.rho_form[i] = gi.rho_Ff;

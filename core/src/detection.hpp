@@ -41,8 +41,8 @@ struct MeshLayout {
   double zeta[2] = {0, 0};         // side of the mesh seen from gear i: 0 or pi, rad
   double rho_tip[2] = {0, 0};      // roll distance of the tip circle, m
   // kappa of each gear's tip corner in a corner contact (hertz.hpp, corner_near_field): the wedge
-  // between its tip circle and its flank, pi/2 + alpha_a (a ring's tooth widens to its tip:
-  // pi/2 - alpha_a), alpha_a the transverse pressure angle at the tip circle
+  // between its tip circle and its flank, pi/2 + alpha_a (a ring's tooth too narrows towards
+  // its tip), alpha_a the transverse pressure angle at the tip circle
   double corner_near_field[2] = {1, 1};
   double rho_form[2] = {0, 0};     // roll distance of the form circle, m
   double tan_beta_b = 0;           // tan of the base helix angle (magnitude)

@@ -54,24 +54,45 @@ TEST(CornerNearField, IsTheWedgesEnergyOverTheHalfPlanes) {
   EXPECT_NEAR(gm::corner_near_field(0.5 * kPi), 3.36295, 1e-5);  // the quarter plane
 }
 
-// The layout's kappa per gear: the wedge between the tip circle and the flank, pi/2 + alpha_a
-// (alpha_a from the tip and base diameters); a ring's tooth widens towards its tip: pi/2 - alpha_a.
+// The interior angle at the tip corner of a tooth whose half angle at radius R is psi(R), from
+// the outline itself: the tip land (towards the tooth's centre line) against the flank's chord
+// from the tip radius r_a a step dr into the body (outwards for a ring, inwards otherwise).
+template <class Psi>
+double tip_corner_angle(double r_a, double dr, Psi psi) {
+  const double p0 = psi(r_a), p1 = psi(r_a + dr);
+  const double cx = r_a * std::cos(p0), cy = r_a * std::sin(p0);
+  const double fx = (r_a + dr) * std::cos(p1) - cx, fy = (r_a + dr) * std::sin(p1) - cy;
+  const double tx = std::sin(p0), ty = -std::cos(p0);  // along the tip circle, towards psi = 0
+  return std::acos((fx * tx + fy * ty) / std::hypot(fx, fy));
+}
+
+// The layout's kappa per gear: the wedge between the tip circle and the flank, measured on the
+// involute outline. An external tooth and a ring's tooth both narrow towards their tips (the
+// ring's half angle pi/z - eta_b + inv alpha_R grows outwards, to its root), so both corners are
+// obtuse, pi/2 + alpha_a.
 TEST(CornerNearField, LayoutTakesTheTipsAngle) {
+  auto inv = [](double a) { return std::tan(a) - a; };
   const gm_test::Pair P = gm_test::make_pair(gm_test::paper());
   for (int i = 0; i < 2; ++i) {
     const gm_gear_geometry& gi = P.g.gear[i];
-    const double alpha_a = std::acos(gi.d_b / gi.d_a);
-    EXPECT_NEAR(P.L.corner_near_field[i], gm::corner_near_field(0.5 * kPi + alpha_a), 1e-12);
-    EXPECT_GT(P.L.corner_near_field[i], 1.0);
+    const double rb = 0.5 * gi.d_b, ra = 0.5 * gi.d_a;
+    const double phi = tip_corner_angle(ra, -1e-7, [&](double R) { return gi.eta_b - inv(std::acos(rb / R)); });
+    EXPECT_NEAR(P.L.corner_near_field[i], gm::corner_near_field(phi), 1e-4);
+    EXPECT_GT(phi, 0.5 * kPi);
   }
   const gm_test::Pair R = gm_test::make_pair(gm_test::ring());
   const gm_gear_geometry& ring = R.g.gear[1];
-  const double alpha_a = std::acos(ring.d_b / ring.d_a);
-  EXPECT_NEAR(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi - alpha_a), 1e-12);
-  EXPECT_GT(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi));  // sharper than a right angle
+  const double z = R.p.gear[1].teeth, rb = 0.5 * std::fabs(ring.d_b), ra = 0.5 * std::fabs(ring.d_a);
+  ASSERT_GT(ra, rb);
+  const double phi = tip_corner_angle(ra, 1e-7, [&](double Rr) {
+    return kPi / z - ring.eta_b + inv(std::acos(rb / Rr));
+  });
+  EXPECT_GT(phi, 0.5 * kPi);  // obtuse: the ring's tooth is no sharper than a right angle
+  EXPECT_NEAR(R.L.corner_near_field[1], gm::corner_near_field(phi), 1e-4);
+  EXPECT_LT(R.L.corner_near_field[1], gm::corner_near_field(0.5 * kPi));
   // the figures docs/physics.md §4 quotes
   EXPECT_NEAR(P.L.corner_near_field[0], 1.55, 0.005);
-  EXPECT_NEAR(R.L.corner_near_field[1], 5.95, 0.005);
+  EXPECT_NEAR(R.L.corner_near_field[1], 2.12, 0.005);
 }
 
 // Along gear g's flank at depth h: kappa at the corner contact, the same on the flank at the tip,
