@@ -22,10 +22,10 @@ from .report import THREADS, _changes, _cost, _g, provenance, write_provenance
 
 
 def run_scene(path, out_dir, n, models, torques, study_every, study_models, friction, cache,
-              penalty_factor, log):
+              penalty_factor, log, margin=analysis.CONTACT_MARGIN):
     spec = scene.load(path)
     t_start = time.time()
-    base_model = analysis.Model(spec, 0)
+    base_model = analysis.Model(spec, 0, margin=margin)
     cases = {}   # label -> (Case, results)
     for model in models:
         case = analysis.Case(model=model, friction=friction)
@@ -41,8 +41,8 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
                               penalty=analysis.DEFAULT_PENALTY * penalty_factor)
         res_k = analysis.run_case(spec, base_model, stiff, subset, n, torques, cache, log)
         if fine_model is None:
-            fine_model = analysis.Model(spec, 1)
-            coarse_model = analysis.Model(spec, -1)
+            fine_model = analysis.Model(spec, 1, margin=margin)
+            coarse_model = analysis.Model(spec, -1, margin=margin)
         coarse = analysis.Case(model=model, level=-1, friction=friction)
         res_c = analysis.run_case(spec, coarse_model, coarse, subset, n, torques, cache, log)
         fine = analysis.Case(model=model, level=1, friction=friction)
@@ -88,6 +88,14 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
                             _g(s["pp_te_m"]), _g(s["order1_m"]), _g(s["order2_m"]),
                             _g(s["order3_m"])])
     pr = base_model.pair
+    contact_check = {label: analysis.contact_set_check(pr, base_model.m1.contact_teeth, res)
+                     for label, (case, res) in cases.items()}
+    for label, flagged in contact_check.items():
+        for f in flagged:
+            log(f"WARNING {spec.name} {label} position {f['position']}: the {f['end']} tooth "
+                f"{f['tooth_gear1']}, left out of the contact set, has a corner gap of "
+                f"{f['corner_gap_m'] * 1e6:.2f} um below the TE {f['te_m'] * 1e6:.2f} um: rerun "
+                "with a larger --contact-margin to know whether it carries")
     prov = {
         **provenance(spec.name, path),
         "model": {
@@ -116,6 +124,7 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
                  "level1": fine_model.stats() if fine_model else None,
                  "level-1": coarse_model.stats() if coarse_model else None},
         "summary": summaries,
+        "contact_set_check": contact_check,
         "studies": studies,
         "cost": {label: _cost(res) for label, (case, res) in cases.items()},
         "elapsed_s_this_invocation": time.time() - t_start,
@@ -180,6 +189,9 @@ def main(argv=None):
     r.add_argument("--penalty-factor", type=float, default=10.0)
     r.add_argument("--friction", type=float, default=0.0, help="Coulomb mu (0: frictionless)")
     r.add_argument("--cache", default=None, help="directory of finished runs (default: temp)")
+    r.add_argument("--contact-margin", type=float, default=analysis.CONTACT_MARGIN,
+                   help="tooth pairs get contact surfaces this many base pitches past the path "
+                        "of contact's ends (default %(default)s)")
     run3d.add_parser(sub)
     lineload3d.add_parser(sub)
     pairs.add_parser(sub)
@@ -208,10 +220,12 @@ def main(argv=None):
     for m in models + a.study_models.split(","):
         if m not in analysis.MODELS:
             ap.error(f"--models: {m!r}; allowed: {', '.join(analysis.MODELS)}")
+    if not (0 <= a.contact_margin <= 2):
+        ap.error(f"--contact-margin {a.contact_margin}; allowed: 0 .. 2 (base pitches)")
     for s in a.scenes:
         run_scene(s, a.out, a.positions, models, torques, a.study_every,
                   [m for m in a.study_models.split(",") if m in models], a.friction, a.cache,
-                  a.penalty_factor, log)
+                  a.penalty_factor, log, margin=a.contact_margin)
 
 
 if __name__ == "__main__":

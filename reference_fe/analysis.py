@@ -62,19 +62,47 @@ class PositionResult:
     layer_force_N: list = field(default_factory=list)
 
 
-def fine_teeth(pair: Pair, spread: float = 0.0) -> tuple[list[int], list[int]]:
+# How far past the path of contact's ends a tooth pair gets contact surfaces, as a fraction of the
+# base pitch (`run --contact-margin`): tip-corner contact under load extends the path. An
+# internal pair's flanks conform, so its corner gaps grow slowly past the path's end and its
+# contact reaches farther than an external pair's (the 21/62 ring at 100 N m: 0.18 p_b and
+# beyond; set A at 350 N m: none past 0.15 p_b). contact_set_check names the positions where a
+# left-out tooth's rigid corner gap is below the solved TE.
+CONTACT_MARGIN = 0.15
+
+
+def fine_teeth(pair: Pair, spread: float = 0.0,
+               margin: float = CONTACT_MARGIN) -> tuple[list[int], list[int]]:
     """Teeth that can touch while gear 1 turns one pitch from position 0 (pairs within the
-    path of contact, plus one tooth of margin for tip-corner contact under load): gear 1's
-    tooth j meshes gear 2's tooth -j (an internal ring's +j). spread (m): the roll distance by which the pair's
-    contact moves either way across the face (helical: b/2 tan beta_b; spur 0)."""
+    path of contact, extended by `margin` base pitches at both ends for tip-corner contact under
+    load): gear 1's tooth j meshes gear 2's tooth -j (an internal ring's +j). spread (m): the
+    roll distance by which the pair's contact moves either way across the face (helical:
+    b/2 tan beta_b; spur 0)."""
     js = []
-    ext = 0.15 * pair.pb          # extension of the path under load (margin)
+    ext = margin * pair.pb
     for j in range(-8, 9):
         lo = pair.rho_pitch1 + pair.g1.rb * j * pair.g1.tau - spread
         hi = lo + pair.pb + 2 * spread
         if hi >= pair.rho_sap1 - ext and lo <= pair.rho_tip1 + ext:
             js.append(j)
     return js, (list(js) if getattr(pair, "internal", False) else [-j for j in js])
+
+
+def contact_set_check(pair: Pair, teeth: list[int], results) -> list[dict]:
+    """The positions where a tooth pair left out of the contact set (the next one at either
+    end of `teeth`, gear 1's) could have touched: its tip corner's rigid gap
+    (Pair.tip_corner_gap) below the solved TE at the top torque. The other pairs' loads may
+    still carry it clear (rerun with a larger margin to know); an empty list: none could."""
+    out = []
+    for r in results:
+        te = max(r.te)
+        for j, leaving in ((max(teeth) + 1, True), (min(teeth) - 1, False)):
+            g = pair.tip_corner_gap(r.dphi1, j, leaving)
+            if g < te:
+                out.append({"position": r.position, "tooth_gear1": j,
+                            "end": "leaving" if leaving else "entering",
+                            "corner_gap_m": g, "te_m": te})
+    return out
 
 
 def place(m, phi: float, cx: float):
@@ -90,19 +118,21 @@ class Model:
     """The two meshed gears of a scene at one refinement level (meshed once, placed per
     position)."""
 
-    def __init__(self, spec: PairSpec, level: int, size: mesh.MeshSize | None = None):
+    def __init__(self, spec: PairSpec, level: int, size: mesh.MeshSize | None = None,
+                 margin: float = CONTACT_MARGIN):
         self.spec = spec
         self.pair = Pair(spec)
         self.level = level
         self.size = size or mesh.default_size(spec.module, level)
-        f1, f2 = fine_teeth(self.pair)
+        self.margin = margin
+        f1, f2 = fine_teeth(self.pair, margin=margin)
         self.m1 = mesh.build(self.pair.g1, self.size, f1)
         self.m2 = mesh.build(self.pair.g2, self.size, f2)
 
     def stats(self) -> dict:
         return {"gear1": self.m1.stats, "gear2": self.m2.stats,
                 "size_m": asdict(self.size), "fine_teeth_gear1": self.m1.contact_teeth,
-                "fine_teeth_gear2": self.m2.contact_teeth}
+                "fine_teeth_gear2": self.m2.contact_teeth, "contact_margin_pb": self.margin}
 
     def materials(self, case: Case):
         mats = [ccx.Material(self.pair.g1.E, self.pair.g1.nu),
@@ -211,6 +241,8 @@ def cache_key(spec: PairSpec, model: Model, case: Case, k: int, n: int, torques)
          "size": asdict(model.size), "k": k, "n": n, "torques": list(torques), "version": 2}
     if getattr(model, "cache_tag", None):
         d["tag"] = model.cache_tag
+    if getattr(model, "margin", CONTACT_MARGIN) != CONTACT_MARGIN:
+        d["contact_margin"] = model.margin
     blob = json.dumps(d, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 

@@ -396,6 +396,56 @@ class Pair:
         return best
 
 
+    def _flank_angle(self, g, centre: float, R: float) -> float:
+        """Polar angle (own frame) of the contact flank of the tooth centred at `centre`: flank A
+        (+psi) of an external gear, flank B (-psi) of the ring."""
+        return centre - g.psi_at(R) if getattr(g, "internal", False) else centre + g.psi_at(R)
+
+    def tip_corner_gap(self, dphi1: float, j: int, leaving: bool = True) -> float:
+        """Rigid gap (m, along the line of action: r_b1 times gear 1's extra turn, gear 2 held)
+        between a tip corner of tooth pair j (gear 1's tooth j) and the mate's contact flank
+        at gear 1's turn dphi1 from position 0: gear 1's tip corner against gear 2's flank
+        (leaving) or gear 2's tip corner against gear 1's flank (entering). On the path of
+        contact it is zero where the corner carries; past the path's end it grows about
+        quadratically, slowest on an internal pair (its flanks conform). inf where the corner
+        does not face the mate's flank within half a pitch of turn."""
+        g1, g2 = self.g1, self.g2
+        j2 = j if self.internal else -j
+        O2 = np.array([self.a, 0.0])
+
+        def closing(delta):
+            p1, p2 = self.rotations(dphi1)
+            p1 += delta
+            c1, c2 = p1 + j * g1.tau, p2 + j2 * g2.tau
+            if leaving:   # gear 1's corner, seen from gear 2
+                th = self._flank_angle(g1, c1, g1.ra)
+                X = np.array([g1.ra * math.cos(th), g1.ra * math.sin(th)]) - O2
+                g, c = g2, c2
+            else:         # gear 2's corner, seen from gear 1
+                th = self._flank_angle(g2, c2, g2.ra)
+                X = O2 + np.array([g2.ra * math.cos(th), g2.ra * math.sin(th)])
+                g, c = g1, c1
+            R = math.hypot(X[0], X[1])
+            if R <= g.rb:
+                return math.nan
+            return math.remainder(math.atan2(X[1], X[0]) - self._flank_angle(g, c, R), 2 * math.pi)
+
+        lo, hi = -0.01 * g1.tau, 0.5 * g1.tau   # a little overlap at the path's ends: round-off
+        flo, fhi = closing(lo), closing(hi)
+        if not flo * fhi < 0:
+            return math.inf
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            fm = closing(mid)
+            if not math.isfinite(fm):
+                return math.inf
+            if fm * flo > 0:
+                lo, flo = mid, fm
+            else:
+                hi = mid
+        return 0.5 * (lo + hi) * g1.rb
+
+
 def gap(g: Gear, rho):
     """Material removed (m) at roll distance rho by the gear's profile modifications
     (repository docs/model.md, "Micro-geometry"; s from the SAP towards the tip, L the active length)."""
