@@ -8,7 +8,6 @@ core's contact detection through the FMU (no code shared): in plain mode at a pr
 leaving pair's normal approach is the TE less the gap."""
 from __future__ import annotations
 
-import math
 
 import pytest
 
