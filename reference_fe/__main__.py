@@ -88,7 +88,8 @@ def run_scene(path, out_dir, n, models, torques, study_every, study_models, fric
                             _g(s["pp_te_m"]), _g(s["order1_m"]), _g(s["order2_m"]),
                             _g(s["order3_m"])])
     pr = base_model.pair
-    contact_check = {label: analysis.contact_set_check(pr, base_model.m1.contact_teeth, res)
+    teeth = analysis.fine_teeth(pr, margin=margin)[0]   # signed (the mesh holds them modulo z)
+    contact_check = {label: analysis.contact_set_check(pr, teeth, res)
                      for label, (case, res) in cases.items()}
     for label, flagged in contact_check.items():
         for f in flagged:
