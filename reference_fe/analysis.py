@@ -88,16 +88,19 @@ def fine_teeth(pair: Pair, spread: float = 0.0,
     return js, (list(js) if getattr(pair, "internal", False) else [-j for j in js])
 
 
-def contact_set_check(pair: Pair, teeth: list[int], results) -> list[dict]:
+def contact_set_check(pair: Pair, teeth: list[int], results, spread: float = 0.0) -> list[dict]:
     """The positions where a tooth pair left out of the contact set (the next one at either
-    end of `teeth`, gear 1's) could have touched: its tip corner's rigid gap
-    (Pair.tip_corner_gap) below the solved TE at the top torque. The other pairs' loads may
-    still carry it clear (rerun with a larger margin to know); an empty list: none could."""
+    end of `teeth`, gear 1's, signed) could have touched: its tip corner's rigid gap
+    (Pair.tip_corner_gap, in the transverse section; a helical pair's sections at the face ends
+    stand `spread` of roll either way, so the smallest of the three) below the solved TE at the
+    top torque. The other pairs' loads, a body's twist among them, may still carry it clear
+    (rerun with a larger margin to know); an empty list: none could."""
     out = []
+    shifts = (0.0, -spread / pair.g1.rb, spread / pair.g1.rb) if spread else (0.0,)
     for r in results:
         te = max(r.te)
         for j, leaving in ((max(teeth) + 1, True), (min(teeth) - 1, False)):
-            g = pair.tip_corner_gap(r.dphi1, j, leaving)
+            g = min(pair.tip_corner_gap(r.dphi1 + d, j, leaving) for d in shifts)
             if g < te:
                 out.append({"position": r.position, "tooth_gear1": j,
                             "end": "leaving" if leaving else "entering",

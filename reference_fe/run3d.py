@@ -104,6 +104,13 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log,
                         _g(s["mean_te_m"]), _g(s["pp_te_m"]), _g(s["order1_m"]),
                         _g(s["order2_m"]), _g(s["order3_m"])])
     pr = base_model.pair
+    teeth = analysis.fine_teeth(pr, base_model.spread)[0]
+    contact_check = analysis.contact_set_check(pr, teeth, runs["base"][2], base_model.spread)
+    for f in contact_check:
+        log(f"WARNING {spec.name} position {f['position']}: the {f['end']} tooth "
+            f"{f['tooth_gear1']}, left out of the contact set, has a corner gap of "
+            f"{f['corner_gap_m'] * 1e6:.2f} um below the TE {f['te_m'] * 1e6:.2f} um (a body's "
+            "twist may carry it clear)")
     prov = {
         **provenance(spec.name, path),
         "model": {
@@ -138,6 +145,7 @@ def run_scene(path, torques, out_dir, n, study_positions, studies, cache, log,
         },
         "mesh": {f"level{lv}_sector{sd:g}deg": m.stats() for (lv, sd), m in models.items()},
         "summary": summaries,
+        "contact_set_check": contact_check,
         "studies": study_out,
         "cost": {label: _cost(res) for label, (m, case, res) in runs.items()},
         "elapsed_s_this_invocation": time.time() - t_start,

@@ -112,3 +112,19 @@ def test_contact_set_check_names_a_left_out_tooth_that_could_touch():
     wide, _ = analysis.fine_teeth(pair, margin=0.5)
     assert 1 in wide
     assert analysis.contact_set_check(pair, wide, [_Result(0, 0.0, 16.5e-6)]) == []
+
+
+def test_contact_set_check_takes_a_helical_pairs_face_ends():
+    """With a spread (a helical pair's face ends stand that much roll either side of the
+    mid-face section) the check takes the smallest gap of the three sections: a TE between the
+    mid-face gap and the face end's is flagged only with the spread."""
+    pair = geometry.Pair(scene.load(SET_A))
+    teeth, _ = analysis.fine_teeth(pair)
+    mid = pair.tip_corner_gap(0.0, 1)
+    spread = 0.05 * pair.pb
+    end = pair.tip_corner_gap(-spread / pair.g1.rb, 1)
+    assert end < mid
+    te = 0.5 * (end + mid)
+    assert analysis.contact_set_check(pair, teeth, [_Result(0, 0.0, te)]) == []
+    flagged = analysis.contact_set_check(pair, teeth, [_Result(0, 0.0, te)], spread=spread)
+    assert [(f["tooth_gear1"], f["end"]) for f in flagged] == [(1, "leaving")]
