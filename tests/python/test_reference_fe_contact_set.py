@@ -51,8 +51,6 @@ def test_corner_gap_matches_the_cores_detection(fmu_path):
     past the end of the path (mesh.pair_position 1) has the normal approach TE - gap, the gap
     from the reference's outlines, within 0.3 um (the approach is along the mate's flank
     normal, a few degrees off the line of action there)."""
-    import sys
-    sys.path.insert(0, str(REPO / "python"))
     from gearmesh.fmu_driver import GearMeshFMU
     from gearmesh.prescribed_motion import pair_kinematics
     from gearmesh.scene import load_scene
