@@ -395,11 +395,11 @@ class Pair:
             best = min(best, gap(self.g1, rho1) + gap(self.g2, rho2))
         return best
 
-
-    def _flank_angle(self, g, centre: float, R: float) -> float:
+    @staticmethod
+    def _flank_angle(g, centre: float, R: float) -> float:
         """Polar angle (own frame) of the contact flank of the tooth centred at `centre`: flank A
-        (+psi) of an external gear, flank B (-psi) of the ring."""
-        return centre - g.psi_at(R) if getattr(g, "internal", False) else centre + g.psi_at(R)
+        (+psi), a ring's flank B (-psi), as its `contact_flank` says."""
+        return centre - g.psi_at(R) if g.contact_flank == "B" else centre + g.psi_at(R)
 
     def tip_corner_gap(self, dphi1: float, j: int, leaving: bool = True) -> float:
         """Rigid gap (m, along the line of action: r_b1 times gear 1's extra turn, gear 2 held)

@@ -44,11 +44,8 @@
 // Where there are lightening holes, the annulus that holds them (hole circle radius +- hole
 // radius) has at most hole_band_size h_h (default: a tenth of the hole diameter), growing at
 // size_growth away from it: h(x) = min(h(x), h_h + g dist(x, annulus)). The body's 4 m_n alone
-// puts one or two elements across a ligament between holes. On the lightweight scene (14 mm
-// holes in a 6 mm web, scenarios/fe/lightweight_vs_solid_fe.toml) level 5's mean TE at 300 N m
-// moves by -3.9 / -1.7 / -0.6 / -0.2 % at h_h = none / 2.8 / 2.0 / 1.4 mm against h_h = 0.7 mm,
-// and by 0.1 % when the whole body is meshed at 1.5 mm instead (docs/validation.md, "Against
-// the 3-D reference").
+// puts one or two elements across a ligament between holes; the default's convergence on the
+// lightweight scene: docs/validation.md, "Set B in 3-D, the internal ring, the lightweight body".
 // The outline itself is fixed by the element counts (transfinite curves). The layering across
 // the width is the same everywhere (layer thickness b / elements_across_width). The defaults (4
 // layers, body_size 4 m_n) were chosen by their cost at an unchanged answer: on set A, against

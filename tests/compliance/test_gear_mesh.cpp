@@ -254,19 +254,24 @@ TEST(GearMesh, WebHubAndHoles) {
   for (int id : m.clamped_nodes) EXPECT_NEAR(std::hypot(m.nodes[id].x(), m.nodes[id].y()), 0.004, 1e-9);
 }
 
-// The longest in-plane corner edge of the tetrahedra whose centroid lies at a radius in [r0, r1].
-double longest_edge_between(const gm::mesh::GearBodyMesh& m, double r0, double r1) {
-  double worst = 0;
+// The tetrahedra whose centroid lies at a radius in [r0, r1]: how many, and their longest
+// in-plane corner edge.
+struct Band {
+  int tets = 0;
+  double longest = 0;
+};
+Band band_between(const gm::mesh::GearBodyMesh& m, double r0, double r1) {
+  Band out;
   for (const auto& t : m.tets) {
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (int a = 0; a < 4; ++a) c += 0.25 * m.nodes[t[a]];
+    const Eigen::Vector3d c = 0.25 * (m.nodes[t[0]] + m.nodes[t[1]] + m.nodes[t[2]] + m.nodes[t[3]]);
     const double R = std::hypot(c.x(), c.y());
     if (R < r0 || R > r1) continue;
+    ++out.tets;
     for (int a = 0; a < 4; ++a)
       for (int b = a + 1; b < 4; ++b)
-        worst = std::max(worst, (m.nodes[t[a]] - m.nodes[t[b]]).head<2>().norm());
+        out.longest = std::max(out.longest, (m.nodes[t[a]] - m.nodes[t[b]]).head<2>().norm());
   }
-  return worst;
+  return out;
 }
 
 // The annulus of the lightening holes is meshed at a tenth of the hole diameter by default
@@ -283,25 +288,17 @@ TEST(GearMesh, HoleBandSize) {
   o.elements_along_profile = 6;
   o.elements_across_width = 2;
   const double r0 = 0.008, r1 = 0.012, h_h = 0.2 * o.hole_radius;
-  const auto def = mesh_of(G, o);
+  const Band def = band_between(mesh_of(G, o), r0, r1);
   // gmsh's triangles reach about 1.5 times the target size along their longest edge.
-  EXPECT_LT(longest_edge_between(def, r0, r1), 1.6 * h_h);
+  EXPECT_LT(def.longest, 1.6 * h_h);
   o.hole_band_size = 0.004;  // = body_size: no band
-  const auto coarse = mesh_of(G, o);
-  EXPECT_GT(longest_edge_between(coarse, r0, r1), 2.0 * h_h);
-  auto in_band = [&](const gm::mesh::GearBodyMesh& m) {
-    int n = 0;
-    for (const auto& t : m.tets) {
-      const Eigen::Vector3d c = 0.25 * (m.nodes[t[0]] + m.nodes[t[1]] + m.nodes[t[2]] + m.nodes[t[3]]);
-      n += std::hypot(c.x(), c.y()) > r0 && std::hypot(c.x(), c.y()) < r1;
-    }
-    return n;
-  };
-  EXPECT_GT(in_band(def), 3 * in_band(coarse));
+  const Band coarse = band_between(mesh_of(G, o), r0, r1);
+  EXPECT_GT(coarse.longest, 2.0 * h_h);
+  EXPECT_GT(def.tets, 3 * coarse.tets);
   o.hole_band_size = 1e-3;
-  const auto mid = mesh_of(G, o);
-  EXPECT_LT(longest_edge_between(mid, r0, r1), 1.6e-3);
-  EXPECT_GT(longest_edge_between(mid, r0, r1), 1.6 * h_h);
+  const Band mid = band_between(mesh_of(G, o), r0, r1);
+  EXPECT_LT(mid.longest, 1.6e-3);
+  EXPECT_GT(mid.longest, 1.6 * h_h);
   // Without holes the option changes nothing.
   o.holes = 0;
   o.hole_band_size = 0;
