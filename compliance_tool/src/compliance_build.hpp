@@ -79,6 +79,9 @@ struct BuildOptions {
                                // Its memory, 3 x 8 bytes x dofs x batch (B, X and CHOLMOD's
                                // workspace), stays below the factor's on set A (350 MB vs 650)
   bool every_tooth = false;    // load every distinct tooth even on a cyclic body (cyclic = 0)
+  bool plane_strain = false;   // hold every node's axial displacement: the body becomes a
+                               // plane-strain slab, the database comparable with a plane model
+                               // (tests/python/test_compliance_db_fe.py); not for the product
   double load_fraction = 1.0;  // share of the flank grid loaded, (0, 1]; the rest from the
                                // reduction space (see the header comment)
   bool full_solves = false;    // CHOLMOD's solves of the whole field instead of the sparse ones

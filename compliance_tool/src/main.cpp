@@ -64,6 +64,8 @@ void usage(FILE* f) {
                "  --depth-mm H              depth of the responses below the flank, > 0 (default 0.5)\n"
                "  --coupled N               neighbour teeth each side, 0..20 (default model.coupled_teeth, else 1)\n"
                "  --every-tooth             load every distinct tooth even on a cyclic body (cyclic = 0)\n"
+               "  --plane-strain            hold every node's axial displacement (a plane-strain slab, to\n"
+               "                            compare with plane models; not for the product)\n"
                "  --load-fraction F         share of the flank grid loaded, 0 < F <= 1 (default 1); the other\n"
                "                            columns come from the reduction space of the loaded ones\n"
                "  --threads N               threads for gmsh and the BLAS under CHOLMOD, 1..256\n"
@@ -231,6 +233,7 @@ const Flag kFlags[] = {
     {"-h", false, [](Cli&, S, S) { usage(stdout); return 0; }},
     {"--help", false, [](Cli&, S, S) { usage(stdout); return 0; }},
     {"--every-tooth", false, [](Cli& c, S, S) { c.o.every_tooth = true; return kGoOn; }},
+    {"--plane-strain", false, [](Cli& c, S, S) { c.o.plane_strain = true; return kGoOn; }},
     {"--check", false, [](Cli& c, S, S) { c.check_only = true; return kGoOn; }},
     {"--scene", true, [](Cli& c, S, S v) { c.scene = v; return kGoOn; }},
     {"--out", true, [](Cli& c, S, S v) { c.out = v; return kGoOn; }},

@@ -132,15 +132,13 @@ T face_share(const std::vector<double>& Z, const T& lo, const T& hi, int m) {
 //     e_theta = -e_y) gear 1's tooth moves +y and presses gear 2's tooth on its -y side, the
 //     +theta side: again the ccw side, the database's flank A. (Detection agrees: flank sigma of
 //     a tooth sits at theta_c + sigma (eta - inv alpha), see involute_penetration.) Ring (gear 2
-//     of an internal pair, whose core index counts SPACES): gear 1's tooth, at the ring's -x side
-//     too, moves -y and presses the ring's tooth on its +y side, the -theta side: the CLOCKWISE
-//     side of the ring's tooth, the database's flank B. In detection's terms flank sigma of space
-//     s sits at theta_s + sigma (eta_s - inv alpha): sigma = +1 is the space's ccw wall, the cw
-//     flank of the tooth counter-clockwise of the space; sigma = -1 the ccw flank of the tooth
-//     clockwise of it. Ring tooth numbering: the database's tooth k is the tooth counter-clockwise
-//     of space k (centre line half a pitch ccw of the space's); so flank A of space s is flank B
-//     of tooth s and flank B of space s is flank A of tooth s - 1 (only a non-cyclic database
-//     sees the absolute number; offsets between spaces are offsets between teeth).
+//     of an internal pair): the core's index counts SPACES, and flank sigma of space s sits at
+//     theta_s + sigma (eta_s - inv alpha), sigma = +1 its ccw wall. The database of a ring counts
+//     spaces too, with flank A the ccw (+theta) wall of space k (compliance_tool/src/gear_mesh.hpp,
+//     "Internal ring"): the same numbering and the same sides as the core's, no translation.
+//     (A CalculiX model of the ring loaded on one wall, tests/python/test_compliance_db_fe.py,
+//     tells which neighbour is which: reading the ring's contact wall as the mirror of the other
+//     swaps the couplings of the teeth before and after the loaded one.)
 // (4) Flank B through the mirror (mirror = 1). The tool obtains flank B from the body's mirror
 //     symmetry: spur, the reflection y -> -y through tooth 0's centre plane; helical, the half
 //     turn about tooth 0's radial centre line at mid-face (a reflection would turn the hand).
@@ -152,17 +150,15 @@ T face_share(const std::vector<double>& Z, const T& lo, const T& hi, int m) {
 //     has its own set, offsets in the same ccw sense, face as it is.
 // Flanks of different sides never couple (the database has no cross-flank blocks).
 struct DbFlank {
-  int side = 1;        // +1 the database's flank A (ccw side of the tooth), -1 flank B
+  int side = 1;        // +1 the database's flank A (ccw side of the tooth; ring: of the space), -1 B
   bool mirrored = false;   // read through the mirror: flank A's set, d -> -d, tooth set -t
   bool flip_face = false;  // and the face coordinate reversed (helical)
 };
 
-bool ring_gear(const FeView& m, int g) { return g == 1 && m.layout.sign < 0; }
-
 DbFlank db_flank(const FeView& m, int g, int flank) {
   const ComplianceDb& db = m.compliance[g];
   DbFlank r;
-  r.side = ring_gear(m, g) ? -flank : flank;
+  r.side = flank;
   r.mirrored = r.side < 0 && db.mirror;
   r.flip_face = r.mirrored && db.helix_angle != 0;
   return r;
@@ -182,11 +178,8 @@ int tooth_offset(int ti, int tj, int z) {
   return d;
 }
 
-// The database's tooth (modulo z) of the slice's tooth (ring: space) index on flank `flank`.
-int db_tooth(const FeView& m, int g, int flank, int tooth) {
-  const int z = int(m.compliance[g].teeth);
-  return tooth_mod(ring_gear(m, g) && flank < 0 ? tooth - 1 : tooth, z);
-}
+// The database's tooth (ring: space) of the slice's tooth (ring: space) index, modulo z.
+int db_tooth(const FeView& m, int g, int tooth) { return tooth_mod(tooth, int(m.compliance[g].teeth)); }
 
 // Face position of a slice on gear g as the database reads it: from its mid-face along its
 // axis, m, reversed when read through a helical mirror.
@@ -229,8 +222,8 @@ template <class T>
 T fe_entry(const FeView& m, int g, const ContactSliceT<T>& si, const FeSpot<T>& pi,
            const ContactSliceT<T>& sj, const FeSpot<T>& pj) {
   const ComplianceDb& db = m.compliance[g];
-  const int k = block_of(m, g, si.flank, db_tooth(m, g, si.flank, si.tooth[g]), sj.flank,
-                         db_tooth(m, g, sj.flank, sj.tooth[g]));
+  const int k = block_of(m, g, si.flank, db_tooth(m, g, si.tooth[g]), sj.flank,
+                         db_tooth(m, g, sj.tooth[g]));
   if (k < 0) return T(0.0);
   const std::vector<double>& C = db.blocks[std::size_t(k)];
   const std::size_t nf = db.face.size(), ng = db.n_grid();
@@ -310,7 +303,7 @@ void FeDualAssembly::assemble(const FeView& m, const ContactSliceT<Dual>* slices
       Spot& spot = spots_[g][std::size_t(a)];
       spot.first = int(weights_.size());
       spot.flank = s.flank;
-      spot.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
+      spot.tooth = db_tooth(m, g, s.tooth[g]);
       for (int ai = 0; ai < reads; ++ai) {
         const Dual ra = p.roll.w[ai];
         if (vanishes(ra)) continue;
@@ -526,7 +519,7 @@ GM_FE_STAGE void FeAssembly::locate_spots(const FeView& m, const ContactSlice* s
         const bool hit = next < int(G.strips.size()) && G.strips[std::size_t(next)].lo == lo &&
                          G.strips[std::size_t(next)].hi == hi;
         p.strip = hit ? next : strip_of(m, g, lo, hi);
-        p.tooth = db_tooth(m, g, s.flank, s.tooth[g]);
+        p.tooth = db_tooth(m, g, s.tooth[g]);
         full = p.strip < 0;
       }
       if (!full) break;

@@ -8,9 +8,9 @@
 // between flank A and flank B). Conventions (derived in fe_compliance.cpp): both gears' body
 // frames have z along the housing's z, tooth indices increase counter-clockwise as the
 // database's do, and the face coordinate z - c_z - axial_offset has the database's sign; the
-// pair's flank A is the database's flank A (ccw side of the tooth) on gear 1 and on an external
-// gear 2, but flank B (cw side) on a ring, whose space s has tooth s (ccw of it) on flank A and
-// tooth s - 1 on flank B. A database flank B read through the mirror (mirror = 1) uses flank A's
+// pair's flank A is the database's flank A on every gear: the ccw side of a tooth, on a ring
+// (whose core and database both count spaces) the ccw wall of a space. A database flank B read
+// through the mirror (mirror = 1) uses flank A's
 // set with d -> -d, tooth set -t and, for a helical gear, the face coordinate reversed:
 //
 //   C^g[i][j] = sum_{a,m} sum_{b,n} r_ia q_im r_jb q_jn C_d[(a, m)][(b, n)]

@@ -21,7 +21,11 @@
 //     labelling choice) is the core's tooth 0 at layout.theta0 (ring: the tooth half a pitch
 //     counter-clockwise of space 0). The fractional part must vanish: that checks side, hand and
 //     the sign of the face coordinate on each gear (a reversed face axis or hand leaves the
-//     helical slices of one tooth pitches apart by fractions).
+//     helical slices of one tooth pitches apart by fractions). A ring's database counts spaces
+//     (compliance_tool/src/gear_mesh.hpp, "Internal ring": flank A the ccw wall of space k), so
+//     the located ring tooth's cw flank is flank A of the space clockwise of it, its ccw flank
+//     flank B of the space counter-clockwise of it; which wall a ring database's entry belongs to
+//     is checked against CalculiX in tests/python/test_compliance_db_fe.py.
 //   * roll = sqrt(r^2 - r_b^2), face y = z - c_z - axial offset.
 // The expected coupling entry is then read by the database's stated rules (flank A set: offset
 // d = receiver - load counted counter-clockwise; flank B: its own set, or through the mirror:
@@ -162,8 +166,9 @@ gm::ComplianceDb kernel_db(const gm_model_params& p, int g, const DbKind& kind, 
 // ---- the contact located from geometry ----
 
 struct Located {
-  int side = 0;          // +1 the database's flank A (ccw side of the tooth), -1 flank B
-  int tooth = 0;         // the database's tooth number, 0 .. z-1
+  int side = 0;          // +1 the database's flank A (ccw side of the tooth; ring: of the
+                         // space), -1 flank B
+  int tooth = 0;         // the database's tooth (ring: space) number, 0 .. z-1
   double fraction = 0;   // distance of the located centre line from a whole pitch, pitches
                          // (P taken on the flank)
   double roll = 0, face = 0;
@@ -196,6 +201,13 @@ Located locate(const gm_model& m, int g, const gm_kinematics& k, const gm::Conta
   const double n = std::nearbyint(x);
   out.fraction = std::fabs(x - n);
   out.tooth = mod(int(n), z);
+  if (ring_gear) {
+    // The ring's database counts spaces, flank A the ccw wall of space k (gear_mesh.hpp,
+    // "Internal ring"), space k clockwise of the anchor's tooth k: the tooth's clockwise flank is
+    // the ccw wall of space n (flank A), its ccw flank the cw wall of space n + 1 (flank B).
+    if (out.side > 0) out.tooth = mod(out.tooth + 1, z);
+    out.side = -out.side;
+  }
   return out;
 }
 
@@ -296,10 +308,9 @@ TEST(FeMapping, EachSliceReadsTheDatabaseEntryItsGeometryNames) {
             // circle are parallel curves), |Delta_t| / (2 p_bt) pitches
             const double off = std::fabs(sa.approach) / m.layout.cos_beta_b / (2 * m.layout.base_pitch);
             worst_fraction = std::max(worst_fraction, std::fabs(at.back().fraction - off));
-            // the conventions themselves: pair flank A is the database's flank A (ccw side) on
-            // gear 1 and an external gear 2, flank B (cw side) on a ring
-            const int want = (g == 1 && m.layout.sign < 0) ? -sa.flank : sa.flank;
-            ASSERT_EQ(at.back().side, want) << what << ", slice " << a << " flank " << sa.flank;
+            // the conventions themselves: pair flank A is the database's flank A on every gear
+            // (the ccw side of a tooth; on a ring the ccw wall of a space, its tooth's cw side)
+            ASSERT_EQ(at.back().side, sa.flank) << what << ", slice " << a << " flank " << sa.flank;
             // docs/physics.md §0: flank A resists gear 1 turning +phi: its force on gear 1 turns it back
             const double torque1 = -(sa.point.x() * sa.normal.y() - sa.point.y() * sa.normal.x());
             ASSERT_LT(sa.flank * torque1, 0) << what << ", slice " << a;

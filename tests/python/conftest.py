@@ -18,7 +18,7 @@ os.environ.setdefault(ENV_CHECKOUT, str(REPO))
 # job, FE databases, Dask clusters, the platform stage): marked `slow`, left out by
 # `tools/run-tests --quick` (pytest -m "not slow"). The rest runs in about half a minute.
 SLOW_MODULES = {"test_stability", "test_main_job", "test_package", "test_train_fe", "test_reference_fe_smoke",
-                "test_reference_fe3d_smoke", "test_reference_fe3d_lineload_smoke", "test_fe_scenes",
+                "test_reference_fe3d_smoke", "test_reference_fe3d_lineload_smoke", "test_fe_scenes", "test_compliance_db_fe",
                 "test_batch_tasks", "test_platforms", "test_stability_trains", "test_masters"}
 
 
