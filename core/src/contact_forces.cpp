@@ -46,8 +46,8 @@ double solve_slice(const SliceLaw& law, double delta, double start, double tol,
 }  // namespace
 
 bool same_law(const SliceLaw& a, const SliceLaw& b) {
-  // bit for bit: eleven doubles, no padding (a law's -0.0 and 0.0 count as different laws)
-  static_assert(std::is_trivially_copyable_v<SliceLaw> && sizeof(SliceLaw) == 11 * sizeof(double));
+  // bit for bit: twelve doubles, no padding (a law's -0.0 and 0.0 count as different laws)
+  static_assert(std::is_trivially_copyable_v<SliceLaw> && sizeof(SliceLaw) == 12 * sizeof(double));
   return std::memcmp(&a, &b, sizeof(SliceLaw)) == 0;
 }
 

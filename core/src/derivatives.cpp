@@ -64,6 +64,7 @@ gm_status separable_dual_forces(const gm_model& m, gm_data& d, int n) {
     law.compliance = dl.compliance.v;
     law.local.width = dl.local.width.v;
     law.local.reduced_radius = dl.local.reduced_radius.v;
+    law.local.corner_slope = dl.local.corner_slope.v;
     for (int g = 0; g < 2; ++g) {
       law.local.body[g].youngs_modulus = dl.local.body[g].youngs_modulus;
       law.local.body[g].poisson_ratio = dl.local.body[g].poisson_ratio;

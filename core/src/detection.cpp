@@ -309,6 +309,7 @@ template <class T>
 struct SliceContact {
   Vec2<T> n_t, point;
   T roll1 = 0, roll2 = 0, rigid = 0, dz1 = 0, dz2 = 0, path = 0, gain = 0;
+  T corner_slope = 0;  // tan of the angle between the corner's own flank and the mate's (a tip corner)
   int kind = kFlankContact;
   bool contact = false;
 };
@@ -327,8 +328,8 @@ void tip_contact(const MeshLayout& L, const Section<T>& S, int sigma, const T& r
   const T theta_rel1 = sigma * (rho1 / L.base_radius[0] - L.eta[0] - S.alpha_w);
   const T theta_rel2 = sigma * (rho2 / rb2 - L.eta[1] - S.alpha_w);
   const T theta_c[2] = {S.gamma + L.zeta[0] + theta_rel1, S.gamma + L.zeta[1] + theta_rel2};
-  const Vec2<T> corner =
-      S.c[g] + L.tip_radius[g] * unit<T>(theta_c[g] + sigma * (L.eta[g] - L.inv_tip[g]));
+  const T theta_corner = theta_c[g] + sigma * (L.eta[g] - L.inv_tip[g]);
+  const Vec2<T> corner = S.c[g] + L.tip_radius[g] * unit<T>(theta_corner);
   T pen, roll_h;
   Vec2<T> tangency;
   G.contact = involute_penetration<T>(L, h, sigma, theta_c[h], S.c[h], corner, pen, tangency,
@@ -344,6 +345,26 @@ void tip_contact(const MeshLayout& L, const Section<T>& S, int sigma, const T& r
   const Vec2<T> out_h = (ring_h ? -1.0 : 1.0) * (corner - tangency).normalized();
   G.n_t = g == 0 ? Vec2<T>(-out_h) : out_h;
   G.point = corner;
+  // The corner's own flank leaves the mate's at delta (docs/physics.md §4): its involute normal
+  // is the radius turned by +-(pi/2 - alpha_a) (tangent to the base circle; which sign is the
+  // flank's, the nearer of the two to the mate's normal), and tan(delta) = |n x m| / |n . m|.
+  {
+    const double turn = 0.5 * kPi - std::acos(L.base_radius[g] / L.tip_radius[g]);
+    T best = T(1e300);
+    for (const double side : {1.0, -1.0}) {
+      const Vec2<T> n_own = unit<T>(theta_corner + side * turn);
+      const T cross = fabs(n_own.x() * out_h.y() - n_own.y() * out_h.x());
+      const T dot = fabs(n_own.dot(out_h));
+      const T slope = cross / dot;
+      if (slope < best) best = slope;
+    }
+    // rounded over its first kCornerSlopeOnset so that it starts with zero slope where a contact
+    // moves onto the corner (tan(delta) grows in proportion to the turn past the path's end): the
+    // local law's slope in the pose stays continuous there, as the integrator and the step's
+    // derivative need (laws.hpp, the near field's blend)
+    G.corner_slope = best < kCornerSlopeOnset ? best * best / (2.0 * kCornerSlopeOnset)
+                                              : best - 0.5 * kCornerSlopeOnset;
+  }
   G.path = g == 0 ? 1.0 : 0.0;
   // d(pen)/d(TE): gear 2 turns by dTE/(s r_b2). Against gear 2's flank the involute moves by
   // r_b2 per radian; gear 2's own edge moves along its tip circle.
@@ -385,6 +406,7 @@ GM_STAGE void slice_contact(const MeshLayout& L, const SliceFrame<T>& F, const S
   const T t = rho1 - 0.5 * G.rigid;  // contact midway between the two flanks
   G.contact = true;
   G.kind = kFlankContact;
+  G.corner_slope = 0;
   if (t >= S.t_lo && t <= S.t_hi) {
     G.roll1 = t;
     G.roll2 = S.T1T2 - s * t;
@@ -433,6 +455,7 @@ GM_STAGE void fill_slice(const MeshLayout& L, const SliceFrame<T>& F, const Sect
   c.sliding_velocity = (v1 - v2).dot(c.tangent);
   c.te_gain = G.gain * L.cos_beta_b;
   c.path_position = G.path;
+  c.corner_slope = G.corner_slope;
 }
 
 // The next slice of an aligned spur pair: the pair's first slice moved along the face to z,

@@ -78,6 +78,8 @@ struct ContactSliceT {
   T sliding_velocity = 0;     // velocity of gear 1 relative to gear 2 along `tangent`, m/s
   T te_gain = 0;              // d(Delta_n)/d(TE) at fixed phi_1: +-cos(beta_b) on the flanks
   T path_position = 0;        // 0 at the start of the path of contact, 1 at its end
+  T corner_slope = 0;         // tip corner: tan of the angle between its own flank and the mate's
+                              // (the local law's contact width, docs/physics.md §4); 0 on a flank
   Eigen::Matrix<T, 3, 1> tangent{T(0), T(0), T(0)};// unit profile tangent in the transverse plane, towards gear 1's root
   Eigen::Matrix<T, 3, 1> point{T(0), T(0), T(0)};// contact point in H, m
   Eigen::Matrix<T, 3, 1> normal{T(0), T(0), T(0)}; // unit direction of the normal force on gear 2, in H
@@ -96,6 +98,11 @@ struct KinematicsT {
   T omega[2];
   T load_torque;
 };
+
+// A tip corner's slope (ContactSliceT::corner_slope) is tan(delta) less kCornerSlopeOnset/2 beyond
+// tan(delta) = kCornerSlopeOnset (about 0.3 degrees) and tan^2(delta)/(2 kCornerSlopeOnset) below:
+// it sets in with zero slope where a contact moves onto the corner.
+constexpr double kCornerSlopeOnset = 0.005;
 
 // detect_contacts' default: every candidate (no approach is below -kEmitAll).
 constexpr double kEmitAll = 1e300;

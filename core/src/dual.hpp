@@ -83,6 +83,7 @@ inline Dual hypot(const Dual& a, const Dual& b) {
 }
 inline Dual asinh(const Dual& a) { return {std::asinh(a.v), a.d / std::sqrt(1 + a.v * a.v)}; }
 inline Dual log(const Dual& a) { return {std::log(a.v), a.d / a.v}; }
+inline Dual log1p(const Dual& a) { return {std::log1p(a.v), a.d / (1 + a.v)}; }
 inline Dual exp(const Dual& a) {
   const double e = std::exp(a.v);
   return {e, e * a.d};

@@ -56,6 +56,8 @@ const char* local_law_error(const LocalLaw& law) {
   if (!(law.width > 0) || !std::isfinite(law.width)) return "slice width must be finite and > 0";
   if (!(law.reduced_radius > 0) || !std::isfinite(law.reduced_radius))
     return "reduced radius of curvature R' must be finite and > 0";
+  if (!(law.corner_slope >= 0) || !std::isfinite(law.corner_slope))
+    return "corner slope tan(delta) must be finite and >= 0";
   for (const HertzBody& b : law.body) {
     if (!(b.youngs_modulus > 0) || !std::isfinite(b.youngs_modulus))
       return "Young's modulus must be finite and > 0";
@@ -104,7 +106,41 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
     kern.inv_depth[t] = 1.0 / body.depth;
   }
   kern.b2_per_load = (4.0 / kPi) * law.reduced_radius * inv_E_star;  // b_H^2 = 4 w R'/(pi E*)
+  kern.corner_stiffness = law.corner_slope / inv_E_star;              // E* tan(delta)
   return kern;
+}
+
+// The law at a tip corner (hertz.hpp, corner_law). With w(b) = b^2/beta + s b,
+//   f = w G(b),  f' = G + rho g1,  f'' = (rho g1 + rho^2 g2)/w + rho' g1,
+// g1 = b dG/db = -1/r + k (r-1)/(r (r+1)), g2 = b dg1/db = [1/r^2 + k (1 + 2r - r^2)/(r^2 (r+1)^2)] q^2/r
+// (b dr/db = q^2/r, b dA/db = -1/r), rho = (w/b) db/dw = w/(b D), D = dw/db = 2b/beta + s,
+// rho' = -(s/beta)/D^3. The integral, in b: P/L = int_0^w f dw = int_0^b w(x) G(x) w'(x) dx with
+// w w' = 2x^3/beta^2 + 3 s x^2/beta + s^2 x, so with x = h q
+//   P/L = a h^2 [2 h^2/beta^2 I_3 + 3 s h/beta I_2 + s^2 I_1],  I_n = M_n - k N_n,
+//   M_n = int_0^q x^n asinh(1/x) dx,  N_n = int_0^q x^n/(sqrt(1+x^2)+1) dx = int_0^q x^(n-2) (r-1) dx:
+//   M_1 = q^2 A/2 + (r-1)/2,           N_1 = r - 1 - ln((1+r)/2)      (int sqrt(1+x^2)/x = r - asinh(1/x)),
+//   M_2 = q^3 A/3 + (q r - asinh q)/6,  N_2 = (q r + asinh q)/2 - q,
+//   M_3 = q^4 A/4 + (r-1)^2 (r+2)/12,   N_3 = (r-1)^2 (2r+1)/6,
+// each by parts (d/dx[x^(n+1) asinh(1/x)] = (n+1) x^n asinh(1/x) - x^n/sqrt(1+x^2)); at s = 0
+// 2 h^4/beta^2 I_3 is local_law_jet's w^2 [A/2 + ...] (w = b^2/beta). The pairs that cancel for
+// small q are summed as series there (q < 0.01). Tests: f' and f'' against finite differences,
+// P against quadrature of f, s = 0 against the flank law, the wedge's width limit.
+LocalLawJet corner_law_jet(const LocalLawKernel& kern, double force) {
+  LocalLawJet v;
+  const double w = force * kern.inv_width, s = kern.corner_stiffness;
+  const double b = 2.0 * w / (s + std::sqrt(s * s + 4.0 * w / kern.b2_per_load));  // as corner_law's
+  if (!(w > 0) || !(b > 0)) {
+    v.slope = std::numeric_limits<double>::infinity();  // F = 0 (or b underflows), as on a flank
+    v.curvature = -v.slope;
+    return v;
+  }
+  const CornerLaw<double> c = corner_law<double>(w, kern.b2_per_load, kern.corner_stiffness, kern.terms,
+                                                 kern.a, kern.k, kern.depth);
+  v.approach = c.approach;
+  v.slope = c.slope * kern.inv_width;
+  v.curvature = c.curvature * kern.inv_width * kern.inv_width;
+  v.energy = c.energy * kern.width;
+  return v;
 }
 
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force) {

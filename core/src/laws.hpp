@@ -79,6 +79,7 @@ void build_level_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLa
     } else {
       if (i > 0 && identical(s.roll[0], slices[i - 1].roll[0]) &&
           identical(s.roll[1], slices[i - 1].roll[1]) && identical(s.width, slices[i - 1].width) &&
+          identical(s.corner_slope, slices[i - 1].corner_slope) &&
           (all || slices[i - 1].approach > 0)) {
         law = laws[i - 1];  // the next slice of an aligned spur pair: the same law
         continue;
@@ -92,6 +93,7 @@ void build_level_laws(const gm_model& m, const ContactSliceT<T>* slices, SliceLa
                                       cb2 / s.width;
       law.local.width = s.width / cb;
       law.local.reduced_radius = 1 / (cb / rho1 + L.sign * cb / rho2);  // normal-plane curvatures
+      law.local.corner_slope = s.corner_slope;  // a tip corner's flank angle (docs/physics.md §4)
       for (int g = 0; g < 2; ++g) {
         law.local.body[g].youngs_modulus = m.params.gear[g].youngs_modulus;
         law.local.body[g].poisson_ratio = m.params.gear[g].poisson_ratio;

@@ -38,7 +38,7 @@ bool repeats(const ContactSliceT<T>& a, const T& a_width, const ContactSliceT<T>
   if (!same(a.approach, b.approach) || !same(a_width, b.width) || !same(a.roll[0], b.roll[0]) ||
       !same(a.roll[1], b.roll[1]) || !same(a.approach_rate, b.approach_rate) ||
       !same(a.sliding_velocity, b.sliding_velocity) || !same(a.te_gain, b.te_gain) ||
-      !same(a.path_position, b.path_position))
+      !same(a.path_position, b.path_position) || !same(a.corner_slope, b.corner_slope))
     return false;
   for (int k = 0; k < 3; ++k)
     if (!same(a.tangent[k], b.tangent[k]) || !same(a.normal[k], b.normal[k])) return false;
@@ -56,6 +56,7 @@ void merge_into(ContactSliceT<T>& acc, const ContactSliceT<T>& x, int count) {
   fold(acc.sliding_velocity, x.sliding_velocity, count);
   fold(acc.te_gain, x.te_gain, count);
   fold(acc.path_position, x.path_position, count);
+  fold(acc.corner_slope, x.corner_slope, count);
   for (int k = 0; k < 3; ++k) {
     fold(acc.tangent[k], x.tangent[k], count);
     fold(acc.normal[k], x.normal[k], count);

@@ -53,9 +53,10 @@ inline gm::ComplianceDb smooth_db(const gm_model_params& p, int gear, const Smoo
   db.mesh_order = s.mesh_order;
   db.note = "synthetic smooth database (tests/core/fe_synthetic.hpp)";
   db.n_coupled = std::uint32_t(s.n_coupled);
-  // roll: the active profile (start of active profile to tip) and 10 % beyond each end
-  const double lo = 0.5 * std::sqrt(std::max(0.0, gi.d_sap * gi.d_sap - gi.d_b * gi.d_b));
-  const double hi = gi.rho_a, pad = 0.1 * (hi - lo);
+  // roll: the active profile (start of active profile to tip) and 10 % beyond each end (a ring's
+  // roll grows from its tip outwards)
+  const double sap = 0.5 * std::sqrt(std::max(0.0, gi.d_sap * gi.d_sap - gi.d_b * gi.d_b));
+  const double lo = std::min(sap, gi.rho_a), hi = std::max(sap, gi.rho_a), pad = 0.1 * (hi - lo);
   for (int a = 0; a < s.n_roll; ++a)
     db.roll.push_back(lo - pad + (hi - lo + 2 * pad) * a / (s.n_roll - 1));
   const double b = p.gear[gear].face_width;

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "detection.hpp"
 #include "dual.hpp"
 #include "gearmesh/internal/hertz.hpp"
 #include "laws.hpp"
@@ -145,5 +146,66 @@ TEST(CornerNearField, BlendAlongTheFlankIsSmoothAndItsSlopeExact) {
         EXPECT_GT(k.d, 0);  // kappa grows towards the tip (rho grows) and with the depth
       }
     }
+  }
+}
+
+// A tip corner's slope (detection's corner_slope, the local law's contact width, docs/physics.md
+// §4): the angle between the mate's flank (the slice's normal) and the corner's own flank, the
+// latter's tangent taken here by differences of the involute's polar form theta(R) = theta_P
+// +- (inv alpha(R) - inv alpha_a) through the corner point (the sign: the branch nearer the
+// mate's flank, the other is the tooth's other side); then the onset's rounding. The 21/62 ring,
+// whose corners carry far past the path's ends, and set A, over a pitch at a large approach.
+TEST(CornerNearField, CornerSlopeIsTheFlanksAngle) {
+  auto inv = [](double a) { return std::tan(a) - a; };
+  for (const gm_model_params& base : {gm_test::ring(), gm_test::paper()}) {
+    const gm_test::Pair P = gm_test::make_pair(base);
+    const gm::MeshLayout& L = P.L;
+    std::vector<gm::ContactSlice> slices(512);
+    int corners = 0;
+    double largest = 0;
+    for (int pose = 0; pose < 40; ++pose) {
+      gm_kinematics k{};
+      k.phi[0] = 2 * kPi / P.p.gear[0].teeth * pose / 40;
+      k.phi[1] = gm_test::phi2_for(L, 30e-6, k.phi[0]);
+      std::string msg;
+      const int n = gm::detect_contacts(L, k, slices.data(), int(slices.size()), msg);
+      ASSERT_GE(n, 0) << msg;
+      for (int i = 0; i < n; ++i) {
+        const gm::ContactSlice& s = slices[std::size_t(i)];
+        if (s.kind == gm::kFlankContact) {
+          EXPECT_EQ(s.corner_slope, 0.0);
+          continue;
+        }
+        const int g = s.kind == gm::kTipOfGear1 ? 0 : 1;
+        const double cx = g == 0 ? 0.0 : L.center_distance;
+        const double dx = s.point.x() - cx, dy = s.point.y(), R = std::hypot(dx, dy);
+        const double rb = L.base_radius[g], theta = std::atan2(dy, dx);
+        const double e = 1e-5 * R;  // central differences (the polar form runs on past the tip)
+        const double m[2] = {s.normal.x(), s.normal.y()};
+        double best = 1e300;
+        for (const double side : {1.0, -1.0}) {
+          auto at = [&](double Rr, double& x, double& y) {
+            const double th = theta + side * (inv(std::acos(rb / Rr)) - inv(std::acos(rb / R)));
+            x = Rr * std::cos(th);
+            y = Rr * std::sin(th);
+          };
+          double x1, y1, x2, y2;
+          at(R + e, x1, y1);
+          at(R - e, x2, y2);
+          const double tx = x1 - x2, ty = y1 - y2;
+          // the flank's tangent against the mate's normal: delta from perpendicular
+          const double cosang = std::fabs(tx * m[0] + ty * m[1]) / std::hypot(tx, ty);
+          best = std::min(best, std::tan(std::asin(std::min(1.0, cosang))));
+        }
+        const double want = best < gm::kCornerSlopeOnset ? best * best / (2 * gm::kCornerSlopeOnset)
+                                                         : best - 0.5 * gm::kCornerSlopeOnset;
+        EXPECT_NEAR(s.corner_slope, want, 1e-7 * best + 1e-10) << "pose " << pose << ", gear " << g + 1;
+        ++corners;
+        largest = std::max(largest, best);
+      }
+    }
+    std::printf("  %s: %d corner slices, tan(delta) up to %.3f\n", L.sign < 0 ? "ring" : "set A", corners, largest);
+    EXPECT_GT(corners, 10);
+    EXPECT_GT(largest, 2 * gm::kCornerSlopeOnset);
   }
 }

@@ -528,7 +528,7 @@ TEST(Dynamics, AMastersRoundingKeepsTheInternalSteps) {
 
 // The step's sensitivity (gm_dynamics_advance_with) is the derivative of the step: a 1 ms
 // step of the drive at 1000 rpm (gear 1 on its shaft, 400 N m on gear 2, a soft shaft on gear 2,
-// 40 to 66 internal steps through tooth changes, the teeth in contact throughout: at 350 N m
+// 40 to 116 internal steps through tooth changes, the teeth in contact throughout: at 350 N m
 // level 5's synthetic databases part them three times within the step), each of the ten columns against the
 // fourth-order central difference of whole steps that take the same internal steps
 // (StepOptions::replay: the derivative holds them, as the integrator's own linearization does),
@@ -537,7 +537,10 @@ TEST(Dynamics, AMastersRoundingKeepsTheInternalSteps) {
 // (solver.tolerance; at the default 1e-10 the solve's last iterate is a smooth function of the
 // pose whose derivative differs from the converged solve's by up to 3e-6 of a column where a
 // contact near a tip corner curves the law strongly, whatever the difference step). Per entry within 1e-6 of
-// its column's largest entry in the same unit (measured: 4.0e-7 to 8.5e-7). The sensitivity
+// its column's largest entry in the same unit (measured: 4.0e-7 to 8.5e-7), level 5 within 3e-6
+// (measured 1.8e-6 at moves of 1e-8 and 1e-9 rad alike: no truncation, the rounding of its 116
+// internal steps' coupled solves; 7.8e-7 to 1.8e-6 as merely the merging of equal slices
+// changes). The sensitivity
 // taken along the plain step (stages to 1e-2 of the tolerance) is within 5e-4 of the replayed
 // one (measured: 3e-8 to 7e-5 without friction, 8e-5 with). Printed, not checked: the difference
 // quotients of whole plain steps, which choose their internal steps anew, are 0.1 to 10 off:
@@ -609,8 +612,8 @@ TEST(Dynamics, StepSensitivityIsTheDerivativeOfTheStep) {
       ASSERT_GT(taken.size(), 10u);
       // the premise of the differences below: the teeth stay in contact through the step (where
       // they part, the internal steps shrink to 4e-7 s at the impact and the differences of
-      // +-2e-7 rad straddle its kinks; the pitch point's friction takes them to 1.3e-6 s)
-      EXPECT_GT(*std::min_element(taken.begin(), taken.end()), 1e-6) << "an impact within the step";
+      // +-2e-7 rad straddle its kinks; the pitch point's friction takes them to 1.0-1.3e-6 s)
+      EXPECT_GT(*std::min_element(taken.begin(), taken.end()), 7e-7) << "an impact within the step";
     }
     // the replayed step: the sensitivity at exactly converged stages
     gm_step_sensitivity exact{};
@@ -641,7 +644,10 @@ TEST(Dynamics, StepSensitivityIsTheDerivativeOfTheStep) {
     // pitch point's 5e-6 m of roll at 1000 rpm: the spin angles move by 1e-8 rad there; level 0's
     // mesh stiffness jumps where a tooth pair enters or leaves, and a stage point can lie within
     // 2e-7 rad of such a jump: the differences then straddle it)
-    const double turn = c.mu > 0 || c.level == 0 ? 0.1 : 1.0;
+    // Level 5: a tip corner's slice starts to carry (its law's width from the flanks' angle,
+    // docs/physics.md §4) within 2e-7 rad of a stage point; at 1e-8 rad its differences agree
+    // with the sensitivity to 2e-6, as the other cases' at their moves.
+    const double turn = c.mu > 0 || c.level == 0 || c.level == 5 ? 0.1 : 1.0;
     const double moves[GM_SENS_COLUMNS] = {1e-7 * turn, 1e-7 * turn, 1e-4, 1e-4, 1e-2, 1e-2, 1e-7, 1e-7, 1e-4, 1e-4};
     double worst_exact = 0, worst_plain = 0, worst_whole = 0;
     for (int col = 0; col < GM_SENS_COLUMNS; ++col) {
@@ -666,7 +672,7 @@ TEST(Dynamics, StepSensitivityIsTheDerivativeOfTheStep) {
           worst_exact = std::max(worst_exact, std::fabs(fd - entry(exact, i)) / scale);
           worst_plain = std::max(worst_plain, std::fabs(entry(plain, i) - entry(exact, i)) / scale);
           worst_whole = std::max(worst_whole, std::fabs(fd_whole - entry(exact, i)) / scale);
-          EXPECT_NEAR(entry(exact, i), fd, 1e-6 * scale) << "column " << col << ", row " << row;
+          EXPECT_NEAR(entry(exact, i), fd, (c.level == 5 ? 3e-6 : 1e-6) * scale) << "column " << col << ", row " << row;
         }
       }
     }

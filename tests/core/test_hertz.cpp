@@ -8,6 +8,7 @@
 #include <limits>
 #include <string>
 
+#include "dual.hpp"
 #include "gearmesh/internal/hertz.hpp"
 
 namespace {
@@ -297,4 +298,129 @@ TEST(Hertz, InputChecksAndReducedRadius) {
   EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[0].poisson_ratio = -0.1; }), nullptr);
   EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[1].depth = 0; }), nullptr);
   EXPECT_NE(broken([](gm::LocalLaw& l) { l.body[1].depth = INFINITY; }), nullptr);
+}
+
+// ---- a tip corner: the contact's half-width from the flanks' angle (hertz.hpp, corner_law) ----
+
+namespace {
+
+// gear_slice at a tip corner whose flank leaves the mate's at tan(delta) = slope; bodies of
+// different depth and material, so that both terms and the un-merged kernel are exercised.
+gm::LocalLaw corner_slice(double slope) {
+  gm::LocalLaw law = gear_slice();
+  law.body[0].near_field = 1.55;
+  law.body[1] = {110e9, 0.34, 2 * kMm};
+  law.corner_slope = slope;
+  return law;
+}
+
+}  // namespace
+
+TEST(Hertz, CornerLawIsTheLiteralFormulaAtItsWidth) {
+  // At every line load, the corner's approach is docs/physics.md §4's delta_i summed at the
+  // half-width b that solves w = E* (b tan(delta) + pi b^2/(4 R')), found here by bisection;
+  // with R' -> infinity that is Johnson's wedge, b = w/(E* tan(delta)).
+  for (double slope : {1e-3, 0.03, 0.3}) {
+    const gm::LocalLaw law = corner_slice(slope);
+    const double E_star = gm::reduced_modulus(law.body[0], law.body[1]);
+    for (double w = 1e-2; w <= 1e7; w *= 7.1) {
+      double lo = 0, hi = 1.0;
+      for (int it = 0; it < 200; ++it) {
+        const double b = 0.5 * (lo + hi);
+        (E_star * (b * slope + kPi * b * b / (4 * law.reduced_radius)) < w ? lo : hi) = b;
+      }
+      const double b = 0.5 * (lo + hi);
+      const double literal = gm::hertz_body_approach(w, b, law.body[0]) + gm::hertz_body_approach(w, b, law.body[1]);
+      EXPECT_NEAR(f(law, w * law.width), literal, 1e-11 * literal) << "tan delta " << slope << ", w " << w;
+    }
+    gm::LocalLaw wedge = law;
+    wedge.reduced_radius = 1e9;  // a flat mate: the wedge alone
+    const double w = 3e4, b = w / (E_star * slope);
+    const double literal = gm::hertz_body_approach(w, b, wedge.body[0]) + gm::hertz_body_approach(w, b, wedge.body[1]);
+    EXPECT_NEAR(f(wedge, w * wedge.width), literal, 1e-6 * literal) << "tan delta " << slope;
+  }
+}
+
+TEST(Hertz, CornerLawWithoutAngleIsTheFlanksLaw) {
+  // tan(delta) -> 0: the corner's law tends to the flank's (Hertz) in every derivative and the
+  // energy (its width differs from b_H by a share of about E* tan(delta) sqrt(pi R'/(4 w E*)): at
+  // tan(delta) = 1e-14 below 1e-9 from w = 1 N/m); and it is more compliant at every angle (its
+  // contact is narrower).
+  const gm::LocalLaw flank = corner_slice(0);
+  for (double w = 1.0; w <= 1e7; w *= 5.3) {
+    const double F = w * flank.width;
+    const gm::LocalLawJet h = gm::local_law_jet(gm::local_law_kernel(flank), F);
+    const gm::LocalLawJet c = gm::local_law_jet(gm::local_law_kernel(corner_slice(1e-14)), F);
+    EXPECT_NEAR(c.approach, h.approach, 1e-9 * h.approach) << "w " << w;
+    EXPECT_NEAR(c.slope, h.slope, 1e-9 * h.slope) << "w " << w;
+    EXPECT_NEAR(c.curvature, h.curvature, 1e-7 * std::abs(h.curvature)) << "w " << w;
+    EXPECT_NEAR(c.energy, h.energy, 1e-9 * h.energy) << "w " << w;
+    EXPECT_GT(f(corner_slice(0.01), F), h.approach) << "w " << w;
+  }
+}
+
+TEST(Hertz, CornerLawSlopeCurvatureAndEnergy) {
+  // f' and f'' against central differences, P against quadrature of f, f increasing and concave.
+  for (double slope : {1e-3, 0.03, 0.3}) {
+    const gm::LocalLaw law = corner_slice(slope);
+    const gm::LocalLawKernel kern = gm::local_law_kernel(law);
+    EXPECT_EQ(kern.terms, 2);
+    double last_f = 0, last_slope = std::numeric_limits<double>::infinity();
+    for (double w = 1e-2; w <= 1e7; w *= 3.7) {
+      const double F = w * law.width, dF = 1e-5 * F;
+      const gm::LocalLawJet j = gm::local_law_jet(kern, F);
+      const double fd = (f(law, F + dF) - f(law, F - dF)) / (2 * dF);
+      const double fdd = (gm::local_law_jet(kern, F + dF).slope - gm::local_law_jet(kern, F - dF).slope) / (2 * dF);
+      EXPECT_NEAR(j.slope, fd, 1e-8 * fd) << "tan delta " << slope << ", w " << w;
+      EXPECT_NEAR(j.curvature, fdd, 1e-6 * std::abs(fdd)) << "tan delta " << slope << ", w " << w;
+      const double quad = integrate([&](double t) { return f(law, F * t * t) * 2 * F * t; }, 0, 1,
+                                    1e-15 * F * j.approach);
+      EXPECT_NEAR(j.energy, quad, 1e-10 * quad) << "tan delta " << slope << ", w " << w;
+      EXPECT_GT(j.approach, last_f);
+      EXPECT_LT(j.slope, last_slope);
+      EXPECT_GT(j.slope, 0);
+      last_f = j.approach;
+      last_slope = j.slope;
+    }
+  }
+}
+
+TEST(Hertz, CornerLawOverDualNumbers) {
+  // local_law_value over dual numbers: its value is the double law's, and its derivative along
+  // the corner's angle and along the force are the central differences.
+  using gm::ad::Dual;
+  for (double slope : {1e-3, 0.03}) {
+    const gm::LocalLaw law = corner_slice(slope);
+    for (double w : {1e2, 3e4, 1e6}) {
+      const double F = w * law.width;
+      gm::LocalLawT<Dual> dl;
+      dl.width = law.width;
+      dl.reduced_radius = law.reduced_radius;
+      dl.corner_slope = Dual(slope, 1.0);
+      for (int g = 0; g < 2; ++g) {
+        dl.body[g].youngs_modulus = law.body[g].youngs_modulus;
+        dl.body[g].poisson_ratio = law.body[g].poisson_ratio;
+        dl.body[g].depth = law.body[g].depth;
+        dl.body[g].near_field = law.body[g].near_field;
+      }
+      const gm::LocalLawValueT<Dual> v = gm::local_law_value(dl, Dual(F, 0));
+      const gm::LocalLawValue d = gm::evaluate_local_law(law, F);
+      EXPECT_NEAR(v.approach.v, d.approach, 1e-12 * d.approach);
+      EXPECT_NEAR(v.slope.v, d.slope, 1e-12 * d.slope);
+      EXPECT_NEAR(v.energy.v, d.energy, 1e-11 * d.energy);
+      const double e = 1e-6 * slope;
+      gm::LocalLaw up = law, down = law;
+      up.corner_slope += e;
+      down.corner_slope -= e;
+      const double fd = (f(up, F) - f(down, F)) / (2 * e);
+      EXPECT_NEAR(v.approach.d, fd, 1e-6 * std::abs(fd)) << "tan delta " << slope << ", w " << w;
+      gm::LocalLawT<Dual> fixed_angle = dl;
+      fixed_angle.corner_slope = Dual(slope, 0);
+      EXPECT_NEAR(gm::local_law_value(fixed_angle, Dual(F, 1.0)).approach.d, d.slope, 1e-12 * d.slope);
+    }
+  }
+  gm::LocalLaw bad = corner_slice(-0.01);
+  EXPECT_NE(gm::local_law_error(bad), nullptr);
+  bad.corner_slope = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(std::string(gm::local_law_error(bad)).find("corner slope"), std::string::npos);
 }

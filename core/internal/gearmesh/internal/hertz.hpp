@@ -9,6 +9,14 @@
 // (f' falls from +inf at F = 0 like -ln(F)/2 and grows like sqrt(F) for b_H >> h_i), checked
 // for 0 <= nu < 0.5 over b_H/h from 1e-9 to 1e3 and tested over line loads 1e-3..1e7 N/m. Its
 // integral P is what the solver minimises, so P is exact too (closed form in hertz.cpp).
+//
+// At a tip corner the corner's own flank leaves the mate's at an angle delta (0 at the path's
+// end, growing past it), and the contact's half-width b solves w = E* (b tan(delta) + pi b^2/(4R'))
+// instead (the 2-D load-width relation is linear in the profile's slope: the wedge's
+// w = E* b tan(delta) plus Hertz's, Johnson, Contact Mechanics, §5.2). delta = 0 gives b_H; a
+// corner far past the path's end presses over b -> w/(E* tan(delta)), much narrower than b_H, and
+// its local approach grows by about ln(b_H/b) (docs/physics.md §4). f stays increasing and
+// concave; f, f', f'' and P have closed forms (corner_law below, derived in hertz.cpp).
 #pragma once
 
 #include <cmath>
@@ -34,6 +42,7 @@ template <class T>
 struct LocalLawT {
   T width = 0;           // L, m
   T reduced_radius = 0;  // R', m, 1/R' = 1/rho_1 + 1/rho_2; must be > 0
+  T corner_slope = 0;    // tan(delta) at a tip corner, >= 0 (0: Hertz, a flank contact)
   HertzBodyT<T> body[2];
 };
 using LocalLaw = LocalLawT<double>;
@@ -80,7 +89,8 @@ inline bool has_local_law(const LocalLaw& law) { return law.width > 0; }
 
 // Whether two laws are the same law (every field equal): one evaluation serves both.
 inline bool same_local_law(const LocalLaw& a, const LocalLaw& b) {
-  if (a.width != b.width || a.reduced_radius != b.reduced_radius) return false;
+  if (a.width != b.width || a.reduced_radius != b.reduced_radius || a.corner_slope != b.corner_slope)
+    return false;
   for (int g = 0; g < 2; ++g)
     if (a.body[g].depth != b.body[g].depth || a.body[g].youngs_modulus != b.body[g].youngs_modulus ||
         a.body[g].poisson_ratio != b.body[g].poisson_ratio || a.body[g].near_field != b.body[g].near_field)
@@ -99,6 +109,7 @@ struct LocalLawKernel {
   double width = 0;         // L, m; 0: no local law
   double inv_width = 0;     // 1/L, 1/m
   double b2_per_load = 0;   // b_H^2/w = 4 R'/(pi E*), m^2/(N/m)
+  double corner_stiffness = 0;  // E* tan(delta), Pa: 0 on a flank (Hertz), > 0 at a tip corner
   int terms = 0;            // 0 (no law), 1 (identical bodies, weight 2) or 2
   double a[2] = {0, 0};     // 2 (1 - nu^2)/(pi E) per term (times 2 for merged bodies), m^2/N
   double k[2] = {0, 0};     // nu/(1 - nu)
@@ -116,6 +127,61 @@ struct LocalLawJet {
 
 LocalLawKernel local_law_kernel(const LocalLaw& law);
 
+// The law at a tip corner, per unit width: f(w) = w sum_t a_t G_t(b), its w-derivatives and
+// P(w)/L = int_0^w f, with b solving w = b^2/beta + s b (beta = 4R'/(pi E*), s = E* tan(delta));
+// G_t = asinh(h_t/b) - k_t h_t/(sqrt(h_t^2 + b^2) + h_t) as on a flank. Terms t: a_t (with the
+// near-field factor), k_t = nu/(1 - nu), h_t. w > 0, s >= 0. T: double or a dual number.
+// The closed forms are derived in hertz.cpp; s = 0 gives local_law_jet's.
+template <class T>
+struct CornerLaw {
+  T approach = 0, slope = 0, curvature = 0, energy = 0;  // f, df/dw, d2f/dw2, int_0^w f dw
+};
+
+template <class T>
+CornerLaw<T> corner_law(const T& w, const T& beta, const T& s, int terms, const T* a,
+                        const double* k, const T* h) {
+  using std::asinh;
+  using std::log;
+  using std::log1p;
+  using std::sqrt;
+  const T b = 2.0 * w / (s + sqrt(s * s + 4.0 * w / beta));  // the root, free of cancellation
+  const T D = 2.0 * b / beta + s;                            // dw/db
+  const T rho = w / (b * D);                                 // (w/b) db/dw: 1/2 (Hertz) .. 1 (wedge)
+  const T drho = -(s / beta) / (D * D * D);                  // d rho/dw
+  CornerLaw<T> v;
+  for (int t = 0; t < terms; ++t) {
+    const double kk = k[t];
+    const T q = b / h[t], q2 = q * q, r = sqrt(1.0 + q2), r1 = r + 1.0, rm1 = q2 / r1;  // r - 1
+    const T A = log(r1 / q);                                  // asinh(1/q)
+    const T G = A - kk / r1;
+    const T g1 = -1.0 / r + kk * rm1 / (r * r1);              // b dG/db
+    const T g2 = (1.0 / (r * r) + kk * (2.0 * r + 1.0 - r * r) / (r * r * r1 * r1)) * q2 / r;  // b d(g1)/db
+    v.approach += a[t] * G;
+    v.slope += a[t] * (G + rho * g1);
+    v.curvature += a[t] * ((rho * g1 + rho * rho * g2) / w + drho * g1);
+    // int_0^q x^n G(x h) dx = M_n - k N_n (hertz.cpp), with the cancelling pairs by series
+    T qr_as, n2;  // q r - asinh(q), (q r + asinh(q))/2 - q
+    if (q < 0.01) {
+      qr_as = q2 * q * (2.0 / 3.0 - q2 * (1.0 / 5.0 - q2 * (3.0 / 28.0)));
+      n2 = q2 * q * (1.0 / 6.0 - q2 * (1.0 / 40.0 - q2 / 112.0));
+    } else {
+      const T as = asinh(q);
+      qr_as = q * r - as;
+      n2 = 0.5 * (q * r + as) - q;
+    }
+    const T I1 = 0.5 * q2 * A + 0.5 * rm1 - kk * (rm1 - log1p(0.5 * rm1));
+    const T I2 = q2 * q * A / 3.0 + qr_as / 6.0 - kk * n2;
+    const T I3 = 0.25 * q2 * q2 * A + rm1 * rm1 * ((r + 2.0) / 12.0 - kk * (2.0 * r + 1.0) / 6.0);
+    const T h2 = h[t] * h[t];
+    v.energy += a[t] * h2 * (2.0 * h2 / (beta * beta) * I3 + 3.0 * s * h[t] / beta * I2 + s * s * I1);
+  }
+  v.approach *= w;
+  return v;
+}
+
+// local_law_jet at a tip corner (kern.corner_stiffness > 0): corner_law, out of line.
+LocalLawJet corner_law_jet(const LocalLawKernel& kern, double force);
+
 // f, f', f'' and P at F >= 0: the closed forms of evaluate_local_law (which calls this), with
 // asinh(1/q) = ln((1 + r)/q) (log1p of the same where q >= 1, to keep full relative accuracy
 // for b_H >= h). Cost per distinct body: 1 sqrt, 1 log and 2 divisions; plus 1 sqrt and 1
@@ -124,6 +190,7 @@ LocalLawKernel local_law_kernel(const LocalLaw& law);
 inline LocalLawJet local_law_jet(const LocalLawKernel& kern, double force) {
   LocalLawJet v;
   if (kern.terms == 0) return v;
+  if (kern.corner_stiffness > 0) return corner_law_jet(kern, force);
   const double w = force * kern.inv_width;
   const double b = std::sqrt(w * kern.b2_per_load);
   if (!(b > 0)) {  // F = 0, or so small that b_H underflows
@@ -192,6 +259,22 @@ LocalLawValueT<T> local_law_value(const LocalLawT<T>& law, const T& force) {
     inv_E_star += (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
   const T b = sqrt(4.0 * w * law.reduced_radius * inv_E_star / kPi);
   LocalLawValueT<T> v;
+  if (law.corner_slope > 0 && b > 0) {  // a tip corner: corner_law
+    T a[2], h[2];
+    double k[2];
+    for (int t = 0; t < 2; ++t) {
+      const auto& body = law.body[t];
+      a[t] = body.near_field * (2.0 * (1.0 - body.poisson_ratio * body.poisson_ratio) / (kPi * body.youngs_modulus));
+      k[t] = body.poisson_ratio / (1.0 - body.poisson_ratio);
+      h[t] = body.depth;
+    }
+    const CornerLaw<T> c = corner_law<T>(w, T(4.0 * law.reduced_radius * inv_E_star / kPi),
+                                         law.corner_slope / inv_E_star, 2, a, k, h);
+    v.approach = c.approach;
+    v.slope = c.slope / law.width;
+    v.energy = c.energy * law.width;
+    return v;
+  }
   // a force so small (subnormal) that b_H underflows to 0: approach and energy are 0, the slope
   // infinite, as in local_law_jet (1/q would be infinite and energy_ww w^2 = inf 0 = NaN)
   if (!(b > 0)) {
