@@ -30,7 +30,7 @@ double solve_slice(const SliceLaw& law, double delta, double start, double tol,
   double F = start > 0 ? start : delta / law.compliance;
   const LocalLawKernel kernel = local_law_kernel(law.local);
   for (int i = 0; i < max_iterations; ++i) {
-    const LocalLawJet v = local_law_jet(kernel, F);
+    const LocalLawJet v = local_law_slope(kernel, F);
     const double g = law.compliance * F + v.approach - delta;
     const double slope = law.compliance + v.slope;
     ++iterations;

@@ -91,16 +91,18 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
   kern.inv_width = 1.0 / law.width;
   const HertzBody& b0 = law.body[0];
   const HertzBody& b1 = law.body[1];
-  const bool same = b0.youngs_modulus == b1.youngs_modulus && b0.poisson_ratio == b1.poisson_ratio &&
-                    b0.depth == b1.depth && b0.near_field == b1.near_field;
+  // A body's term is a_i G(h_i, k_i): bodies of one Poisson ratio read at one depth share G, so
+  // they are one term with a = a_1 + a_2 (whatever their moduli and near-field factors: a tip
+  // corner's two bodies differ in kappa only).
+  const bool same = b0.poisson_ratio == b1.poisson_ratio && b0.depth == b1.depth;
   kern.terms = same ? 1 : 2;
   double inv_E_star = 0;  // 1/E* = sum (1 - nu_i^2)/E_i (docs/physics.md §4)
-  for (int t = 0; t < kern.terms; ++t) {
-    const HertzBody& body = law.body[t];
-    const double weight = same ? 2.0 : 1.0;
+  for (int i = 0; i < 2; ++i) {
+    const HertzBody& body = law.body[i];
+    const int t = same ? 0 : i;
     const double term = (1.0 - body.poisson_ratio * body.poisson_ratio) / body.youngs_modulus;
-    inv_E_star += weight * term;
-    kern.a[t] = weight * body.near_field * (2.0 / kPi) * term;  // body_compliance
+    inv_E_star += term;
+    kern.a[t] += body.near_field * (2.0 / kPi) * term;  // body_compliance
     kern.k[t] = body.poisson_ratio / (1.0 - body.poisson_ratio);
     kern.depth[t] = body.depth;
     kern.inv_depth[t] = 1.0 / body.depth;
@@ -125,7 +127,7 @@ LocalLawKernel local_law_kernel(const LocalLaw& law) {
 // 2 h^4/beta^2 I_3 is local_law_jet's w^2 [A/2 + ...] (w = b^2/beta). The pairs that cancel for
 // small q are summed as series there (q < 0.01). Tests: f' and f'' against finite differences,
 // P against quadrature of f, s = 0 against the flank law, the wedge's width limit.
-LocalLawJet corner_law_jet(const LocalLawKernel& kern, double force) {
+LocalLawJet corner_law_jet(const LocalLawKernel& kern, double force, bool full) {
   LocalLawJet v;
   const double w = force * kern.inv_width, s = kern.corner_stiffness;
   const double b = 2.0 * w / (s + std::sqrt(s * s + 4.0 * w / kern.b2_per_load));  // as corner_law's
@@ -134,8 +136,9 @@ LocalLawJet corner_law_jet(const LocalLawKernel& kern, double force) {
     v.curvature = -v.slope;
     return v;
   }
-  const CornerLaw<double> c = corner_law<double>(w, kern.b2_per_load, kern.corner_stiffness, kern.terms,
-                                                 kern.a, kern.k, kern.depth);
+  const CornerLaw<double> c =
+      full ? corner_law<double>(w, kern.b2_per_load, s, kern.terms, kern.a, kern.k, kern.depth)
+           : corner_law<double, false>(w, kern.b2_per_load, s, kern.terms, kern.a, kern.k, kern.depth);
   v.approach = c.approach;
   v.slope = c.slope * kern.inv_width;
   v.curvature = c.curvature * kern.inv_width * kern.inv_width;

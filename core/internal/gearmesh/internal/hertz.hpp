@@ -103,15 +103,15 @@ inline bool same_local_law(const LocalLaw& a, const LocalLaw& b) {
 LocalLawValue evaluate_local_law(const LocalLaw& law, double force);
 
 // The same law prepared for many evaluations (the coupled solver's inner loop): its constants
-// worked out once, and both bodies merged into one term when they are identical (same E, nu and
-// h, the usual case of two steel gears read at the same depth).
+// worked out once, and both bodies merged into one term when they share nu and h (the usual case
+// of two steel gears read at the same depth, a tip corner's bodies too: they differ in kappa).
 struct LocalLawKernel {
   double width = 0;         // L, m; 0: no local law
   double inv_width = 0;     // 1/L, 1/m
   double b2_per_load = 0;   // b_H^2/w = 4 R'/(pi E*), m^2/(N/m)
   double corner_stiffness = 0;  // E* tan(delta), Pa: 0 on a flank (Hertz), > 0 at a tip corner
-  int terms = 0;            // 0 (no law), 1 (identical bodies, weight 2) or 2
-  double a[2] = {0, 0};     // 2 (1 - nu^2)/(pi E) per term (times 2 for merged bodies), m^2/N
+  int terms = 0;            // 0 (no law), 1 (bodies of one nu and h, merged) or 2
+  double a[2] = {0, 0};     // kappa 2 (1 - nu^2)/(pi E) per term (summed over merged bodies), m^2/N
   double k[2] = {0, 0};     // nu/(1 - nu)
   double depth[2] = {0, 0};      // h, m
   double inv_depth[2] = {0, 0};  // 1/h, 1/m
@@ -137,7 +137,8 @@ struct CornerLaw {
   T approach = 0, slope = 0, curvature = 0, energy = 0;  // f, df/dw, d2f/dw2, int_0^w f dw
 };
 
-template <class T>
+// Full = false: f and f' only (curvature and energy left 0), what a Newton on one slice needs.
+template <class T, bool Full = true>
 CornerLaw<T> corner_law(const T& w, const T& beta, const T& s, int terms, const T* a,
                         const double* k, const T* h) {
   using std::asinh;
@@ -155,9 +156,10 @@ CornerLaw<T> corner_law(const T& w, const T& beta, const T& s, int terms, const 
     const T A = log(r1 / q);                                  // asinh(1/q)
     const T G = A - kk / r1;
     const T g1 = -1.0 / r + kk * rm1 / (r * r1);              // b dG/db
-    const T g2 = (1.0 / (r * r) + kk * (2.0 * r + 1.0 - r * r) / (r * r * r1 * r1)) * q2 / r;  // b d(g1)/db
     v.approach += a[t] * G;
     v.slope += a[t] * (G + rho * g1);
+    if constexpr (!Full) continue;
+    const T g2 = (1.0 / (r * r) + kk * (2.0 * r + 1.0 - r * r) / (r * r * r1 * r1)) * q2 / r;  // b d(g1)/db
     v.curvature += a[t] * ((rho * g1 + rho * rho * g2) / w + drho * g1);
     // int_0^q x^n G(x h) dx = M_n - k N_n (hertz.cpp), with the cancelling pairs by series
     T qr_as, n2;  // q r - asinh(q), (q r + asinh(q))/2 - q
@@ -179,8 +181,9 @@ CornerLaw<T> corner_law(const T& w, const T& beta, const T& s, int terms, const 
   return v;
 }
 
-// local_law_jet at a tip corner (kern.corner_stiffness > 0): corner_law, out of line.
-LocalLawJet corner_law_jet(const LocalLawKernel& kern, double force);
+// local_law_jet at a tip corner (kern.corner_stiffness > 0): corner_law, out of line; full =
+// false: f and f' only (local_law_slope).
+LocalLawJet corner_law_jet(const LocalLawKernel& kern, double force, bool full = true);
 
 // f, f', f'' and P at F >= 0: the closed forms of evaluate_local_law (which calls this), with
 // asinh(1/q) = ln((1 + r)/q) (log1p of the same where q >= 1, to keep full relative accuracy
@@ -220,6 +223,14 @@ inline LocalLawJet local_law_jet(const LocalLawKernel& kern, double force) {
   v.curvature = curvature_ww * inv_w * (kern.inv_width * kern.inv_width);
   v.energy = energy_ww * w * w * kern.width;                            // int dF = L int dw
   return v;
+}
+
+
+// f and f' at F >= 0 (the curvature and energy may be left 0): a Newton on one slice. The same
+// as local_law_jet on a flank, without a tip corner's extra logarithms.
+inline LocalLawJet local_law_slope(const LocalLawKernel& kern, double force) {
+  if (kern.corner_stiffness > 0 && kern.terms != 0) return corner_law_jet(kern, force, false);
+  return local_law_jet(kern, force);
 }
 
 
