@@ -25,10 +25,6 @@ from .scene import PairSpec
 _FORCE = 1e4  # N per metre of face (the model's thickness is 1 m); the answers are per unit load
 
 
-def _flank_angle(g, centre: float, R: float) -> float:
-    return Pair._flank_angle(g, centre, R)
-
-
 def flank_point(g, tooth: int, roll: float) -> tuple[np.ndarray, np.ndarray]:
     """The contact flank's point at roll distance `roll` on tooth `tooth` and its unit normal
     into the tooth (gear frame, m)."""
@@ -37,7 +33,7 @@ def flank_point(g, tooth: int, roll: float) -> tuple[np.ndarray, np.ndarray]:
     R = math.hypot(roll, g.rb)
 
     def at(radius):
-        th = _flank_angle(g, centre, radius)
+        th = Pair._flank_angle(g, centre, radius)
         return np.array([radius * math.cos(th), radius * math.sin(th)])
 
     p = at(R)
