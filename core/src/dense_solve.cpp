@@ -283,6 +283,7 @@ bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int 
   fp.gain = d.dense_weights.data();
   fp.balance = d.balance.data();
   fp.load = p.load;
+  if (d.face.branch == 1) fp.slice_tolerance = std::numeric_limits<double>::infinity();
   const FaceAnswer fa = solve_face_basis(d.face, fp, d.dense_work.data(), d.dense_tangent.data());
   if (!fa.accepted) return false;
   const int n = p.n;
@@ -332,7 +333,10 @@ ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p) {
   dense_gather(m, d, kin, na);
   dense_set_options(m, d, na);
   d.face.used = false;
-  if (m.level.database && m.params.solver_face_shapes > 0 && !(quasi && load == 0) &&
+  // (a helical pair's contact lines end inside the face, which unloads slices at most poses: the
+  // slices answer there without a reduced attempt first)
+  if (m.level.database && m.params.solver_face_shapes > 0 && m.layout.tan_beta_b == 0 && !(quasi && load == 0) &&
+      d.face.branch != 0 &&
       dense_face_solve(m, d, p, na, flank, out))
     return out;
   NlcpResult res;

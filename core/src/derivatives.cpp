@@ -233,8 +233,9 @@ gm_status coupled_dual_solve(gm_data& d, int na) {
 
 // The same on the reduced face basis of the evaluation's solve (solver.face_shapes,
 // face_basis.hpp): F = Phi alpha with Phi^T g = 0, g = C F + f(F) - Delta, and Phi per pair
-// (C_pp + diag f'_nom)^-1 P (column scales aside, which leave the span and so F as they are), so
-// dPhi = -(C_pp + diag f'_nom)^-1 (dC_pp + diag df'_nom) Phi and
+// (C_pp + diag f'_k)^-1 P_k (column scales aside, which leave the span and so F as they are; f'_k
+// the slopes at column k's line load, face_shape), so
+// dPhi_k = -(C_pp + diag f'_k)^-1 (dC_pp + diag df'_k) Phi_k and
 //   A dalpha = Phi^T rhs - dPhi^T g - Phi^T H dPhi alpha,  A = Phi^T H Phi,  H = C + diag f'(F),
 //   dF = dPhi alpha + Phi dalpha;
 // the tangent stiffnesses x = Phi y, y = A^-1 Phi^T 1, and
@@ -269,24 +270,28 @@ gm_status face_dual_solve(gm_data& d, int na) {
     for (int p = p0; p < na; ++p)
       if (w.cand_col[d.dense_index[p]] == c0) w.member[np++] = p;
     Eigen::MatrixXd& L = w.A;
-    for (int a = 0; a < np; ++a) {
-      const int pa = w.member[a], i = d.dense_index[pa];
-      double slope = 0, dslope = 0;
-      if (has_local_law(d.laws[i].local)) {
-        Dual f, fp;
-        local_law_approach_slope(d.dual_laws[i].local, kShapeLineLoad * d.dual_laws[i].local.width, f, fp);
-        slope = fp.v;
-        dslope = fp.d;
-      }
-      for (int b = a + 1; b < np; ++b) L(b, a) = H(w.member[b], pa);
-      L(a, a) = w.diag[pa] + slope;
-      w.u[a] = dslope;  // d(f'_nom) of member a
-    }
-    if (!face_cholesky(L, np)) {
-      d.message = "level 5 (FE): a tooth pair's block of the reduced face basis is not positive definite";
-      return GM_ERR_SOLVER;
-    }
     for (int k = 0; k < w.cand_dim[d.dense_index[p0]]; ++k) {
+      // the block with column k's slopes (face_shape), factorized once per line load
+      const double load = face_shape(k, w.shapes).line_load;
+      if (k == 0 || load != face_shape(k - 1, w.shapes).line_load) {
+        for (int a = 0; a < np; ++a) {
+          const int pa = w.member[a], i = d.dense_index[pa];
+          double slope = 0, dslope = 0;
+          if (has_local_law(d.laws[i].local)) {
+            Dual f, fp;
+            local_law_approach_slope(d.dual_laws[i].local, load * d.dual_laws[i].local.width, f, fp);
+            slope = fp.v;
+            dslope = fp.d;
+          }
+          for (int b = a + 1; b < np; ++b) L(b, a) = H(w.member[b], pa);
+          L(a, a) = w.diag[pa] + slope;
+          w.u[a] = dslope;  // d(f'_k) of member a
+        }
+        if (!face_cholesky(L, np)) {
+          d.message = "level 5 (FE): a tooth pair's block of the reduced face basis is not positive definite";
+          return GM_ERR_SOLVER;
+        }
+      }
       for (int a = 0; a < np; ++a) {
         const int pa = w.member[a];
         double z = w.u[a] * Phi(pa, c0 + k);
@@ -314,6 +319,7 @@ gm_status face_dual_solve(gm_data& d, int na) {
     d.message = "level 5 (FE): the reduced face basis's matrix is not positive definite";
     return GM_ERR_SOLVER;
   }
+
   auto alpha = w.alpha.head(r);
   auto u = w.u.head(na);
   auto v = w.v.head(na);
@@ -431,6 +437,7 @@ class CoupledWarmStartGuard {
     }
     d_.dense_prev_n = n_;
     d_.face.warm = face_;
+    d_.face.branch = -1;
   }
   CoupledWarmStartGuard(const CoupledWarmStartGuard&) = delete;
   CoupledWarmStartGuard& operator=(const CoupledWarmStartGuard&) = delete;
@@ -477,6 +484,7 @@ gm_status quasi_static_dual(const gm_model& m, gm_data& d, Derivative& g) {
   d.te_estimate = warm;
   d.te_history = history;
   if (st0 != GM_OK) return st0;
+  d.face.branch = d.face.used ? 1 : 0;  // the passes answer as the evaluation did
   kin.phi[1] = Dual((r0.te - rb1 * at.phi[0]) / (s * rb2) + phi2_offset,
                     -rb1 * seed.phi[0] / (s * rb2));
   DualPass a, b;

@@ -28,7 +28,7 @@ void FaceBasis::reserve(int capacity) {
   x2.resize(r);
   F.resize(c);
   trial.resize(c);
-  nominal.resize(c);
+  nominal.assign(std::size_t(c) * kMaxShapes, 0.0);
   inv_norm.resize(r);
   Phi.resize(c, r);
   dPhi.resize(c, r);
@@ -117,10 +117,11 @@ bool group_pairs(FaceBasis& w, const FaceProblem& p) {
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
       const double x = half > 0 ? (p.slices[p.index[w.member[m]]].slice - mid) / half : 0.0;
       double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
-      // Legendre polynomials P_k(x): P_0 = 1, P_1 = x, (k + 1) P_{k+1} = (2k + 1) x P_k - k P_{k-1}
-      ph[0] = 1;
-      if (w.dim[q] > 1) ph[1] = x;
-      for (int k = 1; k + 1 < w.dim[q]; ++k) ph[k + 1] = ((2 * k + 1) * x * ph[k] - k * ph[k - 1]) / (k + 1);
+      // Legendre polynomials P_j(x): P_0 = 1, P_1 = x, (j + 1) P_{j+1} = (2j + 1) x P_j - j P_{j-1}
+      double leg[FaceBasis::kMaxShapes] = {1, x};
+      for (int j = 1; j + 1 < FaceBasis::kMaxShapes; ++j)
+        leg[j + 1] = ((2 * j + 1) * x * leg[j] - j * leg[j - 1]) / (j + 1);
+      for (int k = 0; k < w.dim[q]; ++k) ph[k] = leg[face_shape(k, p.shapes).degree];
     }
   }
   return true;
@@ -221,22 +222,25 @@ void project(const FaceBasis& w, const double* v, double* out) {
   }
 }
 
-// Each pair's shapes as its own response: phi_k := (C_pp + diag f'_i(w_0 L_i))^-1 P_k on its
-// slices (C_pp the pair's block of C, f' the local laws' slopes at the line load w_0), each
+// Each pair's shapes as its own response: phi_k := (C_pp + diag f'_i(w_k L_i))^-1 P_k on its
+// slices (C_pp the pair's block of C, f' the local laws' slopes at column k's line load w_k), each
 // column scaled to a largest entry of 1 (the scale leaves the span, and so the answer, as it is).
 // false: the block is not positive definite.
 bool response_shapes(FaceBasis& w, const FaceProblem& p) {
   Eigen::MatrixXd& L = w.A;
   for (int q = 0; q < w.pairs; ++q) {
     const int np = w.count[q], f0 = w.first[q];
-    for (int i = 0; i < np; ++i) {
-      const int a = w.member[f0 + i];
-      const double* col = p.C + std::size_t(a) * p.ld;
-      for (int j = i; j < np; ++j) L(j, i) = col[w.member[f0 + j]];
-      L(i, i) += w.nominal[a];
-    }
-    if (!cholesky(L, np)) return false;
     for (int k = 0; k < w.dim[q]; ++k) {
+      // the block with column k's slopes, factorized once per line load
+      if (k == 0 || face_shape(k, p.shapes).line_load != face_shape(k - 1, p.shapes).line_load) {
+        for (int i = 0; i < np; ++i) {
+          const int a = w.member[f0 + i];
+          const double* col = p.C + std::size_t(a) * p.ld;
+          for (int j = i; j < np; ++j) L(j, i) = col[w.member[f0 + j]];
+          L(i, i) += w.nominal[std::size_t(a) * FaceBasis::kMaxShapes + k];
+        }
+        if (!cholesky(L, np)) return false;
+      }
       for (int i = 0; i < np; ++i) w.x1[i] = w.phi[std::size_t(f0 + i) * FaceBasis::kMaxShapes + k];
       cholesky_solve(L, np, w.x1.data());
       double mx = 0;
@@ -274,13 +278,18 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
   if (n == 0 || p.shapes <= 0 || !group_pairs(w, p)) return out;
   // the laws prepared once per distinct law (an aligned spur pair's slices share theirs)
   for (int a = 0; a < n; ++a) {
+    double* nom = &w.nominal[std::size_t(a) * FaceBasis::kMaxShapes];
     if (a > 0 && same_local_law(p.laws[a], p.laws[a - 1])) {
       w.kern[a] = w.kern[a - 1];
-      w.nominal[a] = w.nominal[a - 1];
+      std::copy(nom - FaceBasis::kMaxShapes, nom, nom);
       continue;
     }
     w.kern[a] = local_law_kernel(p.laws[a]);
-    w.nominal[a] = nominal_slope(w.kern[a]);
+    for (int k = 0; k < std::min(p.shapes, FaceBasis::kMaxShapes); ++k) {
+      const double load = face_shape(k, p.shapes).line_load;
+      nom[k] = k > 0 && load == face_shape(k - 1, p.shapes).line_load ? nom[k - 1]
+                                                                      : shape_slope(w.kern[a], load);
+    }
   }
   if (!response_shapes(w, p)) return out;
   // gap offsets: Delta_a (+ lambda w_a)
@@ -508,6 +517,7 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
       }
     }
     w.columns = r;
+    w.shapes = p.shapes;
     w.used = true;
     out.accepted = true;
     out.lambda = lambda;

@@ -1,14 +1,15 @@
 // A fixed workload for instruction counts (callgrind), not a timer: N gm_evaluate calls of the
 // paper's set A at level 4, 10 slices, TE 5 um (plain) or 500 N m (quasi-static), over one pitch
-// of gear 1. Instructions per evaluation (docs/model.md, "Tooth coupling at level 4", Cost;
+// of gear 1 (or P pitches, N per pitch). Instructions per evaluation (docs/model.md, "Tooth coupling at level 4", Cost;
 // docs/performance.md, "Where level 5's time goes"):
 //   valgrind --tool=callgrind --toggle-collect=gm_evaluate build/tests/profile_evaluate 2 0 1000
-// and divide callgrind's "Collected" by N. Arguments: coupled teeth (0..3), quasi-static (0/1), N,
+// and divide callgrind's "Collected" by N (times P). Arguments: coupled teeth (0..3), quasi-static (0/1), N,
 // then optionally, in any order: "helical" (the 15 deg variant of
 // tests/benchmarks/bench_evaluate.cpp), "fe" (level 5 with bench_evaluate's synthetic databases,
 // written to the temporary directory), "baseline" (bench_evaluate's baseline: the default
-// parameters at level 0 and one slice; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K) and a
-// slice count (default 10).
+// parameters at level 0 and one slice; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K),
+// "pitchesP" (P pitches: level 5's cached database sums are made in the first; bench_evaluate
+// runs about 175) and a slice count (default 10).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,10 +24,12 @@ int main(int argc, char** argv) {
   const int quasi = argc > 2 ? std::atoi(argv[2]) : 0;
   const int n = argc > 3 ? std::atoi(argv[3]) : 1000;
   bool helical = false, fe = false, baseline = false, bad = false;
-  int slices = 10, shapes = 0;
+  int slices = 10, shapes = 0, pitches = 1;
   for (int a = 4; a < argc; ++a) {
     if (std::strncmp(argv[a], "shapes", 6) == 0)
       shapes = std::atoi(argv[a] + 6);
+    else if (std::strncmp(argv[a], "pitches", 7) == 0)
+      bad = bad || (pitches = std::atoi(argv[a] + 7)) < 1;
     else if (std::strcmp(argv[a], "helical") == 0)
       helical = true;
     else if (std::strcmp(argv[a], "fe") == 0)
@@ -38,7 +41,7 @@ int main(int argc, char** argv) {
   }
   if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1 || bad) {
     std::fprintf(stderr, "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical] [fe] "
-                         "[baseline] [shapesK] [SLICES]\n");
+                         "[baseline] [shapesK] [pitchesP] [SLICES]\n");
     return 2;
   }
   gm_model_params p;
@@ -84,7 +87,7 @@ int main(int argc, char** argv) {
   gm_result r{};
   k.load_torque = 500;  // N m, quasi-static only
   double sink = 0;
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i < n * pitches; ++i) {
     k.phi[0] = pitch * i / n;
     k.phi[1] = (5e-6 - rb1 * k.phi[0]) / rb2;
     if (gm_evaluate(m, d, &k, &r) != GM_OK) {
@@ -93,7 +96,7 @@ int main(int argc, char** argv) {
     }
     sink += r.te + r.normal_force;
   }
-  std::printf("%d evaluations, checksum %.9g\n", n, sink);
+  std::printf("%d evaluations, checksum %.9g\n", n * pitches, sink);
   gm_data_free(d);
   gm_model_free(m);
   return 0;

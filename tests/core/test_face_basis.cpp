@@ -1,8 +1,8 @@
 // Level 5's coupled solve on the reduced face basis (solver.face_shapes, face_basis.hpp) against
 // the solve over every slice (solver.face_shapes = 0), on the synthetic databases of
 // tests/core/fe_synthetic.hpp: quasi-static sweeps agree within 0.5 % in mean, peak-to-peak and
-// mesh orders 1-3 of the TE (spur aligned and tilted, helical), taking the reduced
-// basis at most poses; where a slice unloads (a lead crowned pair, a heavy tilt) the answer is
+// mesh orders 1-3 of the TE (spur aligned and tilted), taking the reduced basis at most poses;
+// where a slice unloads (a lead crowned pair, a heavy tilt) and on a helical pair the answer is
 // the full solve's, bit for bit. (Directional derivatives with the reduced basis:
 // test_jacobian.cpp, Level5FaceBasisMatchesCentralDifferences.)
 #include <gtest/gtest.h>
@@ -97,26 +97,43 @@ TEST(FaceBasis, QuasiStaticSweepsAgreeWithTheFullSolve) {
     gm_model_params p;
     double tilt;
     int shapes;
-    double min_reduced;  // share of the poses that must take the reduced basis
+    double min_reduced[2];  // share of the poses that must take the reduced basis, 50 / 300 N m
   };
-  gm_model_params spur = gm_test::paper(), hel = helical(gm_test::paper());
+  gm_model_params spur = gm_test::paper();
   fe_level(spur);
-  fe_level(hel);
+  // one shape holds the zigzag of the face's load only near its line load (100 kN/m): at 50 N m
+  // its slices' gaps exceed the acceptance and the slices answer; a tilt of 0.2 mrad opens a
+  // face end at 50 N m
   const Scene scenes[] = {
-      {"spur, 1 shape", spur, 0, 1, 0.9},
-      {"spur, 2 shapes", spur, 0, 2, 0.9},
-      {"spur, 3 shapes", spur, 0, 3, 0.9},
-      {"spur tilted 0.2 mrad, 2 shapes", spur, 2e-4, 2, 0.15},
-      {"helical 15 deg, 2 shapes", hel, 0, 2, 0.05},
+      {"spur, 1 shape", spur, 0, 1, {0, 0.5}},
+      {"spur, 2 shapes", spur, 0, 2, {0.95, 0.95}},
+      {"spur, 3 shapes", spur, 0, 3, {0.95, 0.95}},
+      {"spur tilted 0.2 mrad, 2 shapes", spur, 2e-4, 2, {0, 0}},
+      {"spur tilted 0.2 mrad, 3 shapes", spur, 2e-4, 3, {0, 0.9}},
   };
   for (const Scene& s : scenes)
-    for (double torque : {50.0, 300.0}) {
+    for (int t = 0; t < 2; ++t) {
+      const double torque = t == 0 ? 50.0 : 300.0;
       const std::string what = std::string(s.name) + ", " + std::to_string(int(torque)) + " N m";
       const Sweep full = sweep(s.p, 0, torque, s.tilt), red = sweep(s.p, s.shapes, torque, s.tilt);
       EXPECT_EQ(full.reduced, 0.0);
       expect_close(full, red, what);
-      EXPECT_GE(red.reduced, s.min_reduced) << what << ": the reduced basis was hardly taken";
+      EXPECT_GE(red.reduced, s.min_reduced[t]) << what << ": the reduced basis was hardly taken";
     }
+}
+
+// A helical pair's contact lines end inside the face: the slices answer, without a reduced
+// attempt first (on the synthetic databases two or three shapes were accepted at 2-50 % of the
+// poses of a quasi-static sweep, mostly with slice gaps of 3-10 %, and moved mesh order 3 by 1 %).
+TEST(FaceBasis, HelicalPairsAreSolvedOverTheSlices) {
+  gm_model_params hel = helical(gm_test::paper());
+  fe_level(hel);
+  for (double torque : {50.0, 300.0}) {
+    const Sweep full = sweep(hel, 0, torque, 0), red = sweep(hel, 2, torque, 0);
+    EXPECT_EQ(red.reduced, 0.0) << torque;
+    EXPECT_EQ(red.mean, full.mean) << torque;
+    EXPECT_EQ(red.pp, full.pp) << torque;
+  }
 }
 
 // Where a slice of a loaded pair unloads (lead crowning at a light load, a heavy tilt), the
@@ -133,14 +150,14 @@ TEST(FaceBasis, AnUnloadingSliceIsSolvedOverTheSlices) {
     const char* name;
     gm_model_params p;
     double tilt, te;
-  } scenes[] = {{"lead crowned 8 um", crowned, 0, 3e-6}, {"tilted 1 mrad", tilted, 1e-3, 6e-6}};
+  } scenes[] = {{"lead crowned 8 um", crowned, 0, 8e-6}, {"tilted 1 mrad", tilted, 1e-3, 6e-6}};
   for (const Scene& s : scenes) {
     gm_model_params pr = s.p, pf = s.p;
     pr.solver_face_shapes = 2;
     pf.solver_face_shapes = 0;
     gm_test::Instance R(pr), F(pf);
     const double rb1 = R.rb(0), rb2 = R.rb(1);
-    int unloading = 0;
+    int unloading = 0, complete = 0;
     for (int i = 0; i < 20; ++i) {
       gm_kinematics k{};
       k.phi[0] = 2 * kPi / 57 / 20 * i;
@@ -156,13 +173,23 @@ TEST(FaceBasis, AnUnloadingSliceIsSolvedOverTheSlices) {
       for (int q = 0; q < 8; ++q) partial = partial || (per_pair[q] > 0 && per_pair[q] < pf.slices);
       unloading += partial;
       if (!partial) continue;
-      EXPECT_FALSE(R.d->face.used) << s.name << ", pose " << i;
+      if (R.d->face.used) {
+        // a pair with no more solved slices than shapes: the basis spans them, the answer is the
+        // slices' own (to rounding)
+        ++complete;
+        EXPECT_NEAR(rr.normal_force, rf.normal_force, 1e-9 * rf.normal_force) << s.name << ", pose " << i;
+        EXPECT_NEAR(rr.stiffness, rf.stiffness, 1e-9 * rf.stiffness) << s.name << ", pose " << i;
+        EXPECT_NEAR(rr.max_line_load, rf.max_line_load, 1e-9 * rf.max_line_load) << s.name << ", pose " << i;
+        continue;
+      }
       EXPECT_EQ(rr.normal_force, rf.normal_force) << s.name << ", pose " << i;
       EXPECT_EQ(rr.stiffness, rf.stiffness) << s.name << ", pose " << i;
       EXPECT_EQ(rr.moment[0][2], rf.moment[0][2]) << s.name << ", pose " << i;
       EXPECT_EQ(rr.max_line_load, rf.max_line_load) << s.name << ", pose " << i;
     }
     EXPECT_GE(unloading, 10) << s.name << ": too few poses with an unloaded slice to test";
+    std::printf("  %s: %d poses with an unloaded slice, %d of them on a complete basis\n", s.name, unloading, complete);
+    EXPECT_GE(unloading - complete, 5) << s.name << ": too few poses the slices answered";
   }
 }
 
