@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 
 #include "gearmesh/internal/compliance_db.hpp"
@@ -554,12 +555,32 @@ GM_FE_STAGE void FeAssembly::classify_groups(int ng) {
 namespace {
 
 // col[k] (= or +=) sum_t w[t] v[t][base + k], k < len, over NT terms (0: nt of them), the terms
-// summed in order.
+// summed in order. Two entries per pass in one two-lane vector (GCC's and Clang's vector
+// extension): each lane does one entry's operations in their order, so its bits are those of one
+// entry at a time.
 template <int NT>
 inline void weighted_run(const double* w, const double* const* v, int base, int len, bool assign, double* col,
                          int nt = NT) {
   const int n = NT > 0 ? NT : nt;
-  for (int k = 0; k < len; ++k) {
+  int k = 0;
+#if defined(__GNUC__)
+  typedef double Pair __attribute__((vector_size(16)));
+  for (; k + 1 < len; k += 2) {
+    Pair e = {0, 0};
+    for (int t = 0; t < n; ++t) {
+      Pair x;
+      std::memcpy(&x, v[t] + base + k, sizeof x);
+      e += w[t] * x;
+    }
+    if (!assign) {
+      Pair c;
+      std::memcpy(&c, col + k, sizeof c);
+      e = c + e;
+    }
+    std::memcpy(col + k, &e, sizeof e);
+  }
+#endif
+  for (; k < len; ++k) {
     double e = 0;
     for (int t = 0; t < n; ++t) e += w[t] * v[t][base + k];
     col[k] = assign ? e : col[k] + e;

@@ -68,7 +68,8 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
   for (int i = 0; i < n; ++i) {
     index = i;
     if (!std::isfinite(delta[i])) return "approach Delta is not finite";
-    if (laws)
+    // (an aligned spur pair's slices share one law: checked, and made a kernel below, once)
+    if (laws && !(i > 0 && same_local_law(laws[i], laws[i - 1])))
       if (const char* err = local_law_error(laws[i])) return err;
   }
   // One pass over C: |C_ij - C_ji| <= kSymmetryTol sqrt(C_ii C_jj), which also fails on any
@@ -106,7 +107,10 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
   index = -1;
   for (int i = 0; i < n; ++i)  // the warm start: anything but a finite F >= 0 counts as 0
     if (!(F[i] > 0) || !std::isfinite(F[i])) F[i] = 0;
-  for (int i = 0; i < n; ++i) kernel_[i] = laws ? local_law_kernel(laws[i]) : LocalLawKernel{};
+  for (int i = 0; i < n; ++i)
+    kernel_[i] = !laws                                            ? LocalLawKernel{}
+                 : i > 0 && same_local_law(laws[i], laws[i - 1]) ? kernel_[i - 1]
+                                                                  : local_law_kernel(laws[i]);
   floor_.head(n).setConstant(std::numeric_limits<double>::quiet_NaN());
   return nullptr;
 }
