@@ -108,9 +108,9 @@ const char* NlcpSolver::prepare(const ConstMat& C, const ConstVec& delta, const 
   for (int i = 0; i < n; ++i)  // the warm start: anything but a finite F >= 0 counts as 0
     if (!(F[i] > 0) || !std::isfinite(F[i])) F[i] = 0;
   for (int i = 0; i < n; ++i)
-    kernel_[i] = !laws                                            ? LocalLawKernel{}
+    kernel_[i] = !laws                                           ? LocalLawKernel{}
                  : i > 0 && same_local_law(laws[i], laws[i - 1]) ? kernel_[i - 1]
-                                                                  : local_law_kernel(laws[i]);
+                                                                 : local_law_kernel(laws[i]);
   floor_.head(n).setConstant(std::numeric_limits<double>::quiet_NaN());
   return nullptr;
 }
