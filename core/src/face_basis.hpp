@@ -4,8 +4,8 @@
 // Phi_k = (C_pp + diag f'(w_k L))^-1 P_k on the pair's solved slices (C_pp its block of C, f' the
 // local laws' slopes at column k's line load w_k, P_k a Legendre polynomial of the slice's
 // position within the pair's span: face_shape below; min(K, slices of the pair) columns, each
-// scaled to a largest entry of 1). The coupled problem C F + f(F) = Delta is solved in that space by Ritz-Galerkin,
-// Phi^T (C Phi alpha + f(Phi alpha) - Delta) = 0, the stationary point of the convex energy
+// scaled to a largest entry of 1). The coupled problem C F + f(F) = Delta is solved in that space
+// by Ritz-Galerkin, Phi^T (C Phi alpha + f(Phi alpha) - Delta) = 0, the stationary point of the convex energy
 // 1/2 F^T C F + sum_i P_i(F_i) - Delta^T F on the subspace (quasi-static: with the rigid approach
 // lambda along the TE gains and the load balance sum_i b_i F_i = load as a bordered row), by
 // Newton on alpha: J = Phi^T (C + diag f'(F)) Phi, r x r with r the pairs' columns (2 for two
@@ -17,7 +17,8 @@
 // known before lambda). Otherwise (a slice would unload: crowning, tilt, a pair entering or
 // leaving mesh; no convergence; a loaded slice's own gap beyond slice_tolerance) the caller
 // solves over every slice (dense_solve.cpp), so the reduced answer is only ever used where the
-// face loads are positive throughout.
+// face loads are positive throughout. Helical pairs are solved over the slices without a reduced
+// attempt (dense_solve.cpp: their contact lines end inside the face).
 //
 // The directional derivative (derivatives.cpp, face_dual_solve) differentiates the same reduced
 // equations on the same basis, with the basis's own derivative (FaceBasis::used, the
@@ -40,8 +41,7 @@ namespace gm {
 // holds the uniform response at any line load between (a real database's face interpolation
 // gives the slices alternating compliances, a zigzag in the load across the face whose depth
 // moves with the Hertz slopes: one shape made at 100 kN/m leaves 5 % in set B's mesh order 3 at
-// 220 kN/m, the two 0.03 %), then the responses to degrees 1, 2, ... at 100 kN/m (a tilt, a
-// helical pair's contact lines).
+// 220 kN/m, the two 0.03 %), then the responses to degrees 1, 2, ... at 100 kN/m (a tilt).
 struct FaceShape {
   int degree;
   double line_load;  // N/m
