@@ -419,7 +419,8 @@ gm_status dual_pass(const gm_model& m, gm_data& d, const KinematicsT<Dual>& kin,
 }
 
 // Level 5: saves the coupled solve's warm start (previous forces and candidates) and restores
-// it when the derivative returns, so that gm_evaluate's next result does not depend on it.
+// it when the derivative returns, so that gm_evaluate's next result does not depend on it; and
+// hands the solve its branch choice back (FaceBasis::branch).
 class CoupledWarmStartGuard {
  public:
   CoupledWarmStartGuard(gm_data& d, bool active)
@@ -430,6 +431,7 @@ class CoupledWarmStartGuard {
     }
   }
   ~CoupledWarmStartGuard() {
+    d_.face.branch = -1;
     if (!active_) return;
     for (int a = 0; a < n_; ++a) {
       d_.dense_force[a] = d_.dense_saved_force[a];
@@ -437,7 +439,6 @@ class CoupledWarmStartGuard {
     }
     d_.dense_prev_n = n_;
     d_.face.warm = face_;
-    d_.face.branch = -1;
   }
   CoupledWarmStartGuard(const CoupledWarmStartGuard&) = delete;
   CoupledWarmStartGuard& operator=(const CoupledWarmStartGuard&) = delete;
