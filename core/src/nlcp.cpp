@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 
@@ -187,7 +188,20 @@ NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::Vect
       const double* __restrict A = H + k * ld;
       const double* __restrict B = A + ld;
       const double la = A[j], lb = B[j];
-      for (int i = j; i < m; ++i) Hj[i] -= la * A[i] + lb * B[i];
+      int i = j;
+#if defined(__GNUC__)
+      // two rows per step in one two-lane vector (each lane the scalar loop's operations)
+      typedef double Lanes __attribute__((vector_size(16)));
+      for (; i + 1 < m; i += 2) {
+        Lanes h, a, b;
+        std::memcpy(&h, Hj + i, sizeof h);
+        std::memcpy(&a, A + i, sizeof a);
+        std::memcpy(&b, B + i, sizeof b);
+        h -= la * a + lb * b;
+        std::memcpy(Hj + i, &h, sizeof h);
+      }
+#endif
+      for (; i < m; ++i) Hj[i] -= la * A[i] + lb * B[i];
     }
     if (k < j) {
       const double* __restrict A = H + k * ld;
@@ -200,18 +214,22 @@ NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::Vect
     const double d = std::sqrt(pivot), inv = 1.0 / d;
     Hj[j] = d;
     newton_inv_[j] = inv;
-    for (int i = j + 1; i < m; ++i) Hj[i] *= inv;
+    for (int i = j + 1; i < m; ++i) {
+      Hj[i] *= inv;
+      H[i * ld + j] = Hj[i];  // L's rows in the free upper triangle: L^T's columns, for the solves
+    }
   }
   return Fault{};
 }
 
 // rhs_[0..m) <- (L L^T)^-1 rhs_[0..m), L the lower triangle of the m x m matrix packed at the
-// start of L's storage, inv its diagonal's reciprocals (no division on the critical path). Both
-// substitutions as updates (L y = b down the columns, L^T x = y along the rows), in scalar code:
-// at m ~ 10..30 the vectorized forms stall on loads of entries just stored (measured: the pair
-// of solves at m = 20 took 1.9x as long vectorized, or in dot-product form). Two columns (rows)
-// per pass over x: half its loads and stores (level 5's evaluation 4 % fewer instructions and
-// time, 2026-11-27).
+// start of L's storage (its rows copied above the diagonal by factor()), inv its diagonal's
+// reciprocals (no division on the critical path). Both substitutions as updates (L y = b down
+// L's columns, L^T x = y down the copies of its rows), two columns per pass over x (half its
+// loads and stores), two rows of x per step in one two-lane vector; the compiler's own
+// vectorization stays off here: at m ~ 10..30 its forms (and the dot-product form) stalled on
+// loads of entries just stored, 1.9x as long at m = 20. The explicit two-lane steps took level
+// 5's evaluation 3 % fewer instructions at the same time or less (docs/performance.md).
 GM_SCALAR_LOOPS void NlcpSolver::solve_factored(const Eigen::MatrixXd& L,
                                                 const Eigen::VectorXd& inv, int m) {
   const Eigen::Index ld = m;
@@ -225,17 +243,41 @@ GM_SCALAR_LOOPS void NlcpSolver::solve_factored(const Eigen::MatrixXd& L,
     x[k] = ya;
     const double yb = (x[k + 1] - Ha[k + 1] * ya) * inv[k + 1];
     x[k + 1] = yb;
-    for (int i = k + 2; i < m; ++i) x[i] -= Ha[i] * ya + Hb[i] * yb;
+    int i = k + 2;
+#if defined(__GNUC__)
+    typedef double Lanes __attribute__((vector_size(16)));
+    for (; i + 1 < m; i += 2) {  // two rows per step in one two-lane vector
+      Lanes xv, a, b;
+      std::memcpy(&xv, x + i, sizeof xv);
+      std::memcpy(&a, Ha + i, sizeof a);
+      std::memcpy(&b, Hb + i, sizeof b);
+      xv -= a * ya + b * yb;
+      std::memcpy(x + i, &xv, sizeof xv);
+    }
+#endif
+    for (; i < m; ++i) x[i] -= Ha[i] * ya + Hb[i] * yb;
   }
   if (k < m) x[k] *= inv[k];
   for (k = m - 1; k > 0; k -= 2) {  // L^T x = y: x_j -= L_kj x_k, j < k (rows k and k - 1 of L)
-    const double* ra = H + k;
-    const double* rb = ra - 1;
+    const double* ra = H + k * ld;     // row k of L, as factor() copied it above the diagonal
+    const double* rb = ra - ld;        // row k - 1
     const double ya = x[k] * inv[k];
     x[k] = ya;
-    const double yb = (x[k - 1] - ra[(k - 1) * ld] * ya) * inv[k - 1];
+    const double yb = (x[k - 1] - ra[k - 1] * ya) * inv[k - 1];
     x[k - 1] = yb;
-    for (int j = 0; j < k - 1; ++j) x[j] -= ra[j * ld] * ya + rb[j * ld] * yb;
+    int j = 0;
+#if defined(__GNUC__)
+    typedef double Lanes __attribute__((vector_size(16)));
+    for (; j + 2 < k; j += 2) {  // two rows per step in one two-lane vector
+      Lanes xv, a, b;
+      std::memcpy(&xv, x + j, sizeof xv);
+      std::memcpy(&a, ra + j, sizeof a);
+      std::memcpy(&b, rb + j, sizeof b);
+      xv -= a * ya + b * yb;
+      std::memcpy(x + j, &xv, sizeof xv);
+    }
+#endif
+    for (; j < k - 1; ++j) x[j] -= ra[j] * ya + rb[j] * yb;
   }
   if (k == 0) x[0] *= inv[0];
 }
