@@ -160,6 +160,29 @@ double NlcpSolver::accept_trial(const ConstMat& C, const ConstVec& delta,
   return residual;
 }
 
+namespace {
+
+// x[i] -= a[i] ya + b[i] yb for i in [lo, hi): two rows per step in one two-lane vector (GCC's and
+// Clang's vector extension; each lane does the scalar loop's operations, so the bits are its).
+inline void subtract_two_columns(double* __restrict x, const double* a, const double* b, double ya, double yb,
+                                 int lo, int hi) {
+  int i = lo;
+#if defined(__GNUC__)
+  typedef double Lanes __attribute__((vector_size(16)));
+  for (; i + 1 < hi; i += 2) {
+    Lanes xv, av, bv;
+    std::memcpy(&xv, x + i, sizeof xv);
+    std::memcpy(&av, a + i, sizeof av);
+    std::memcpy(&bv, b + i, sizeof bv);
+    xv -= av * ya + bv * yb;
+    std::memcpy(x + i, &xv, sizeof xv);
+  }
+#endif
+  for (; i < hi; ++i) x[i] -= a[i] * ya + b[i] * yb;
+}
+
+}  // namespace
+
 // LLT of H_JJ = C_JJ + diag(slope_J), J = free_[0..m), in place in the lower triangle of an
 // m x m matrix packed at the start of newton_'s storage, then rhs_[0..m) <- H_JJ^-1 rhs_[0..m). Plain loops over the contiguous columns: at
 // the sizes of a mesh (m ~ 10..100) Eigen's LLT on a dynamic block spends most of its time in
@@ -187,21 +210,7 @@ NlcpSolver::Fault NlcpSolver::factor(const ConstMat& C, int m, const Eigen::Vect
     for (; k + 1 < j; k += 2) {  // two columns per pass: half the loads and stores of column j
       const double* __restrict A = H + k * ld;
       const double* __restrict B = A + ld;
-      const double la = A[j], lb = B[j];
-      int i = j;
-#if defined(__GNUC__)
-      // two rows per step in one two-lane vector (each lane the scalar loop's operations)
-      typedef double Lanes __attribute__((vector_size(16)));
-      for (; i + 1 < m; i += 2) {
-        Lanes h, a, b;
-        std::memcpy(&h, Hj + i, sizeof h);
-        std::memcpy(&a, A + i, sizeof a);
-        std::memcpy(&b, B + i, sizeof b);
-        h -= la * a + lb * b;
-        std::memcpy(Hj + i, &h, sizeof h);
-      }
-#endif
-      for (; i < m; ++i) Hj[i] -= la * A[i] + lb * B[i];
+      subtract_two_columns(Hj, A, B, A[j], B[j], j, m);
     }
     if (k < j) {
       const double* __restrict A = H + k * ld;
@@ -243,19 +252,7 @@ GM_SCALAR_LOOPS void NlcpSolver::solve_factored(const Eigen::MatrixXd& L,
     x[k] = ya;
     const double yb = (x[k + 1] - Ha[k + 1] * ya) * inv[k + 1];
     x[k + 1] = yb;
-    int i = k + 2;
-#if defined(__GNUC__)
-    typedef double Lanes __attribute__((vector_size(16)));
-    for (; i + 1 < m; i += 2) {  // two rows per step in one two-lane vector
-      Lanes xv, a, b;
-      std::memcpy(&xv, x + i, sizeof xv);
-      std::memcpy(&a, Ha + i, sizeof a);
-      std::memcpy(&b, Hb + i, sizeof b);
-      xv -= a * ya + b * yb;
-      std::memcpy(x + i, &xv, sizeof xv);
-    }
-#endif
-    for (; i < m; ++i) x[i] -= Ha[i] * ya + Hb[i] * yb;
+    subtract_two_columns(x, Ha, Hb, ya, yb, k + 2, m);
   }
   if (k < m) x[k] *= inv[k];
   for (k = m - 1; k > 0; k -= 2) {  // L^T x = y: x_j -= L_kj x_k, j < k (rows k and k - 1 of L)
@@ -265,19 +262,7 @@ GM_SCALAR_LOOPS void NlcpSolver::solve_factored(const Eigen::MatrixXd& L,
     x[k] = ya;
     const double yb = (x[k - 1] - ra[k - 1] * ya) * inv[k - 1];
     x[k - 1] = yb;
-    int j = 0;
-#if defined(__GNUC__)
-    typedef double Lanes __attribute__((vector_size(16)));
-    for (; j + 2 < k; j += 2) {  // two rows per step in one two-lane vector
-      Lanes xv, a, b;
-      std::memcpy(&xv, x + j, sizeof xv);
-      std::memcpy(&a, ra + j, sizeof a);
-      std::memcpy(&b, rb + j, sizeof b);
-      xv -= a * ya + b * yb;
-      std::memcpy(x + j, &xv, sizeof xv);
-    }
-#endif
-    for (; j < k - 1; ++j) x[j] -= ra[j] * ya + rb[j] * yb;
+    subtract_two_columns(x, ra, rb, ya, yb, 0, k - 1);
   }
   if (k == 0) x[0] *= inv[0];
 }
