@@ -80,8 +80,10 @@ void coupled_assemble(const gm_model& m, gm_data& d, int na) {
 }
 
 // The solved set's identities, local laws, approaches and TE gains, its compliance C (cached
-// assembly), and the warm start: the previous call's forces when the candidates are the same.
-void dense_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na) {
+// assembly; level 5 with `prepare_only` only FeAssembly's first stage: the reduced face basis may
+// need no C, dense_fill_c makes it where it does), and the warm start: the previous call's forces
+// when the candidates are the same.
+void dense_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int na, bool prepare_only = false) {
   const ContactSlice* S = d.slices.data();
   for (int a = 0; a < na; ++a) {
     const ContactSlice& sa = S[d.dense_index[a]];
@@ -95,7 +97,10 @@ void dense_gather(const gm_model& m, gm_data& d, const gm_kinematics& kin, int n
   }
   if (m.level.database) {
     const double uz[2] = {kin.u[0][2], kin.u[1][2]};
-    d.fe_assembly.assemble(fe_view(m), S, d.dense_index.data(), na, uz, d.dense_c);
+    if (prepare_only)
+      d.fe_assembly.prepare(fe_view(m), S, d.dense_index.data(), na, uz);
+    else
+      d.fe_assembly.assemble(fe_view(m), S, d.dense_index.data(), na, uz, d.dense_c);
   } else {
     coupled_assemble(m, d, na);
   }
@@ -261,10 +266,18 @@ void dense_store(gm_data& d, int na, bool tangent) {
   d.dense_energy = energy;
 }
 
+// Level 5 after dense_gather's prepare_only: C from FeAssembly's second stage.
+void dense_fill_c(const gm_model& m, gm_data& d, int na) {
+  d.fe_assembly.fill(fe_view(m), d.slices.data(), d.dense_index.data(), na, d.dense_c);
+}
+
 // Level 5 with solver.face_shapes > 0: the solve on the reduced face basis (face_basis.hpp) over
-// the gathered set; true with the answer stored as dense_store stores it (quasi: d.approach moved
-// by the solved lambda), false (nothing changed) where the caller solves over the slices.
-bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int na, int flank, ForceSolve& out) {
+// the gathered set (FeAssembly prepared; C Phi and Phi^T C Phi projected where FeAssembly can,
+// else C filled: `filled` tells); true with the answer stored as dense_store stores it (quasi:
+// d.approach moved by the solved lambda), false (nothing changed) where the caller solves over
+// the slices.
+bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int na, int flank, ForceSolve& out,
+                      bool& filled) {
   const NlcpOptions& opt = d.nlcp->options();
   double all_max = 0;
   for (int a = 0; a < na; ++a) all_max = std::max(all_max, std::fabs(d.dense_delta[a]));
@@ -277,6 +290,15 @@ bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int 
   fp.delta = d.dense_delta.data();
   fp.laws = d.dense_laws.data();
   fp.shapes = m.params.solver_face_shapes;
+  fp.shape_table = m.face_shapes.data();
+  if (d.fe_assembly.project(fe_view(m), d.slices.data(), d.dense_index.data(), na, d.face.all_CP, d.face.all_PCP,
+                            fp.groups)) {
+    fp.all_CP = &d.face.all_CP;
+    fp.all_PCP = &d.face.all_PCP;
+  } else {
+    dense_fill_c(m, d, na);
+    filled = true;
+  }
   fp.tolerance = opt.tolerance + opt.relative_tolerance * all_max;
   fp.max_iterations = std::min(m.params.solver_max_iterations, kFaceIterations);
   fp.quasi = p.quasi;
@@ -330,15 +352,17 @@ ForceSolve solve_dense(const gm_model& m, gm_data& d, const ForceProblem& p) {
   const int flank = quasi && load != 0 && m.level.database
                         ? dense_loaded_flank(d, na, load)
                         : 0;
-  dense_gather(m, d, kin, na);
+  // the reduced face basis first (m.face_shapes: none on a helical pair, whose contact lines end
+  // inside the face, which unloads slices at most poses: the slices answer there)
+  const bool reduced = m.level.database && !m.face_shapes.empty() && !(quasi && load == 0) && d.face.branch != 0;
+  dense_gather(m, d, kin, na, reduced);
   dense_set_options(m, d, na);
   d.face.used = false;
-  // (a helical pair's contact lines end inside the face, which unloads slices at most poses: the
-  // slices answer there without a reduced attempt first)
-  if (m.level.database && m.params.solver_face_shapes > 0 && m.layout.tan_beta_b == 0 && !(quasi && load == 0) &&
-      d.face.branch != 0 &&
-      dense_face_solve(m, d, p, na, flank, out))
-    return out;
+  if (reduced) {
+    bool filled = false;
+    if (dense_face_solve(m, d, p, na, flank, out, filled)) return out;
+    if (!filled) dense_fill_c(m, d, na);
+  }
   NlcpResult res;
   if (!quasi) {
     const auto Cn = d.dense_c.topLeftCorner(na, na);

@@ -174,14 +174,9 @@ void coupled_dual_system(const gm_model& m, gm_data& d, const KinematicsT<Dual>&
   for (int p = 0; p < na; ++p) {
     const int i = d.dense_index[p];
     double fd = 0;
-    if (d.face.used) {  // the reduced face basis's derivative: diag(C) and f(F)
-      d.face.diag[p] = H(p, p);
-      d.face.law_f[p] = 0;
-    }
     if (has_local_law(d.laws[i].local)) {
       Dual f, fp;
       local_law_approach_slope(d.dual_laws[i].local, Dual(d.forces[i], 0), f, fp);
-      if (d.face.used) d.face.law_f[p] = f.v;
       H(p, p) += fp.v;
       fd = f.d;
     }
@@ -232,25 +227,17 @@ gm_status coupled_dual_solve(gm_data& d, int na) {
 }
 
 // The same on the reduced face basis of the evaluation's solve (solver.face_shapes,
-// face_basis.hpp): F = Phi alpha with Phi^T g = 0, g = C F + f(F) - Delta, and Phi per pair
-// (C_pp + diag f'_k)^-1 P_k (column scales aside, which leave the span and so F as they are; f'_k
-// the slopes at column k's line load, face_shape), so
-// dPhi_k = -(C_pp + diag f'_k)^-1 (dC_pp + diag df'_k) Phi_k and
-//   A dalpha = Phi^T rhs - dPhi^T g - Phi^T H dPhi alpha,  A = Phi^T H Phi,  H = C + diag f'(F),
-//   dF = dPhi alpha + Phi dalpha;
-// the tangent stiffnesses x = Phi y, y = A^-1 Phi^T 1, and
-//   dx = dPhi y + Phi A^-1 [dPhi^T (1 - H x) - Phi^T (dH x) - Phi^T H dPhi y].
-// d.face.diag and law_f hold diag(C) and f(F) of the loaded slices (coupled_dual_system).
+// face_basis.hpp): F = Phi alpha with Phi^T g = 0, g = C F + f(F) - Delta, and Phi the model's
+// fixed shapes (face_shapes.hpp: no derivative of their own), so
+//   A dalpha = Phi^T rhs,  A = Phi^T H Phi,  H = C + diag f'(F),  dF = Phi dalpha;
+// the tangent stiffnesses x = Phi y, y = A^-1 Phi^T 1, and dx = -Phi A^-1 Phi^T (dH x).
 gm_status face_dual_solve(gm_data& d, int na) {
   FaceBasis& w = d.face;
   const int r = w.columns;
   auto H = d.dense_tangent.topLeftCorner(na, na);
-  auto dC = d.dense_dual_c.topLeftCorner(na, na);
   auto rhs = d.dense_delta.head(na);
   auto Phi = w.Phi.topLeftCorner(na, r);
-  auto dPhi = w.dPhi.topLeftCorner(na, r);
   Phi.setZero();
-  dPhi.setZero();
   for (int p = 0; p < na; ++p) {
     const int i = d.dense_index[p];
     if (w.cand_col[i] < 0) {
@@ -259,56 +246,6 @@ gm_status face_dual_solve(gm_data& d, int na) {
     }
     for (int k = 0; k < w.cand_dim[i]; ++k)
       Phi(p, w.cand_col[i] + k) = w.cand_phi[std::size_t(i) * FaceBasis::kMaxShapes + k];
-  }
-  // dPhi pair by pair (the loaded slices of one pair share their first column)
-  for (int p0 = 0; p0 < na; ++p0) {
-    const int c0 = w.cand_col[d.dense_index[p0]];
-    bool first = true;
-    for (int p = 0; p < p0 && first; ++p) first = w.cand_col[d.dense_index[p]] != c0;
-    if (!first) continue;
-    int np = 0;
-    for (int p = p0; p < na; ++p)
-      if (w.cand_col[d.dense_index[p]] == c0) w.member[np++] = p;
-    Eigen::MatrixXd& L = w.A;
-    for (int k = 0; k < w.cand_dim[d.dense_index[p0]]; ++k) {
-      // the block with column k's slopes (face_shape), factorized once per line load
-      const double load = face_shape(k, w.shapes).line_load;
-      if (k == 0 || load != face_shape(k - 1, w.shapes).line_load) {
-        for (int a = 0; a < np; ++a) {
-          const int pa = w.member[a], i = d.dense_index[pa];
-          double slope = 0, dslope = 0;
-          if (has_local_law(d.laws[i].local)) {
-            Dual f, fp;
-            local_law_approach_slope(d.dual_laws[i].local, load * d.dual_laws[i].local.width, f, fp);
-            slope = fp.v;
-            dslope = fp.d;
-          }
-          for (int b = a + 1; b < np; ++b) L(b, a) = H(w.member[b], pa);
-          L(a, a) = w.diag[pa] + slope;
-          w.u[a] = dslope;  // d(f'_k) of member a
-        }
-        if (!face_cholesky(L, np)) {
-          d.message = "level 5 (FE): a tooth pair's block of the reduced face basis is not positive definite";
-          return GM_ERR_SOLVER;
-        }
-      }
-      for (int a = 0; a < np; ++a) {
-        const int pa = w.member[a];
-        double z = w.u[a] * Phi(pa, c0 + k);
-        for (int b = 0; b < np; ++b) z += dC(pa, w.member[b]) * Phi(w.member[b], c0 + k);
-        w.v[a] = z;
-      }
-      face_cholesky_solve(L, np, w.v.data());
-      for (int a = 0; a < np; ++a) dPhi(w.member[a], c0 + k) = -w.v[a];
-    }
-  }
-  // the Galerkin residual g at the answer
-  auto g = w.g.head(na);
-  for (int p = 0; p < na; ++p) {
-    double s = w.law_f[p] - d.slices[d.dense_index[p]].approach + w.diag[p] * d.forces[d.dense_index[p]];
-    for (int q = 0; q < na; ++q)
-      if (q != p) s += H(p, q) * d.forces[d.dense_index[q]];
-    g[p] = s;
   }
   // A = Phi^T H Phi
   auto HP = w.CP.topLeftCorner(na, r);
@@ -320,20 +257,12 @@ gm_status face_dual_solve(gm_data& d, int na) {
     return GM_ERR_SOLVER;
   }
 
-  auto alpha = w.alpha.head(r);
-  auto u = w.u.head(na);
   auto v = w.v.head(na);
-  auto t = w.t.head(na);
   auto y = w.x1.head(r);
   auto c = w.x2.head(r);
-  u.noalias() = dPhi.lazyProduct(alpha);
-  t.noalias() = H.lazyProduct(u);
   y.noalias() = Phi.transpose().lazyProduct(rhs);
-  y.noalias() -= dPhi.transpose().lazyProduct(g);
-  y.noalias() -= Phi.transpose().lazyProduct(t);
   face_cholesky_solve(w.A, r, y.data());
-  rhs = u;
-  rhs.noalias() += Phi.lazyProduct(y);  // dF_A
+  rhs.noalias() = Phi.lazyProduct(y);  // dF_A
   // tangent stiffnesses
   for (int k = 0; k < r; ++k) y[k] = Phi.col(k).sum();
   face_cholesky_solve(w.A, r, y.data());
@@ -341,15 +270,9 @@ gm_status face_dual_solve(gm_data& d, int na) {
   x.noalias() = Phi.lazyProduct(y);
   auto dHx = d.dense_weights.head(na);
   dual_forces_and_dHx(d, na, rhs, x, dHx);
-  v.noalias() = dPhi.lazyProduct(y);  // dPhi y
-  t.setOnes();
-  t.noalias() -= H.lazyProduct(x);
-  c.noalias() = dPhi.transpose().lazyProduct(t);
-  c.noalias() -= Phi.transpose().lazyProduct(dHx);
-  u.noalias() = H.lazyProduct(v);
-  c.noalias() -= Phi.transpose().lazyProduct(u);
+  c.noalias() = -(Phi.transpose().lazyProduct(dHx));
   face_cholesky_solve(w.A, r, c.data());
-  v.noalias() += Phi.lazyProduct(c);
+  v.noalias() = Phi.lazyProduct(c);
   for (int p = 0; p < na; ++p) d.dual_stiffness[d.dense_index[p]] = Dual(x[p], v[p]);
   return GM_OK;
 }

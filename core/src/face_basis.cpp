@@ -20,6 +20,8 @@ void FaceBasis::reserve(int capacity) {
   const int r = std::min(c, kMaxPairs * kMaxShapes);
   CP.resize(c, r);
   PCP.resize(r, r);
+  all_CP.resize(c, r);
+  all_PCP.resize(r, r);
   A.resize(c, c);
   alpha.resize(r);
   step.resize(r);
@@ -28,11 +30,9 @@ void FaceBasis::reserve(int capacity) {
   x2.resize(r);
   F.resize(c);
   trial.resize(c);
-  nominal.assign(std::size_t(c) * kMaxShapes, 0.0);
   inv_norm.resize(r);
   Phi.resize(c, r);
-  dPhi.resize(c, r);
-  for (Eigen::VectorXd* x : {&diag, &law_f, &g, &u, &v, &t}) x->resize(c);
+  v.resize(c);
   kern.resize(c);
   jet.resize(c);
 }
@@ -113,15 +113,9 @@ bool group_pairs(FaceBasis& w, const FaceProblem& p) {
     }
     w.key[q][3] = lo;
     w.dim[q] = std::min(p.shapes, w.count[q]);
-    const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
-      const double x = half > 0 ? (p.slices[p.index[w.member[m]]].slice - mid) / half : 0.0;
-      double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
-      // Legendre polynomials P_j(x): P_0 = 1, P_1 = x, (j + 1) P_{j+1} = (2j + 1) x P_j - j P_{j-1}
-      double leg[FaceBasis::kMaxShapes] = {1, x};
-      for (int j = 1; j + 1 < FaceBasis::kMaxShapes; ++j)
-        leg[j + 1] = ((2 * j + 1) * x * leg[j] - j * leg[j - 1]) / (j + 1);
-      for (int k = 0; k < w.dim[q]; ++k) ph[k] = leg[face_shape(k, p.shapes).degree];
+      const double* shape = p.shape_table + std::size_t(p.slices[p.index[w.member[m]]].slice) * FaceBasis::kMaxShapes;
+      std::copy(shape, shape + w.dim[q], &w.phi[std::size_t(m) * FaceBasis::kMaxShapes]);
     }
   }
   return true;
@@ -135,6 +129,20 @@ int build_projection(FaceBasis& w, const FaceProblem& p) {
     if (w.active[q]) r += w.dim[q];
   }
   const int n = p.n;
+  if (p.all_CP) {  // the projections as FeAssembly made them: the active pairs' columns
+    const int K = p.shapes;
+    for (int q = 0; q < w.pairs; ++q) {
+      if (!w.active[q]) continue;
+      for (int k = 0; k < w.dim[q]; ++k) {
+        w.CP.col(w.col[q] + k).head(n) = p.all_CP->col(q * K + k).head(n);
+        for (int e = 0; e < w.pairs; ++e) {
+          if (!w.active[e]) continue;
+          for (int l = 0; l < w.dim[e]; ++l) w.PCP(w.col[q] + k, w.col[e] + l) = (*p.all_PCP)(q * K + k, e * K + l);
+        }
+      }
+    }
+    return r;
+  }
   w.CP.topLeftCorner(n, r).setZero();
   for (int q = 0; q < w.pairs; ++q) {
     if (!w.active[q]) continue;
@@ -222,37 +230,6 @@ void project(const FaceBasis& w, const double* v, double* out) {
   }
 }
 
-// Each pair's shapes as its own response: phi_k := (C_pp + diag f'_i(w_k L_i))^-1 P_k on its
-// slices (C_pp the pair's block of C, f' the local laws' slopes at column k's line load w_k), each
-// column scaled to a largest entry of 1 (the scale leaves the span, and so the answer, as it is).
-// false: the block is not positive definite.
-bool response_shapes(FaceBasis& w, const FaceProblem& p) {
-  Eigen::MatrixXd& L = w.A;
-  for (int q = 0; q < w.pairs; ++q) {
-    const int np = w.count[q], f0 = w.first[q];
-    for (int k = 0; k < w.dim[q]; ++k) {
-      // the block with column k's slopes, factorized once per line load
-      if (k == 0 || face_shape(k, p.shapes).line_load != face_shape(k - 1, p.shapes).line_load) {
-        for (int i = 0; i < np; ++i) {
-          const int a = w.member[f0 + i];
-          const double* col = p.C + std::size_t(a) * p.ld;
-          for (int j = i; j < np; ++j) L(j, i) = col[w.member[f0 + j]];
-          L(i, i) += w.nominal[std::size_t(a) * FaceBasis::kMaxShapes + k];
-        }
-        if (!cholesky(L, np)) return false;
-      }
-      for (int i = 0; i < np; ++i) w.x1[i] = w.phi[std::size_t(f0 + i) * FaceBasis::kMaxShapes + k];
-      cholesky_solve(L, np, w.x1.data());
-      double mx = 0;
-      for (int i = 0; i < np; ++i) mx = std::max(mx, std::fabs(w.x1[i]));
-      if (!(mx > 0)) return false;
-      const double inv = 1.0 / mx;
-      for (int i = 0; i < np; ++i) w.phi[std::size_t(f0 + i) * FaceBasis::kMaxShapes + k] = w.x1[i] * inv;
-    }
-  }
-  return true;
-}
-
 // Quasi-static, the load balance's border on the factorized A (w.A), with w.x1 = A^-1 Phi^T v
 // given: w.x2 := A^-1 Phi^T w (w the TE gains), w.G := Phi^T b (b the balance weights), and the
 // balance row's products u1 = G . x1, u2 = G . x2. false: u2 = 0 (the border is singular).
@@ -275,23 +252,15 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
   FaceAnswer out;
   w.used = false;
   const int n = p.n;
-  if (n == 0 || p.shapes <= 0 || !group_pairs(w, p)) return out;
-  // the laws prepared once per distinct law (an aligned spur pair's slices share theirs)
-  for (int a = 0; a < n; ++a) {
-    double* nom = &w.nominal[std::size_t(a) * FaceBasis::kMaxShapes];
-    if (a > 0 && same_local_law(p.laws[a], p.laws[a - 1])) {
-      w.kern[a] = w.kern[a - 1];
-      std::copy(nom - FaceBasis::kMaxShapes, nom, nom);
-      continue;
-    }
-    w.kern[a] = local_law_kernel(p.laws[a]);
-    for (int k = 0; k < std::min(p.shapes, FaceBasis::kMaxShapes); ++k) {
-      const double load = face_shape(k, p.shapes).line_load;
-      nom[k] = k > 0 && load == face_shape(k - 1, p.shapes).line_load ? nom[k - 1]
-                                                                      : shape_slope(w.kern[a], load);
-    }
+  if (n == 0 || p.shapes <= 0 || !p.shape_table || !group_pairs(w, p)) return out;
+  if (p.all_CP) {  // FeAssembly's pairs, each a whole face: the same pairs in the same order
+    if (w.pairs != p.groups) return out;
+    for (int q = 0; q < w.pairs; ++q)
+      if (w.count[q] != n / p.groups || w.member[w.first[q]] != q * (n / p.groups)) return out;
   }
-  if (!response_shapes(w, p)) return out;
+  // the laws prepared once per distinct law (an aligned spur pair's slices share theirs)
+  for (int a = 0; a < n; ++a)
+    w.kern[a] = a > 0 && same_local_law(p.laws[a], p.laws[a - 1]) ? w.kern[a - 1] : local_law_kernel(p.laws[a]);
   // gap offsets: Delta_a (+ lambda w_a)
   const double* delta = p.delta;
   // the active pairs at first: those with a closed slice (plain: every solved slice is), else

@@ -1,15 +1,16 @@
 // Level 5's coupled solve on a reduced face basis (solver.face_shapes = K > 0; docs/model.md,
 // "FE level", Reduced face basis). The loads of each loaded tooth pair's slices are a sum of K
-// shapes across the face, F = Phi alpha, each the pair's own response to a smooth approach:
-// Phi_k = (C_pp + diag f'(w_k L))^-1 P_k on the pair's solved slices (C_pp its block of C, f' the
-// local laws' slopes at column k's line load w_k, P_k a Legendre polynomial of the slice's
-// position within the pair's span: face_shape below; min(K, slices of the pair) columns, each
-// scaled to a largest entry of 1). The coupled problem C F + f(F) = Delta is solved in that space
+// shapes across the face, F = Phi alpha: the model's fixed shapes (face_shapes.hpp: a reference
+// pair's responses to smooth approaches at two line loads, then to Legendre polynomials), the
+// same for every pair and pose, on the pair's solved slices (min(K, slices of the pair) columns).
+// The coupled problem C F + f(F) = Delta is solved in that space
 // by Ritz-Galerkin, Phi^T (C Phi alpha + f(Phi alpha) - Delta) = 0, the stationary point of the convex energy
 // 1/2 F^T C F + sum_i P_i(F_i) - Delta^T F on the subspace (quasi-static: with the rigid approach
 // lambda along the TE gains and the load balance sum_i b_i F_i = load as a bordered row), by
 // Newton on alpha: J = Phi^T (C + diag f'(F)) Phi, r x r with r the pairs' columns (2 for two
-// spur pairs at K = 1) instead of the slices' n x n.
+// spur pairs at K = 1) instead of the slices' n x n. C Phi and Phi^T C Phi come from the full C
+// (FaceProblem::C) or, where the caller has them from the cached projections of the databases
+// (FeAssembly::project), as they are (FaceProblem::CP, PCP).
 //
 // Complementarity stays exact: the answer is accepted only when every slice of a loaded pair
 // carries a positive load and every solved slice of the other pairs stays open at it (gap >= 0);
@@ -21,8 +22,8 @@
 // attempt (dense_solve.cpp: their contact lines end inside the face).
 //
 // The directional derivative (derivatives.cpp, face_dual_solve) differentiates the same reduced
-// equations on the same basis, with the basis's own derivative (FaceBasis::used, the
-// per-candidate rows of Phi and alpha it keeps).
+// equations on the same basis (FaceBasis::used, the per-candidate rows of Phi and alpha it keeps;
+// the shapes are the pose's constants).
 #pragma once
 
 #include <vector>
@@ -34,9 +35,9 @@
 
 namespace gm {
 
-// Column k of K shapes per loaded tooth pair: the pair's response to the Legendre polynomial of
-// degree `degree` of the slice's face position, made with the local laws' slopes at the line
-// load `line_load` (N/m). One shape: the uniform response at 100 kN/m (about the line load of
+// Column k of K shapes (face_shapes.hpp): the reference pair's response to the Legendre
+// polynomial of degree `degree` of the slice's face position, made with the local law's slope at
+// the line load `line_load` (N/m). One shape: the uniform response at 100 kN/m (about the line load of
 // 150 N m on the paper's pair). Two or more: the uniform responses at 40 and 250 kN/m, whose span
 // holds the uniform response at any line load between (a real database's face interpolation
 // gives the slices alternating compliances, a zigzag in the load across the face whose depth
@@ -79,12 +80,12 @@ struct FaceBasis {
   std::vector<int> pair_of, member;  // per solved slice: its pair; the pairs' slices, grouped
   std::vector<double> phi;           // per grouped slice: kMaxShapes values
   Eigen::MatrixXd CP, PCP, A;        // C Phi (n x r), Phi^T C Phi, the Newton matrix (r x r)
+  Eigen::MatrixXd all_CP, all_PCP;   // FeAssembly::project's: every pair's columns
   Eigen::VectorXd alpha, step, G, x1, x2, F, trial;
-  std::vector<double> nominal;       // per solved slice, kMaxShapes: f'_i at column k's line load
   Eigen::VectorXd inv_norm;          // per column: 1 / sum_a |phi_ak|
-  // the derivative's (derivatives.cpp): Phi and dPhi (n x r), per-slice vectors
-  Eigen::MatrixXd Phi, dPhi;
-  Eigen::VectorXd diag, law_f, g, u, v, t;
+  // the derivative's (derivatives.cpp): Phi (n x r) and a per-slice vector
+  Eigen::MatrixXd Phi;
+  Eigen::VectorXd v;
   std::vector<LocalLawKernel> kern;
   std::vector<LocalLawJet> jet;
   // warm start: the last accepted answer's alpha per pair (key: tooth 1, tooth 2, flank, first
@@ -104,9 +105,15 @@ struct FaceProblem {
   const ContactSlice* slices = nullptr;
   const double* C = nullptr;          // n x n, column-major, leading dimension ld
   int ld = 0;
+  // or, without C, FeAssembly::project's C Phi and Phi^T C Phi over every pair's K columns
+  // (pair q's shape k: column q K + k; the pairs those of FeAssembly, `groups` of them)
+  const Eigen::MatrixXd* all_CP = nullptr;
+  const Eigen::MatrixXd* all_PCP = nullptr;
+  int groups = 0;
   const double* delta = nullptr;      // Delta_a, m
   const LocalLaw* laws = nullptr;
   int shapes = 0;                     // K
+  const double* shape_table = nullptr;  // per slice across the face: kMaxShapes values (face_shapes.hpp)
   double tolerance = 0;               // m, on the pairs' mean gaps (the NLCP's tol)
   // -, each loaded slice's own gap over the largest approach: two shapes on an aligned spur pair
   // leave below 0.3 % (the synthetic databases, 50-300 N m; TE within 0.001 % of the full

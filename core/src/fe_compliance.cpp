@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "gearmesh/internal/compliance_db.hpp"
+#include "face_basis.hpp"
 
 // The stages of FeAssembly::assemble are inlined into it (hot path of level 5: out of line,
 // the members they share would be reloaded through `this` after every call).
@@ -363,9 +364,14 @@ void FeAssembly::reserve(const FeView& m, int capacity) {
     const std::size_t per_call = groups * (2 * std::size_t(db.n_coupled) + 1) * db.flank_sets();
     const std::size_t slots = db.cyclic ? db.block_count() : std::min(db.block_count(), 2 * per_call);
     if (G.blocks.size() < slots) G.blocks.resize(slots);
+    const std::size_t K = m.face_shapes ? std::size_t(m.shapes) : 0;
     for (Block& B : G.blocks) {
       B.chunk.reserve(nr * nr);
       B.pool.reserve(nr * nr * strips * strips);
+      if (K > 0) {
+        B.proj.reserve(nr * nr);
+        B.proj_pool.reserve(nr * nr * (2 * strips * K + K * K));
+      }
     }
   }
 }
@@ -384,6 +390,8 @@ void FeAssembly::clear_chunks(Gear& G) {
   for (Block& B : G.blocks) {
     std::fill(B.chunk.begin(), B.chunk.end(), -1);
     B.pool.clear();
+    std::fill(B.proj.begin(), B.proj.end(), -1);
+    B.proj_pool.clear();
   }
 }
 
@@ -451,6 +459,43 @@ int FeAssembly::chunk_at(const FeView& m, int g, Block& B, int a, int b) {
   return at;
 }
 
+// Chunk (a, b)'s V Phi, V^T Phi and Phi^T V Phi, each column-major (the shapes over the strips:
+// strip s is slice s, which project checks).
+int FeAssembly::projection_at(const FeView& m, int g, Block& B, int a, int b) {
+  const int nr = int(m.compliance[g].roll.size());
+  int& at = B.proj[std::size_t(a) * std::size_t(nr) + std::size_t(b)];
+  if (at < 0) {
+    const int v = chunk_at(m, g, B, a, b);
+    const int S = int(gear_[g].strips.size()), K = m.shapes;
+    constexpr int kMax = FaceBasis::kMaxShapes;
+    at = int(B.proj_pool.size());
+    B.proj_pool.resize(B.proj_pool.size() + std::size_t(2 * S * K + K * K));
+    const double* V = B.pool.data() + v;
+    const double* phi = m.face_shapes;
+    double* VP = B.proj_pool.data() + at;
+    double* VtP = VP + S * K;
+    double* PVP = VtP + S * K;
+    // column-major: shape k's S values together (project sums them as column runs)
+    for (int k = 0; k < K; ++k)
+      for (int s = 0; s < S; ++s) {
+        double x = 0, y = 0;
+        for (int t = 0; t < S; ++t) {
+          x += V[s * S + t] * phi[t * kMax + k];
+          y += V[t * S + s] * phi[t * kMax + k];
+        }
+        VP[k * S + s] = x;
+        VtP[k * S + s] = y;
+      }
+    for (int l = 0; l < K; ++l)
+      for (int k = 0; k < K; ++k) {
+        double x = 0;
+        for (int s = 0; s < S; ++s) x += phi[s * kMax + k] * VP[l * S + s];
+        PVP[l * K + k] = x;
+      }
+  }
+  return at;
+}
+
 int FeAssembly::slot_of(const FeView& m, int g, const ContactSlice& si, const Spot& pi,
                         const ContactSlice& sj, const Spot& pj) {
   const int k = block_of(m, g, si.flank, pi.tooth, sj.flank, pj.tooth);
@@ -474,6 +519,8 @@ int FeAssembly::slot_of(const FeView& m, int g, const ContactSlice& si, const Sp
   B.used = true;
   B.chunk.assign(nr * nr, -1);
   B.pool.clear();
+  B.proj.assign(m.face_shapes ? nr * nr : 0, -1);
+  B.proj_pool.clear();
   return free_slot;
 }
 
@@ -733,16 +780,27 @@ GM_FE_STAGE void FeAssembly::drop_unused_blocks(const FeView& m) {
       if (!m.compliance[g].cyclic && !B.used && B.index >= 0) {
         B.index = -1;
         B.pool.clear();
+        B.proj_pool.clear();
       }
 }
 
 void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int* index, int n,
                           const double uz[2], Eigen::MatrixXd& C) {
+  prepare(m, slices, index, n, uz);
+  fill(m, slices, index, n, C);
+}
+
+void FeAssembly::prepare(const FeView& m, const ContactSlice* slices, const int* index, int n,
+                         const double uz[2]) {
   group_candidates(slices, index, n);
   const int ng = int(group_first_.size());
   locate_spots(m, slices, index, n, uz);
   group_first_.push_back(n);
   classify_groups(ng);
+}
+
+void FeAssembly::fill(const FeView& m, const ContactSlice* slices, const int* index, int, Eigen::MatrixXd& C) {
+  const int ng = int(group_first_.size()) - 1;
   for (int ga = 0; ga < ng; ++ga) {
     for (int gb = 0; gb <= ga; ++gb) {
       GroupPair q;
@@ -779,6 +837,93 @@ void FeAssembly::assemble(const FeView& m, const ContactSlice* slices, const int
     }
   }
   drop_unused_blocks(m);
+}
+
+// Whether the prepared call can be projected: shapes, cached strips, and every group a whole
+// aligned spur face (S candidates on strips 0 .. S-1 in slice order, one roll spot) on both gears.
+bool FeAssembly::projectable(const FeView& m, int n) const {
+  const int S = m.layout.slices, ng = int(group_first_.size()) - 1;
+  if (!m.face_shapes || m.shapes <= 0 || m.layout.tan_beta_b != 0 || ng < 1) return false;
+  for (int g = 0; g < 2; ++g) {
+    const Gear& G = gear_[g];
+    if (G.direct || int(G.strips.size()) != S) return false;
+    for (int q = 0; q < ng; ++q) {
+      const int a0 = group_first_[std::size_t(q)];
+      if (group_first_[std::size_t(q) + 1] - a0 != S || !uniform_[std::size_t(g * ng + q)] ||
+          !consecutive_[std::size_t(g * ng + q)] || G.spots[std::size_t(a0)].strip != 0)
+        return false;
+    }
+  }
+  return n == ng * S;
+}
+
+bool FeAssembly::project(const FeView& m, const ContactSlice* slices, const int* index, int n, Eigen::MatrixXd& CP,
+                         Eigen::MatrixXd& PCP, int& groups) {
+  if (!projectable(m, n)) return false;
+  for (int a = 0; a < n; ++a)  // strip s is slice s (the shapes are the slices')
+    if (slices[index[a]].slice != gear_[0].spots[std::size_t(a)].strip) return false;
+  const int S = m.layout.slices, K = m.shapes, ng = int(group_first_.size()) - 1;
+  if (n > CP.rows() || ng * K > CP.cols() || ng * K > PCP.rows() || ng * K > PCP.cols()) return false;
+  groups = ng;
+  for (int ga = 0; ga < ng; ++ga) {
+    for (int gb = 0; gb <= ga; ++gb) {
+      const int a0 = group_first_[std::size_t(ga)], b0 = group_first_[std::size_t(gb)];
+      // the terms of both gears: weight and chunk projection (block, offset); the offsets first,
+      // as resolving one may grow its block's pool
+      double w[18];
+      Block* blk[18];
+      int at[18];
+      int nt = 0;
+      for (int g = 0; g < 2; ++g) {
+        Gear& G = gear_[g];
+        const int slot = slot_of(m, g, slices[index[a0]], G.spots[std::size_t(a0)], slices[index[b0]],
+                                 G.spots[std::size_t(b0)]);
+        if (slot < 0) continue;
+        Block& B = G.blocks[std::size_t(slot)];
+        const int reads = roll_reads(m.compliance[g]);
+        const Spot& pa = G.spots[std::size_t(a0)];
+        const Spot& pb = G.spots[std::size_t(b0)];
+        for (int al = 0; al < reads; ++al)
+          for (int be = 0; be < reads; ++be) {
+            if (pa.roll_w[al] == 0 || pb.roll_w[be] == 0) continue;
+            w[nt] = pa.roll_w[al] * pb.roll_w[be];
+            blk[nt] = &B;
+            at[nt++] = projection_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
+          }
+      }
+      const double* VP[18];
+      const double* VtP[18];
+      const double* PVP[18];
+      for (int t = 0; t < nt; ++t) {
+        VP[t] = blk[t]->proj_pool.data() + at[t];
+        VtP[t] = VP[t] + S * K;
+        PVP[t] = VtP[t] + S * K;
+      }
+      // rows of group a, columns of group b: C_ab Phi = sum w V Phi; rows b, columns a: V^T Phi;
+      // Phi^T C_ab Phi, and its transpose for (b, a)
+      for (int k = 0; k < K; ++k) {
+        double* col = &CP(a0, gb * K + k);
+        if (nt > 0) weighted_run<0>(w, VP, k * S, S, true, col, nt);
+        else std::fill(col, col + S, 0.0);
+        if (ga == gb) continue;
+        col = &CP(b0, ga * K + k);
+        if (nt > 0) weighted_run<0>(w, VtP, k * S, S, true, col, nt);
+        else std::fill(col, col + S, 0.0);
+      }
+      for (int l = 0; l < K; ++l) {
+        double* col = &PCP(ga * K, gb * K + l);
+        if (nt > 0) weighted_run<0>(w, PVP, l * K, K, true, col, nt);
+        else std::fill(col, col + K, 0.0);
+      }
+      // symmetric in exact arithmetic: the block above from the one below (a group's own block
+      // from its lower triangle)
+      for (int k = 0; k < K; ++k)
+        for (int l = 0; l < K; ++l)
+          if (ga != gb || l > k) PCP(gb * K + l, ga * K + k) = PCP(ga * K + k, gb * K + l);
+    }
+  }
+  drop_unused_blocks(m);
+  return true;
 }
 
 }  // namespace gm

@@ -40,6 +40,13 @@
 // the call; the strips (and with them every chunk) are rebuilt when a face interval changes, and
 // that call computes the strip values directly with the same function, so the cached and the
 // direct results are the same bits whatever the history (FMU get/set state stays bit for bit).
+//
+// PROJECTED ASSEMBLY (FeAssembly::project, the reduced face basis of face_basis.hpp). With the
+// model's fixed face shapes Phi (S x K over the slices, face_shapes.hpp) each chunk also keeps
+// V Phi, V^T Phi (S x K) and Phi^T V Phi (K x K); where every tooth pair of the call is an
+// aligned spur pair's whole face (its S slices on strips 0 .. S-1, one roll spot per gear), the
+// reduced matrices C Phi and Phi^T C Phi are then the same weighted sums of these (2 S K + K^2
+// values per chunk instead of S^2), without C.
 #pragma once
 
 #include <cstddef>
@@ -54,12 +61,14 @@
 namespace gm {
 
 // What the FE level reads of the model (model.hpp's fe_view(m) makes it): the two gears'
-// compliance databases, the detection layout (mesh sign, slices, axial offsets) and
-// model.coupled_teeth.
+// compliance databases, the detection layout (mesh sign, slices, axial offsets),
+// model.coupled_teeth and the reduced face basis's fixed shapes (face_shapes.hpp).
 struct FeView {
   const ComplianceDb* compliance;  // [2], gear 1 and gear 2
   const MeshLayout& layout;
   int coupled_teeth;
+  const double* face_shapes = nullptr;  // per slice FaceBasis::kMaxShapes values; null: none
+  int shapes = 0;                       // K of them used
 };
 
 // Reference: C^1 + C^2 between receiver si and load sj, straight from the databases (every
@@ -89,6 +98,16 @@ class FeAssembly {
   // C's top-left n x n for candidates index[0..n); C must be at least n x n.
   void assemble(const FeView& m, const ContactSlice* slices, const int* index, int n,
                 const double uz[2], Eigen::MatrixXd& C);
+  // The same in two stages: prepare (each candidate's spots, the groups), then either fill (C as
+  // assemble makes it) or project, or project and then, where the reduced solve is refused, fill.
+  void prepare(const FeView& m, const ContactSlice* slices, const int* index, int n, const double uz[2]);
+  void fill(const FeView& m, const ContactSlice* slices, const int* index, int n, Eigen::MatrixXd& C);
+  // C Phi into CP (n x groups K: column q K + k is group q's shape k on its slices) and
+  // Phi^T C Phi into PCP (groups K square), groups the tooth pairs in the candidates' order;
+  // false (nothing written) unless every group is a whole aligned spur face on cached strips
+  // (the header's PROJECTED ASSEMBLY) and m has shapes.
+  bool project(const FeView& m, const ContactSlice* slices, const int* index, int n, Eigen::MatrixXd& CP,
+               Eigen::MatrixXd& PCP, int& groups);
   // Whether the last assemble used cached strip values for gear g (false: computed directly).
   bool cached(int g) const { return !gear_[g].direct; }
   // Cached strip values held, over both gears (memory: 8 bytes each).
@@ -105,6 +124,8 @@ class FeAssembly {
     bool used = false;            // used by this call
     std::vector<int> chunk;       // n_roll^2 offsets into pool (-1: not computed)
     std::vector<double> pool;     // chunks of strips.size()^2 values
+    std::vector<int> proj;        // n_roll^2 offsets into proj_pool (-1: not computed)
+    std::vector<double> proj_pool;  // per chunk V Phi, V^T Phi (S x K each), Phi^T V Phi (K x K)
   };
   struct Spot {
     int roll_node = 0;                // first of its roll nodes (fe_compliance.cpp, roll_reads)
@@ -126,6 +147,9 @@ class FeAssembly {
   // offset of chunk (a, b) in B.pool, computed if new (the pool may grow: no pointers kept)
   int chunk_at(const FeView& m, int g, Block& B, int a, int b);
   double strip_value(const FeView& m, int g, int block, int a, int b, int si, int sj) const;
+  // offset of chunk (a, b)'s projections in B.proj_pool, computed if new
+  int projection_at(const FeView& m, int g, Block& B, int a, int b);
+  bool projectable(const FeView& m, int n) const;
   // the stages of assemble (fe_compliance.cpp)
   void group_candidates(const ContactSlice* slices, const int* index, int n);
   void locate_spots(const FeView& m, const ContactSlice* slices, const int* index, int n,

@@ -55,6 +55,8 @@ struct gm_model {
   gm::StiffnessTable stiffness_table;  // level 1: pair stiffness over gear 1's roll angle
   gm::TeTable te_table;        // any level: TE excitation over gear 1's angle (empty = none)
   gm::ComplianceDb compliance[2];  // level 5: each gear's compliance database (checked to match)
+  std::vector<double> face_shapes;  // level 5, solver.face_shapes > 0: the reduced basis's shapes
+                                    // (face_shapes.hpp; empty: not attempted)
 };
 
 struct gm_data {
@@ -140,7 +142,8 @@ inline Candidates<Dual> candidates<Dual>(gm_data& d) {
 
 // The FE level's narrow view of the model (fe_compliance.hpp).
 inline FeView fe_view(const gm_model& m) {
-  return FeView{m.compliance, m.layout, m.params.coupled_teeth};
+  return FeView{m.compliance, m.layout, m.params.coupled_teeth,
+                m.face_shapes.empty() ? nullptr : m.face_shapes.data(), m.params.solver_face_shapes};
 }
 
 

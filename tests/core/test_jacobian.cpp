@@ -417,8 +417,9 @@ TEST(Jacobian, Level5MatchesCentralDifferences) {
 }
 
 // Level 5 on the reduced face basis (solver.face_shapes, face_basis.hpp): the derivative of the
-// reduced equations, with the basis's own derivative (the shapes are the pair's response through
-// C), against the same differences; most poses of the spur cases take the reduced basis.
+// reduced equations on the model's fixed shapes (face_shapes.hpp) against the same differences;
+// with two or three shapes most poses of the spur cases take the reduced basis, with one shape
+// (made at 100 kN/m) the poses near its line load.
 TEST(Jacobian, Level5FaceBasisMatchesCentralDifferences) {
   for (int shapes : {1, 2, 3}) {
     Stats total;
@@ -438,7 +439,7 @@ TEST(Jacobian, Level5FaceBasisMatchesCentralDifferences) {
     std::printf("  level 5, %d face shapes: checked %d skipped %d worst error/allowed %.3g; reduced at %d of %d "
                 "poses\n",
                 shapes, total.checked, total.skipped, total.worst, used, poses);
-    EXPECT_GE(used, poses / 4) << shapes << " face shapes: the reduced basis was hardly used";
+    EXPECT_GE(used, shapes == 1 ? 5 : poses / 3) << shapes << " face shapes: the reduced basis was hardly used";
   }
 }
 
