@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "fe_compliance.hpp"
 #include "fe_synthetic.hpp"
 #include "gearmesh/gearmesh.h"
 #include "model.hpp"
@@ -196,3 +197,103 @@ TEST(FaceBasis, AnUnloadingSliceIsSolvedOverTheSlices) {
 }
 
 }  // namespace
+
+// p at level 5 on synthetic databases whose neighbour-tooth blocks are not symmetric across the
+// face: C_d[(a, m)][(b, n)] scaled by 1 + 0.2 sign(d) (z_m - z_n) / b, which keeps Maxwell-Betti
+// (C_-d[(b, n)][(a, m)] is the same value), so that a chunk's V Phi and V^T Phi differ.
+void asymmetric_fe_level(gm_model_params& p) {
+  static std::vector<std::string> paths;
+  p.stiffness_level = GM_STIFFNESS_FE;
+  p.slices = 10;
+  p.coupled_teeth = 2;
+  p.compliance[0] = p.compliance[1] = nullptr;
+  for (int g = 0; g < 2; ++g) {
+    std::string msg;
+    gm::ComplianceDb db = gm_test::smooth_db(p, g, gm_test::SmoothDbShape{}, msg);
+    ASSERT_TRUE(msg.empty()) << msg;
+    const std::size_t nf = db.face.size(), ng = db.n_grid();
+    const double b = p.gear[g].face_width;
+    const int nc = int(db.n_coupled);
+    for (int d = -nc; d <= nc; ++d) {
+      if (d == 0) continue;
+      std::vector<double>& block = db.blocks[std::size_t(d + nc)];
+      for (std::size_t i = 0; i < ng; ++i)
+        for (std::size_t j = 0; j < ng; ++j)
+          block[i * ng + j] *= 1 + 0.2 * (d > 0 ? 1 : -1) * (db.face[i % nf] - db.face[j % nf]) / b;
+    }
+    const std::string path = (std::filesystem::temp_directory_path() /
+                              (std::to_string(::getpid()) + "_face_basis_asym_" + std::to_string(paths.size()) + ".gcdb"))
+                                 .string();
+    ASSERT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
+    gm_test::written_files().paths.push_back(path);
+    paths.push_back(path);
+  }
+  p.compliance[0] = (paths.end() - 2)->c_str();
+  p.compliance[1] = paths.back().c_str();
+}
+
+// FeAssembly::project (C Phi and Phi^T C Phi from the cached projections of the databases'
+// chunks onto the model's fixed shapes) against the same products of the reference assembly
+// (fe_assemble_reference, every entry straight from the databases) and the shapes, over two and a
+// half pitches of an aligned spur pair with tooth pairs entering and leaving and an axial move
+// (whose new face intervals the projection leaves to the full assembly); the databases' coupling
+// blocks are not symmetric across the face (asymmetric_fe_level), so that each direction between
+// two tooth pairs is checked.
+TEST(FaceBasis, ProjectedAssemblyMatchesTheReferenceProjected) {
+  for (int K : {2, 3}) {
+    gm_model_params p = gm_test::paper();
+    asymmetric_fe_level(p);
+    p.solver_face_shapes = K;
+    gm_test::Instance I(p);
+    const gm_model& m = *I.m;
+    ASSERT_FALSE(m.face_shapes.empty());
+    const int cap = m.slice_capacity, S = p.slices;
+    std::vector<gm::ContactSlice> slices(std::size_t(cap), gm::ContactSlice{});
+    std::vector<int> index(std::size_t(cap), 0);
+    Eigen::MatrixXd CP(cap, cap), PCP(cap, cap), Cr(cap, cap), Phi;
+    gm::FeAssembly fe;
+    int projected = 0, refused_after_move = 0, poses = 0;
+    double worst = 0;
+    const int steps = 120;
+    for (int s = 0; s < steps; ++s) {
+      gm_kinematics k{};
+      k.phi[0] = 2.5 * 2 * kPi / 57 * s / steps;
+      k.phi[1] = (3e-6 - I.rb(0) * k.phi[0]) / I.rb(1);
+      if (s >= 60) k.u[1][2] = 20e-6;  // gear 2 moved axially: new face intervals at pose 60
+      std::string msg;
+      const int n = gm::detect_contacts(m.layout, k, slices.data(), cap, msg);
+      ASSERT_GE(n, 0) << msg;
+      int na = 0;
+      for (int i = 0; i < n; ++i)
+        if (slices[std::size_t(i)].flank > 0 && slices[std::size_t(i)].approach > -30e-6) index[std::size_t(na++)] = i;
+      if (na == 0) continue;
+      ++poses;
+      const double uz[2] = {k.u[0][2], k.u[1][2]};
+      int groups = 0;
+      fe.prepare(gm::fe_view(m), slices.data(), index.data(), na, uz);
+      if (!fe.project(gm::fe_view(m), slices.data(), index.data(), na, CP, PCP, groups)) {
+        refused_after_move += s == 60;
+        continue;
+      }
+      ++projected;
+      ASSERT_EQ(na, groups * S);
+      // Phi over the candidates: group q's slices carry the shapes in its K columns
+      Phi.setZero(na, groups * K);
+      for (int a = 0; a < na; ++a)
+        for (int c = 0; c < K; ++c)
+          Phi(a, (a / S) * K + c) =
+              m.face_shapes[std::size_t(slices[std::size_t(index[std::size_t(a)])].slice) * gm::FaceBasis::kMaxShapes + c];
+      gm::fe_assemble_reference(gm::fe_view(m), slices.data(), index.data(), na, uz, Cr);
+      const Eigen::MatrixXd RCP = Cr.topLeftCorner(na, na) * Phi, RPCP = Phi.transpose() * RCP;
+      const double s1 = RCP.cwiseAbs().maxCoeff(), s2 = RPCP.cwiseAbs().maxCoeff();
+      ASSERT_GT(s1, 0);
+      worst = std::max(worst, (CP.topLeftCorner(na, groups * K) - RCP).cwiseAbs().maxCoeff() / s1);
+      worst = std::max(worst, (PCP.topLeftCorner(groups * K, groups * K) - RPCP).cwiseAbs().maxCoeff() / s2);
+    }
+    std::printf("  %d shapes: %d of %d poses projected, worst difference %.3g of the largest entry\n", K, projected,
+                poses, worst);
+    EXPECT_LT(worst, 1e-13) << K;
+    EXPECT_GE(projected, poses - 4) << K;  // all but the first call and the axial move's
+    EXPECT_EQ(refused_after_move, 1) << K;
+  }
+}
