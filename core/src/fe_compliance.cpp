@@ -370,7 +370,7 @@ void FeAssembly::reserve(const FeView& m, int capacity) {
       B.pool.reserve(nr * nr * strips * strips);
       if (K > 0) {
         B.proj.reserve(nr * nr);
-        B.proj_pool.reserve(nr * nr * (2 * strips * K + K * K));
+        B.proj_pool.reserve(nr * nr * (3 * strips * K + 2 * K * K));
       }
     }
   }
@@ -459,8 +459,12 @@ int FeAssembly::chunk_at(const FeView& m, int g, Block& B, int a, int b) {
   return at;
 }
 
-// Chunk (a, b)'s V Phi, V^T Phi and Phi^T V Phi, each column-major (the shapes over the strips:
-// strip s is slice s, which project checks).
+// Chunk (a, b)'s projections, each column-major (the shapes over the strips: strip s is slice s,
+// which project checks): V Phi, V^T Phi, Phi^T V Phi for two tooth pairs, and for a pair's own
+// block W Phi, Phi^T W Phi with W the lower triangle of V mirrored, W[s][t] = V[max(s, t)][min(s, t)]:
+// what assemble makes of it (it computes the entries of a receiver after the load and mirrors them;
+// a real database's own-tooth block is not quite symmetric, its displacements read at a depth
+// below the loaded surface).
 int FeAssembly::projection_at(const FeView& m, int g, Block& B, int a, int b) {
   const int nr = int(m.compliance[g].roll.size());
   int& at = B.proj[std::size_t(a) * std::size_t(nr) + std::size_t(b)];
@@ -469,28 +473,36 @@ int FeAssembly::projection_at(const FeView& m, int g, Block& B, int a, int b) {
     const int S = int(gear_[g].strips.size()), K = m.shapes;
     constexpr int kMax = FaceBasis::kMaxShapes;
     at = int(B.proj_pool.size());
-    B.proj_pool.resize(B.proj_pool.size() + std::size_t(2 * S * K + K * K));
+    B.proj_pool.resize(B.proj_pool.size() + std::size_t(3 * S * K + 2 * K * K));
     const double* V = B.pool.data() + v;
     const double* phi = m.face_shapes;
     double* VP = B.proj_pool.data() + at;
     double* VtP = VP + S * K;
     double* PVP = VtP + S * K;
-    // column-major: shape k's S values together (project sums them as column runs)
+    double* WP = PVP + K * K;
+    double* PWP = WP + S * K;
     for (int k = 0; k < K; ++k)
       for (int s = 0; s < S; ++s) {
-        double x = 0, y = 0;
+        double x = 0, y = 0, z = 0;
         for (int t = 0; t < S; ++t) {
-          x += V[s * S + t] * phi[t * kMax + k];
-          y += V[t * S + s] * phi[t * kMax + k];
+          const double p = phi[t * kMax + k];
+          x += V[s * S + t] * p;
+          y += V[t * S + s] * p;
+          z += (t <= s ? V[s * S + t] : V[t * S + s]) * p;
         }
         VP[k * S + s] = x;
         VtP[k * S + s] = y;
+        WP[k * S + s] = z;
       }
     for (int l = 0; l < K; ++l)
       for (int k = 0; k < K; ++k) {
-        double x = 0;
-        for (int s = 0; s < S; ++s) x += phi[s * kMax + k] * VP[l * S + s];
+        double x = 0, z = 0;
+        for (int s = 0; s < S; ++s) {
+          x += phi[s * kMax + k] * VP[l * S + s];
+          z += phi[s * kMax + k] * WP[l * S + s];
+        }
         PVP[l * K + k] = x;
+        PWP[l * K + k] = z;
       }
   }
   return at;
@@ -891,13 +903,15 @@ bool FeAssembly::project(const FeView& m, const ContactSlice* slices, const int*
             at[nt++] = projection_at(m, g, B, pa.roll_node + al, pb.roll_node + be);
           }
       }
+      // a pair's own block: W of projection_at instead of V
       const double* VP[18];
       const double* VtP[18];
       const double* PVP[18];
       for (int t = 0; t < nt; ++t) {
-        VP[t] = blk[t]->proj_pool.data() + at[t];
-        VtP[t] = VP[t] + S * K;
-        PVP[t] = VtP[t] + S * K;
+        const double* base = blk[t]->proj_pool.data() + at[t];
+        VP[t] = ga == gb ? base + 2 * S * K + K * K : base;
+        VtP[t] = base + S * K;
+        PVP[t] = ga == gb ? base + 3 * S * K + K * K : base + 2 * S * K;
       }
       // rows of group a, columns of group b: C_ab Phi = sum w V Phi; rows b, columns a: V^T Phi;
       // Phi^T C_ab Phi, and its transpose for (b, a)

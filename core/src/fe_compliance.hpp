@@ -43,10 +43,11 @@
 //
 // PROJECTED ASSEMBLY (FeAssembly::project, the reduced face basis of face_basis.hpp). With the
 // model's fixed face shapes Phi (S x K over the slices, face_shapes.hpp) each chunk also keeps
-// V Phi, V^T Phi (S x K) and Phi^T V Phi (K x K); where every tooth pair of the call is an
-// aligned spur pair's whole face (its S slices on strips 0 .. S-1, one roll spot per gear), the
-// reduced matrices C Phi and Phi^T C Phi are then the same weighted sums of these (2 S K + K^2
-// values per chunk instead of S^2), without C.
+// V Phi, V^T Phi (S x K) and Phi^T V Phi (K x K), and the same of the chunk as a tooth pair's own
+// block is assembled (its lower triangle mirrored: fe_compliance.cpp, projection_at); where every
+// tooth pair of the call is an aligned spur pair's whole face (its S slices on strips 0 .. S-1,
+// one roll spot per gear), the reduced matrices C Phi and Phi^T C Phi are then the same weighted
+// sums of these (S K or K^2 values per chunk and term instead of S^2), without C.
 #pragma once
 
 #include <cstddef>
@@ -125,7 +126,8 @@ class FeAssembly {
     std::vector<int> chunk;       // n_roll^2 offsets into pool (-1: not computed)
     std::vector<double> pool;     // chunks of strips.size()^2 values
     std::vector<int> proj;        // n_roll^2 offsets into proj_pool (-1: not computed)
-    std::vector<double> proj_pool;  // per chunk V Phi, V^T Phi (S x K each), Phi^T V Phi (K x K)
+    std::vector<double> proj_pool;  // per chunk V Phi, V^T Phi, Phi^T V Phi, W Phi, Phi^T W Phi
+                                    // (projection_at)
   };
   struct Spot {
     int roll_node = 0;                // first of its roll nodes (fe_compliance.cpp, roll_reads)
