@@ -291,6 +291,17 @@ bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int 
   fp.laws = d.dense_laws.data();
   fp.shapes = m.params.solver_face_shapes;
   fp.shape_table = m.face_shapes.data();
+  fp.tolerance = opt.tolerance + opt.relative_tolerance * all_max;
+  fp.max_iterations = std::min(m.params.solver_max_iterations, kFaceIterations);
+  fp.quasi = p.quasi;
+  fp.gain = d.dense_weights.data();
+  fp.balance = d.balance.data();
+  fp.load = p.load;
+  if (d.face.branch == 1) {
+    fp.slice_tolerance = std::numeric_limits<double>::infinity();  // the evaluation's branch
+  } else if (!face_basis_may_hold(d.face, fp)) {
+    return false;
+  }
   if (d.fe_assembly.project(fe_view(m), d.slices.data(), d.dense_index.data(), na, d.face.all_CP, d.face.all_PCP,
                             fp.groups)) {
     fp.all_CP = &d.face.all_CP;
@@ -299,13 +310,6 @@ bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int 
     dense_fill_c(m, d, na);
     filled = true;
   }
-  fp.tolerance = opt.tolerance + opt.relative_tolerance * all_max;
-  fp.max_iterations = std::min(m.params.solver_max_iterations, kFaceIterations);
-  fp.quasi = p.quasi;
-  fp.gain = d.dense_weights.data();
-  fp.balance = d.balance.data();
-  fp.load = p.load;
-  if (d.face.branch == 1) fp.slice_tolerance = std::numeric_limits<double>::infinity();
   const FaceAnswer fa = solve_face_basis(d.face, fp, d.dense_work.data(), d.dense_tangent.data());
   if (!fa.accepted) return false;
   const int n = p.n;

@@ -245,6 +245,39 @@ bool balance_row(FaceBasis& w, const FaceProblem& p, int r, double& u1, double& 
 
 }  // namespace
 
+bool face_basis_may_hold(FaceBasis& w, const FaceProblem& p) {
+  if (p.n == 0 || p.shapes <= 0 || !p.shape_table || !group_pairs(w, p)) return false;
+  const int tilts = p.shapes - kUniformShapes;  // Legendre degrees beyond the uniform approach
+  if (tilts >= 2) return true;
+  for (int q = 0; q < w.pairs; ++q) {
+    const int f0 = w.first[q], np = w.count[q];
+    double top = 0, mean = 0, sx = 0, sxx = 0, sxd = 0;
+    int lo = 1 << 30, hi = -(1 << 30);
+    for (int m = f0; m < f0 + np; ++m) {
+      const int s = p.slices[p.index[w.member[m]]].slice;
+      lo = std::min(lo, s);
+      hi = std::max(hi, s);
+    }
+    const double mid = 0.5 * (lo + hi);
+    for (int m = f0; m < f0 + np; ++m) {
+      const double dlt = p.delta[w.member[m]], x = p.slices[p.index[w.member[m]]].slice - mid;
+      top = std::max(top, dlt);
+      mean += dlt / np;
+      sx += x;
+      sxx += x * x;
+      sxd += x * dlt;
+    }
+    if (!(top > 0)) continue;  // quasi-static far from the load's approach: the solve decides
+    // the approaches less their mean, and with a tilt their least-squares line
+    const double slope = tilts == 1 && sxx > 0 ? (sxd - sx * mean) / sxx : 0.0;
+    for (int m = f0; m < f0 + np; ++m) {
+      const double x = p.slices[p.index[w.member[m]]].slice - mid;
+      if (std::fabs(p.delta[w.member[m]] - mean - slope * x) > p.slice_tolerance * top) return false;
+    }
+  }
+  return true;
+}
+
 bool face_cholesky(Eigen::MatrixXd& A, int r) { return cholesky(A, r); }
 void face_cholesky_solve(const Eigen::MatrixXd& L, int r, double* x) { cholesky_solve(L, r, x); }
 

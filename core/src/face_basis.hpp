@@ -137,6 +137,17 @@ struct FaceAnswer {
   double slice_gap = 0;  // largest |gap| of a loaded slice over the largest approach, -
 };
 
+// Up to this many of the K shapes are responses to a uniform approach across the face, the rest
+// to a tilt and its bendings (face_shapes.cpp).
+constexpr int kUniformShapes = 3;
+
+// Whether the basis may hold p's answer, before anything is solved: within each tooth pair the
+// approaches Delta across the face, less what the shapes answer (their mean; with a tilt shape,
+// their least-squares line; with more, anything), stay within slice_tolerance of the largest.
+// Otherwise (lead crowning, a tilt without tilt shapes) some slice's gap would stay beyond the
+// acceptance or the slice unload, and the solve over the slices answers without a reduced attempt.
+bool face_basis_may_hold(FaceBasis& w, const FaceProblem& p);
+
 // Solves p on the reduced basis into force[a] and (p.tangent) stiffness[a] (row sums of
 // Phi (Phi^T H Phi)^-1 Phi^T, H = C + diag f'), for the n solved slices. Not accepted: the caller
 // solves over the slices (force and stiffness then hold nothing of use).

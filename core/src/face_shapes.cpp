@@ -20,11 +20,11 @@ namespace {
 // evenly over the path of contact (its ends included), each at the line loads kLoads (N/m).
 constexpr int kPositions = 7;
 constexpr double kLoads[] = {1e4, 4e4, 1e5, 2.5e5};
-// Columns from the uniform approach's responses: the first is the mean face load, the second and
-// third hold the zigzag of a real database's face load (its depth moves with the roll position and
-// the Hertz slope); with two, set B's mesh order 3 at 350 N m moved by 0.8 % against the full
-// solve, with three by 0.04 % (docs/model.md, "FE level").
-constexpr int kUniform = 3;
+// Columns from the uniform approach's responses (kUniformShapes, face_basis.hpp): the first is the
+// mean face load, the second and third hold the zigzag of a real database's face load (its depth
+// moves with the roll position and the Hertz slope); with two, set B's mesh order 3 at 350 N m
+// moved by 0.8 % against the full solve, with three by 0.04 % (docs/model.md, "FE level").
+constexpr int kUniform = kUniformShapes;
 
 // Legendre polynomial P_j(x), x in [-1, 1]: (j + 1) P_{j+1} = (2j + 1) x P_j - j P_{j-1}.
 double legendre(int j, double x) {

@@ -301,3 +301,40 @@ TEST(FaceBasis, ProjectedAssemblyMatchesTheReferenceProjected) {
     EXPECT_EQ(refused_after_move, 1) << K;
   }
 }
+
+// The check before a reduced attempt (face_basis_may_hold): a face whose approach is uniform is
+// tried; one that varies beyond the acceptance in a way the shapes do not answer (a parabola,
+// lead crowning; a line, a tilt, without tilt shapes) is not; a line is with K = 4.
+TEST(FaceBasis, OnlyApproachesTheShapesAnswerAreTried) {
+  const int S = 10;
+  std::vector<gm::ContactSlice> slices(S);
+  std::vector<int> index(S);
+  std::vector<double> delta(S), table(std::size_t(S) * gm::FaceBasis::kMaxShapes, 1.0);
+  for (int s = 0; s < S; ++s) {
+    slices[std::size_t(s)].slice = s;
+    index[std::size_t(s)] = s;
+  }
+  gm::FaceBasis w;
+  w.reserve(S);
+  const auto tried = [&](int K, double linear, double parabola) {
+    for (int s = 0; s < S; ++s) {
+      const double x = (s - 4.5) / 4.5;
+      delta[std::size_t(s)] = 20e-6 * (1 + linear * x + parabola * (x * x - 0.5));
+    }
+    gm::FaceProblem p;
+    p.n = S;
+    p.index = index.data();
+    p.slices = slices.data();
+    p.delta = delta.data();
+    p.shapes = K;
+    p.shape_table = table.data();
+    return gm::face_basis_may_hold(w, p);
+  };
+  EXPECT_TRUE(tried(2, 0, 0));
+  EXPECT_TRUE(tried(3, 0.004, 0));   // within the acceptance (1 %)
+  EXPECT_FALSE(tried(3, 0.02, 0));   // a tilt, no tilt shape
+  EXPECT_TRUE(tried(4, 0.2, 0));     // a tilt shape answers the line
+  EXPECT_FALSE(tried(4, 0.2, 0.05)); // lead crowning
+  EXPECT_FALSE(tried(2, 0, 0.05));
+  EXPECT_TRUE(tried(5, 0.2, 0.05));  // two tilt shapes: tried (the solve decides)
+}
