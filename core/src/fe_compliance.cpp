@@ -851,14 +851,16 @@ void FeAssembly::fill(const FeView& m, const ContactSlice* slices, const int* in
   drop_unused_blocks(m);
 }
 
-// Whether the prepared call can be projected: shapes, cached strips, and every group a whole
-// aligned spur face (S candidates on strips 0 .. S-1 in slice order, one roll spot) on both gears.
+// Whether the prepared call can be projected: shapes, cached strips, cyclic databases, and every
+// group a whole aligned spur face (S candidates on strips 0 .. S-1 in slice order, one roll spot)
+// on both gears. (A database with a set per tooth drops a tooth's chunks when it leaves the mesh:
+// their projections would be made again at every tooth, for more than they save.)
 bool FeAssembly::projectable(const FeView& m, int n) const {
   const int S = m.layout.slices, ng = int(group_first_.size()) - 1;
   if (!m.face_shapes || m.shapes <= 0 || m.layout.tan_beta_b != 0 || ng < 1) return false;
   for (int g = 0; g < 2; ++g) {
     const Gear& G = gear_[g];
-    if (G.direct || int(G.strips.size()) != S) return false;
+    if (G.direct || int(G.strips.size()) != S || !m.compliance[g].cyclic) return false;
     for (int q = 0; q < ng; ++q) {
       const int a0 = group_first_[std::size_t(q)];
       if (group_first_[std::size_t(q) + 1] - a0 != S || !uniform_[std::size_t(g * ng + q)] ||
