@@ -98,5 +98,5 @@ extern "C" void gm_default_params(gm_model_params* p) {
   p->damping = 0;
   p->solver_tolerance = 1e-10;
   p->solver_max_iterations = 50;
-  p->solver_face_shapes = 0;
+  p->solver_face_shapes = 3;
 }

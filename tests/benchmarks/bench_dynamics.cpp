@@ -40,6 +40,7 @@ struct Setup {
 std::string fe_database;
 std::string fe_path[2];
 double tolerance = 0;  // dynamics.tolerance, m (0: the default)
+int face_shapes = -1;  // level 5's solver.face_shapes (-1: the default)
 
 // Set A at `level` (4, or 5 with its databases and 2 coupled teeth), 10 slices.
 gm_model_params params(double mu, int level = 4) {
@@ -51,6 +52,7 @@ gm_model_params params(double mu, int level = 4) {
   p.friction_velocity = 1e-5;
   if (level == GM_STIFFNESS_FE) {
     p.coupled_teeth = 2;
+    if (face_shapes >= 0) p.solver_face_shapes = face_shapes;
     for (int g = 0; g < 2; ++g) {
       std::string msg;
       if (!fe_database.empty()) {
@@ -232,8 +234,9 @@ int sweep(const std::string& what) {
 }
 
 int main(int argc, char** argv) {
-  if (argc > 3) {  // one row: MU RPM STEP [LEVEL [DATABASE]]
+  if (argc > 3) {  // one row: MU RPM STEP [LEVEL [DATABASE [FACE_SHAPES]]]
     if (argc > 5) fe_database = argv[5];
+    if (argc > 6) face_shapes = std::atoi(argv[6]);
     run(std::atof(argv[1]), std::atof(argv[2]), std::atof(argv[3]), argc > 4 ? std::atoi(argv[4]) : 4);
     return 0;
   }

@@ -9,7 +9,8 @@
 // written to the temporary directory), "baseline" (bench_evaluate's baseline: the default
 // parameters at level 0 and one slice; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K),
 // "pitchesP" (P pitches: level 5's cached database sums are made in the first; bench_evaluate
-// runs about 175) and a slice count (default 10).
+// runs about 175), "db=PATH" (level 5 on a compliance_tool database for both gears, e.g. set A's
+// from `gearmesh compliance scenarios/fe/paper_setA_3U4U_fe.toml`) and a slice count (default 10).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
   const int quasi = argc > 2 ? std::atoi(argv[2]) : 0;
   const int n = argc > 3 ? std::atoi(argv[3]) : 1000;
   bool helical = false, fe = false, baseline = false, bad = false;
+  const char* database = nullptr;  // "db=PATH": level 5 on a compliance_tool database (both gears)
   int slices = 10, shapes = 0, pitches = 1;
   for (int a = 4; a < argc; ++a) {
     if (std::strncmp(argv[a], "shapes", 6) == 0)
@@ -34,6 +36,8 @@ int main(int argc, char** argv) {
       helical = true;
     else if (std::strcmp(argv[a], "fe") == 0)
       fe = true;
+    else if (std::strncmp(argv[a], "db=", 3) == 0)
+      fe = true, database = argv[a] + 3;
     else if (std::strcmp(argv[a], "baseline") == 0)
       baseline = true;
     else if ((slices = std::atoi(argv[a])) < 1)
@@ -41,7 +45,7 @@ int main(int argc, char** argv) {
   }
   if (coupled < 0 || coupled > 3 || (quasi != 0 && quasi != 1) || n < 1 || bad) {
     std::fprintf(stderr, "usage: profile_evaluate COUPLED(0..3) QUASI(0|1) N(>=1) [helical] [fe] "
-                         "[baseline] [shapesK] [pitchesP] [SLICES]\n");
+                         "[baseline] [db=PATH] [shapesK] [pitchesP] [SLICES]\n");
     return 2;
   }
   gm_model_params p;
@@ -64,6 +68,10 @@ int main(int argc, char** argv) {
   }
   std::string path[2];
   for (int g = 0; g < 2 && fe; ++g) {
+    if (database) {
+      p.compliance[g] = database;
+      continue;
+    }
     std::string err;
     path[g] = gm_test::write_smooth_db(
         p, g, "profile_evaluate_" + std::to_string(int(helical)) + "_gear" + std::to_string(g + 1) + ".gcdb", err);

@@ -98,7 +98,8 @@ typedef struct gm_model_params {
   double solver_tolerance;      /* KKT tolerance on the approach, m */
   int solver_max_iterations;    /* hard cap */
   int solver_face_shapes;       /* level 5: load shapes across the face per loaded tooth pair in
-                                   the coupled solve (0 = every slice an unknown, the full solve) */
+                                   the coupled solve (default 3; 0 = every slice an unknown, the
+                                   full solve) */
   double rated_line_load;       /* level 2: F_t K_A / b of ISO 6336-1's load correction of c', N/m;
                                    0 = none (c' at full load) */
   int quasi_static;             /* 1: gear 2's spin is solved for the load torque (docs/physics.md §6) */

@@ -203,9 +203,10 @@ enum { GM_PARAM_BODY = 1,
     GM_ALL_LEVELS, GM_ALL_MODES, GM_GROUP_SETTING, 0, "iteration cap of the force solve")                          \
   X(A, "solver.face_shapes", parameter, Integer, MODEL, solver_face_shapes, "", "", 0, 8, GM_CLOSED, GM_LEVEL(5),     \
     GM_ALL_MODES, GM_GROUP_SETTING, 0,                                                                            \
-    "level 5, spur pairs: load shapes across the face per loaded tooth pair (its responses to smooth "          \
-    "approaches) as the unknowns of the coupled solve (where a slice would unload, and on helical pairs, the "  \
-    "solve over every slice); 0 = every slice an unknown")                                                        \
+    "level 5, spur pairs: load shapes across the face per loaded tooth pair as the unknowns of the coupled "    \
+    "solve (up to 3: responses to a uniform approach; from the 4th: to a tilt); the solve over every slice "    \
+    "where the approaches across a face vary otherwise, a slice would unload, and on helical pairs; "        \
+    "0 = every slice an unknown")                                                        \
   X(A, "model.rated_line_load", parameter, Real, MODEL, rated_line_load, "N/m", "N/mm", 0, 1e8, GM_CLOSED,           \
     GM_LEVEL(2), GM_ALL_MODES, GM_GROUP_SETTING, 0,                                                               \
     "level 2: F_t K_A/b for ISO 6336-1's load correction of c' (0 = none)")                                       \
