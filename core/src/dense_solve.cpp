@@ -297,6 +297,7 @@ bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int 
   fp.gain = d.dense_weights.data();
   fp.balance = d.balance.data();
   fp.load = p.load;
+  if (!group_face_pairs(d.face, fp)) return false;
   if (d.face.branch == 1) {
     fp.slice_tolerance = std::numeric_limits<double>::infinity();  // the evaluation's branch
   } else if (!face_basis_may_hold(d.face, fp)) {

@@ -15,6 +15,7 @@ void FaceBasis::reserve(int capacity) {
   pair_of.assign(c, -1);
   member.assign(c, 0);
   phi.assign(std::size_t(c) * kMaxShapes, 0.0);
+  outer.assign(std::size_t(c) * kOuter, 0.0);
   // r: the columns one call can have; A and x1 also hold a tooth pair's block and its shapes
   // (up to c slices)
   const int r = std::min(c, kMaxPairs * kMaxShapes);
@@ -74,10 +75,11 @@ void cholesky_solve(const Eigen::MatrixXd& L, int r, double* x) {
   }
 }
 
-// Groups the solved slices by tooth pair (w.pairs, key, first/count, member, pair_of) and sets
-// each pair's rows of Phi. false: more pairs than the workspace holds.
-bool group_pairs(FaceBasis& w, const FaceProblem& p) {
+}  // namespace
+
+bool group_face_pairs(FaceBasis& w, const FaceProblem& p) {
   w.pairs = 0;
+  if (p.n == 0 || p.shapes <= 0 || !p.shape_table) return false;
   for (int a = 0; a < p.n; ++a) {
     const ContactSlice& s = p.slices[p.index[a]];
     int q = 0;
@@ -116,10 +118,16 @@ bool group_pairs(FaceBasis& w, const FaceProblem& p) {
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
       const double* shape = p.shape_table + std::size_t(p.slices[p.index[w.member[m]]].slice) * FaceBasis::kMaxShapes;
       std::copy(shape, shape + w.dim[q], &w.phi[std::size_t(m) * FaceBasis::kMaxShapes]);
+      // phi_k phi_l (l <= k) of the slice, in the Newton matrix's order
+      double* o = &w.outer[std::size_t(m) * FaceBasis::kOuter];
+      for (int k = 0; k < w.dim[q]; ++k)
+        for (int l = 0; l <= k; ++l) *o++ = shape[k] * shape[l];
     }
   }
   return true;
 }
+
+namespace {
 
 // Columns of the active pairs; C Phi and Phi^T C Phi over them. The number of columns.
 int build_projection(FaceBasis& w, const FaceProblem& p) {
@@ -201,18 +209,15 @@ bool newton_matrix(FaceBasis& w, int r) {
     for (int e = c; e < r; ++e) w.A(e, c) = w.PCP(e, c);
   for (int q = 0; q < w.pairs; ++q) {
     if (!w.active[q]) continue;
-    const int c0 = w.col[q], dq = w.dim[q];
-    double acc[K * K] = {};
+    const int c0 = w.col[q], dq = w.dim[q], nkl = dq * (dq + 1) / 2;
+    double acc[FaceBasis::kOuter] = {};
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
-      const double* ph = &w.phi[std::size_t(m) * K];
+      const double* o = &w.outer[std::size_t(m) * FaceBasis::kOuter];
       const double fp = w.jet[w.member[m]].slope;
-      for (int k = 0; k < dq; ++k) {
-        const double t = fp * ph[k];
-        for (int l = 0; l <= k; ++l) acc[k * K + l] += t * ph[l];
-      }
+      for (int kl = 0; kl < nkl; ++kl) acc[kl] += fp * o[kl];
     }
-    for (int k = 0; k < dq; ++k)
-      for (int l = 0; l <= k; ++l) w.A(c0 + k, c0 + l) += acc[k * K + l];
+    for (int k = 0, kl = 0; k < dq; ++k)
+      for (int l = 0; l <= k; ++l) w.A(c0 + k, c0 + l) += acc[kl++];
   }
   return cholesky(w.A, r);
 }
@@ -246,7 +251,6 @@ bool balance_row(FaceBasis& w, const FaceProblem& p, int r, double& u1, double& 
 }  // namespace
 
 bool face_basis_may_hold(FaceBasis& w, const FaceProblem& p) {
-  if (p.n == 0 || p.shapes <= 0 || !p.shape_table || !group_pairs(w, p)) return false;
   const int tilts = p.shapes - kUniformShapes;  // Legendre degrees beyond the uniform approach
   if (tilts >= 2) return true;
   for (int q = 0; q < w.pairs; ++q) {
@@ -285,7 +289,7 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
   FaceAnswer out;
   w.used = false;
   const int n = p.n;
-  if (n == 0 || p.shapes <= 0 || !p.shape_table || !group_pairs(w, p)) return out;
+  if (n == 0 || w.pairs == 0) return out;
   if (p.all_CP) {  // FeAssembly's pairs, each a whole face: the same pairs in the same order
     if (w.pairs != p.groups) return out;
     for (int q = 0; q < w.pairs; ++q)

@@ -79,6 +79,8 @@ struct FaceBasis {
   bool active[kMaxPairs] = {};
   std::vector<int> pair_of, member;  // per solved slice: its pair; the pairs' slices, grouped
   std::vector<double> phi;           // per grouped slice: kMaxShapes values
+  static constexpr int kOuter = kMaxShapes * (kMaxShapes + 1) / 2;
+  std::vector<double> outer;         // per grouped slice: phi_k phi_l, l <= k (kOuter values)
   Eigen::MatrixXd CP, PCP, A;        // C Phi (n x r), Phi^T C Phi, the Newton matrix (r x r)
   Eigen::MatrixXd all_CP, all_PCP;   // FeAssembly::project's: every pair's columns
   Eigen::VectorXd alpha, step, G, x1, x2, F, trial;
@@ -141,14 +143,19 @@ struct FaceAnswer {
 // to a tilt and its bendings (face_shapes.cpp).
 constexpr int kUniformShapes = 3;
 
-// Whether the basis may hold p's answer, before anything is solved: within each tooth pair the
+// Groups p's solved slices by tooth pair (FaceBasis::pairs, key, first/count, member, pair_of)
+// and sets each pair's rows of Phi from p.shape_table; face_basis_may_hold and solve_face_basis
+// work on this grouping. false: nothing to group (no shapes) or more pairs than the workspace holds.
+bool group_face_pairs(FaceBasis& w, const FaceProblem& p);
+
+// Whether the basis may hold p's answer (grouped by group_face_pairs), before anything is solved: within each tooth pair the
 // approaches Delta across the face, less what the shapes answer (their mean; with a tilt shape,
 // their least-squares line; with more, anything), stay within slice_tolerance of the largest.
 // Otherwise (lead crowning, a tilt without tilt shapes) some slice's gap would stay beyond the
 // acceptance or the slice unload, and the solve over the slices answers without a reduced attempt.
 bool face_basis_may_hold(FaceBasis& w, const FaceProblem& p);
 
-// Solves p on the reduced basis into force[a] and (p.tangent) stiffness[a] (row sums of
+// Solves p (grouped by group_face_pairs) on the reduced basis into force[a] and (p.tangent) stiffness[a] (row sums of
 // Phi (Phi^T H Phi)^-1 Phi^T, H = C + diag f'), for the n solved slices. Not accepted: the caller
 // solves over the slices (force and stiffness then hold nothing of use).
 FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, double* stiffness);

@@ -7,7 +7,7 @@
 // then optionally, in any order: "helical" (the 15 deg variant of
 // tests/benchmarks/bench_evaluate.cpp), "fe" (level 5 with bench_evaluate's synthetic databases,
 // written to the temporary directory), "baseline" (bench_evaluate's baseline: the default
-// parameters at level 0 and one slice; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K),
+// parameters at level 0 and one slice; COUPLED is then ignored), "shapesK" (level 5 with solver.face_shapes = K; default: the parameter's default),
 // "pitchesP" (P pitches: level 5's cached database sums are made in the first; bench_evaluate
 // runs about 175), "db=PATH" (level 5 on a compliance_tool database for both gears, e.g. set A's
 // from `gearmesh compliance scenarios/fe/paper_setA_3U4U_fe.toml`) and a slice count (default 10).
@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   const int n = argc > 3 ? std::atoi(argv[3]) : 1000;
   bool helical = false, fe = false, baseline = false, bad = false;
   const char* database = nullptr;  // "db=PATH": level 5 on a compliance_tool database (both gears)
-  int slices = 10, shapes = 0, pitches = 1;
+  int slices = 10, shapes = -1, pitches = 1;  // shapes: -1, the default
   for (int a = 4; a < argc; ++a) {
     if (std::strncmp(argv[a], "shapes", 6) == 0)
       shapes = std::atoi(argv[a] + 6);
@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   p.slices = slices;
   p.coupled_teeth = coupled;
   p.quasi_static = quasi;
-  p.solver_face_shapes = shapes;
+  if (shapes >= 0) p.solver_face_shapes = shapes;
   if (baseline) {  // bench_evaluate's time_case: the level-0, one-slice pair
     gm_default_params(&p);
     p.stiffness_level = GM_STIFFNESS_USER_CONSTANT;
