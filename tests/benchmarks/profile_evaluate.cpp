@@ -9,8 +9,9 @@
 // written to the temporary directory), "baseline" (bench_evaluate's baseline: the default
 // parameters at level 0 and one slice; COUPLED is then ignored), "shapesK" (level 5 with
 // solver.face_shapes = K; without it the parameter's default), "pitchesP" (P pitches: level 5's
-// cached database sums are made in the first; bench_evaluate runs about 175), "db=PATH" (level 5 on a compliance_tool database for both gears, e.g. set A's
-// from `gearmesh compliance scenarios/fe/paper_setA_3U4U_fe.toml`) and a slice count (default 10).
+// cached database sums are made in the first; bench_evaluate runs about 175), "db=PATH" (level 5
+// on a compliance_tool database for both gears, e.g. set A's from `gearmesh compliance
+// scenarios/fe/paper_setA_3U4U_fe.toml`) and a slice count (default 10).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
