@@ -338,3 +338,29 @@ TEST(FaceBasis, OnlyApproachesTheShapesAnswerAreTried) {
   EXPECT_FALSE(tried(2, 0, 0.05));
   EXPECT_TRUE(tried(5, 0.2, 0.05));  // two tilt shapes: tried (the solve decides)
 }
+
+// Every allowed shape count at few slices (fewer slices than shapes included) makes a model whose
+// quasi-static evaluations answer, and agree with the full solve within the 0.5 % of the sweep test.
+TEST(FaceBasis, EveryShapeCountWorksAtFewSlices) {
+  for (int slices : {1, 2, 3}) {
+    gm_model_params p = gm_test::paper();
+    fe_level(p);
+    p.slices = slices;
+    p.quasi_static = 1;
+    p.solver_face_shapes = 0;
+    gm_test::Instance F(p);
+    for (int K = 1; K <= gm::FaceBasis::kMaxShapes; ++K) {
+      p.solver_face_shapes = K;
+      gm_test::Instance R(p);
+      for (int i = 0; i < 5; ++i) {
+        gm_kinematics k{};
+        k.load_torque = 200;
+        k.phi[0] = 2 * kPi / 57 / 5 * i;
+        gm_result rr{}, rf{};
+        ASSERT_EQ(gm_evaluate(R.m, R.d, &k, &rr), GM_OK) << gm_data_message(R.d) << ", K " << K;
+        ASSERT_EQ(gm_evaluate(F.m, F.d, &k, &rf), GM_OK) << gm_data_message(F.d);
+        EXPECT_NEAR(rr.te, rf.te, 5e-3 * std::fabs(rf.te)) << slices << " slices, K " << K << ", pose " << i;
+      }
+    }
+  }
+}
