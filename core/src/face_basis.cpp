@@ -16,18 +16,17 @@ void FaceBasis::reserve(int capacity) {
   member.assign(c, 0);
   phi.assign(std::size_t(c) * kMaxShapes, 0.0);
   outer.assign(std::size_t(c) * kOuter, 0.0);
-  // r: the columns one call can have; A and x1 also hold a tooth pair's block and its shapes
-  // (up to c slices)
+  // r: the columns one call can have
   const int r = std::min(c, kMaxPairs * kMaxShapes);
   CP.resize(c, r);
   PCP.resize(r, r);
   all_CP.resize(c, r);
   all_PCP.resize(r, r);
-  A.resize(c, c);
+  A.resize(r, r);
   alpha.resize(r);
   step.resize(r);
   G.resize(r);
-  x1.resize(c);
+  x1.resize(r);
   x2.resize(r);
   F.resize(c);
   trial.resize(c);

@@ -35,29 +35,6 @@
 
 namespace gm {
 
-// Column k of K shapes (face_shapes.hpp): the reference pair's response to the Legendre
-// polynomial of degree `degree` of the slice's face position, made with the local law's slope at
-// the line load `line_load` (N/m). One shape: the uniform response at 100 kN/m (about the line load of
-// 150 N m on the paper's pair). Two or more: the uniform responses at 40 and 250 kN/m, whose span
-// holds the uniform response at any line load between (a real database's face interpolation
-// gives the slices alternating compliances, a zigzag in the load across the face whose depth
-// moves with the Hertz slopes: one shape made at 100 kN/m leaves 5 % in set B's mesh order 3 at
-// 220 kN/m, the two 0.03 %), then the responses to degrees 1, 2, ... at 100 kN/m (a tilt).
-struct FaceShape {
-  int degree;
-  double line_load;  // N/m
-};
-inline FaceShape face_shape(int k, int K) {
-  if (K == 1) return {0, 1e5};
-  if (k < 2) return {0, k == 0 ? 4e4 : 2.5e5};
-  return {k - 1, 1e5};
-}
-
-// f'_i at a line load (the slope a shape is made with).
-inline double shape_slope(const LocalLawKernel& kern, double line_load) {
-  return kern.terms ? local_law_jet(kern, line_load * kern.width).slope : 0.0;
-}
-
 struct FaceBasis {
   static constexpr int kMaxPairs = 16;   // tooth pairs one call can hold
   static constexpr int kMaxShapes = 8;   // solver.face_shapes' upper bound
