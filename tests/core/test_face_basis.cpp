@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -24,8 +25,9 @@ namespace {
 
 using gm_test::kPi;
 
-// p with level 5 on each gear's smooth synthetic database (written once per gear set).
-void fe_level(gm_model_params& p) {
+// p with level 5 on each gear's smooth synthetic database (tests/core/fe_synthetic.hpp), `edit`
+// applied to each before it is written (once per call and gear).
+void fe_level(gm_model_params& p, const std::function<void(gm::ComplianceDb&, int gear)>& edit = {}) {
   static std::vector<std::string> paths;
   p.stiffness_level = GM_STIFFNESS_FE;
   p.slices = 10;
@@ -33,8 +35,14 @@ void fe_level(gm_model_params& p) {
   p.compliance[0] = p.compliance[1] = nullptr;
   for (int g = 0; g < 2; ++g) {
     std::string msg;
-    paths.push_back(gm_test::write_smooth_db(p, g, "face_basis_" + std::to_string(paths.size()) + ".gcdb", msg));
-    EXPECT_FALSE(paths.back().empty()) << msg;
+    gm::ComplianceDb db = gm_test::smooth_db(p, g, gm_test::SmoothDbShape{}, msg);
+    ASSERT_TRUE(msg.empty()) << msg;
+    if (edit) edit(db, g);
+    const std::string name = std::to_string(::getpid()) + "_face_basis_" + std::to_string(paths.size()) + ".gcdb";
+    const std::string path = (std::filesystem::temp_directory_path() / name).string();
+    ASSERT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
+    gm_test::written_files().paths.push_back(path);
+    paths.push_back(path);
   }
   p.compliance[0] = (paths.end() - 2)->c_str();
   p.compliance[1] = paths.back().c_str();
@@ -198,7 +206,6 @@ TEST(FaceBasis, AnUnloadingSliceIsSolvedOverTheSlices) {
   }
 }
 
-}  // namespace
 
 // p at level 5 on synthetic databases whose blocks are not symmetric across the face:
 // C_d[(a, m)][(b, n)] scaled by 1 + 0.2 s_d (z_m - z_n) / b with s_d = sign(d), 1 at d = 0.
@@ -207,15 +214,7 @@ TEST(FaceBasis, AnUnloadingSliceIsSolvedOverTheSlices) {
 // little (its displacements are read below the loaded surface), so that which triangle of it the
 // assembly keeps shows.
 void asymmetric_fe_level(gm_model_params& p) {
-  static std::vector<std::string> paths;
-  p.stiffness_level = GM_STIFFNESS_FE;
-  p.slices = 10;
-  p.coupled_teeth = 2;
-  p.compliance[0] = p.compliance[1] = nullptr;
-  for (int g = 0; g < 2; ++g) {
-    std::string msg;
-    gm::ComplianceDb db = gm_test::smooth_db(p, g, gm_test::SmoothDbShape{}, msg);
-    ASSERT_TRUE(msg.empty()) << msg;
+  fe_level(p, [&p](gm::ComplianceDb& db, int g) {
     const std::size_t nf = db.face.size(), ng = db.n_grid();
     const double b = p.gear[g].face_width;
     const int nc = int(db.n_coupled);
@@ -225,15 +224,10 @@ void asymmetric_fe_level(gm_model_params& p) {
         for (std::size_t j = 0; j < ng; ++j)
           block[i * ng + j] *= 1 + 0.2 * (d >= 0 ? 1 : -1) * (db.face[i % nf] - db.face[j % nf]) / b;
     }
-    const std::string name = std::to_string(::getpid()) + "_face_basis_asym_" + std::to_string(paths.size()) + ".gcdb";
-    const std::string path = (std::filesystem::temp_directory_path() / name).string();
-    ASSERT_EQ(gm::write_compliance_db(path.c_str(), db, msg), GM_OK) << msg;
-    gm_test::written_files().paths.push_back(path);
-    paths.push_back(path);
-  }
-  p.compliance[0] = (paths.end() - 2)->c_str();
-  p.compliance[1] = paths.back().c_str();
+  });
 }
+
+}  // namespace
 
 // FeAssembly::project (C Phi and Phi^T C Phi from the cached projections of the databases'
 // chunks onto the model's fixed shapes) against the same products of the reference assembly
