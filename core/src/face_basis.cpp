@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 namespace gm {
 
@@ -15,7 +16,11 @@ void FaceBasis::reserve(int capacity) {
   pair_of.assign(c, -1);
   member.assign(c, 0);
   phi.assign(std::size_t(c) * kMaxShapes, 0.0);
+  slice_of.assign(c, 0);
   outer.assign(std::size_t(c) * kOuter, 0.0);
+  outer_done.assign(c, 0);
+  outer_table = nullptr;
+  outer_shapes = 0;
   // r: the columns one call can have
   const int r = std::min(c, kMaxPairs * kMaxShapes);
   CP.resize(c, r);
@@ -39,14 +44,34 @@ void FaceBasis::reserve(int capacity) {
 
 namespace {
 
-// In-place Cholesky of the leading r x r block of A (lower triangle); false if not positive
-// definite.
-bool cholesky(Eigen::MatrixXd& A, int r) {
+// Calls f(std::integral_constant<int, D>{}) with D = d (1 .. kMaxShapes): the per-pair loops
+// with the pair's shape count a constant, so that they unroll.
+template <class F>
+void with_dim(int d, F&& f) {
+  switch (d) {
+    case 1: f(std::integral_constant<int, 1>{}); break;
+    case 2: f(std::integral_constant<int, 2>{}); break;
+    case 3: f(std::integral_constant<int, 3>{}); break;
+    case 4: f(std::integral_constant<int, 4>{}); break;
+    case 5: f(std::integral_constant<int, 5>{}); break;
+    case 6: f(std::integral_constant<int, 6>{}); break;
+    case 7: f(std::integral_constant<int, 7>{}); break;
+    default: f(std::integral_constant<int, FaceBasis::kMaxShapes>{}); break;
+  }
+  static_assert(FaceBasis::kMaxShapes == 8, "with_dim covers 1 .. kMaxShapes");
+}
+
+// In-place Cholesky of the leading r x r block of A (lower triangle, leading dimension ld); false
+// if not positive definite. R > 0: r = R, a constant (the loops unroll; the same operations in
+// the same order).
+template <int R>
+bool cholesky_block(double* A, int ld, int r) {
+  if constexpr (R > 0) r = R;
   // column by column (left-looking), every inner loop down a column
   for (int j = 0; j < r; ++j) {
-    double* aj = &A(0, j);
+    double* aj = A + std::size_t(j) * ld;
     for (int k = 0; k < j; ++k) {
-      const double* ak = &A(0, k);
+      const double* ak = A + std::size_t(k) * ld;
       const double f = ak[j];
       for (int i = j; i < r; ++i) aj[i] -= ak[i] * f;
     }
@@ -58,20 +83,44 @@ bool cholesky(Eigen::MatrixXd& A, int r) {
   return true;
 }
 
-// x := (L L^T)^-1 x on the factor of cholesky().
-void cholesky_solve(const Eigen::MatrixXd& L, int r, double* x) {
+// x := (L L^T)^-1 x on the factor of cholesky_block.
+template <int R>
+void cholesky_solve_block(const double* L, int ld, int r, double* x) {
+  if constexpr (R > 0) r = R;
   for (int k = 0; k < r; ++k) {
-    const double* lk = &L(0, k);
+    const double* lk = L + std::size_t(k) * ld;
     const double xk = x[k] / lk[k];
     x[k] = xk;
     for (int i = k + 1; i < r; ++i) x[i] -= lk[i] * xk;
   }
   for (int i = r - 1; i >= 0; --i) {
-    const double* li = &L(0, i);
+    const double* li = L + std::size_t(i) * ld;
     double s = x[i];
     for (int k = i + 1; k < r; ++k) s -= li[k] * x[k];
     x[i] = s / li[i];
   }
+}
+
+// The orders up to 12 (two or three aligned spur pairs of up to four shapes) with r a constant,
+// larger ones with the general loops.
+template <class F>
+auto with_order(int r, F&& f) {
+  switch (r) {
+#define GM_FACE_ORDER(R) \
+  case R: return f(std::integral_constant<int, R>{});
+    GM_FACE_ORDER(1) GM_FACE_ORDER(2) GM_FACE_ORDER(3) GM_FACE_ORDER(4) GM_FACE_ORDER(5) GM_FACE_ORDER(6)
+    GM_FACE_ORDER(7) GM_FACE_ORDER(8) GM_FACE_ORDER(9) GM_FACE_ORDER(10) GM_FACE_ORDER(11) GM_FACE_ORDER(12)
+#undef GM_FACE_ORDER
+    default: return f(std::integral_constant<int, 0>{});
+  }
+}
+
+bool cholesky(Eigen::MatrixXd& A, int r) {
+  return with_order(r, [&](auto R) { return cholesky_block<R()>(A.data(), int(A.rows()), r); });
+}
+
+void cholesky_solve(const Eigen::MatrixXd& L, int r, double* x) {
+  with_order(r, [&](auto R) { cholesky_solve_block<R()>(L.data(), int(L.rows()), r, x); });
 }
 
 }  // namespace
@@ -105,6 +154,11 @@ bool group_face_pairs(FaceBasis& w, const FaceProblem& p) {
     const int q = w.pair_of[a];
     w.member[w.first[q] + w.count[q]++] = a;
   }
+  if (w.outer_table != p.shape_table || w.outer_shapes != p.shapes) {  // another model's shapes
+    std::fill(w.outer_done.begin(), w.outer_done.end(), char(0));
+    w.outer_table = p.shape_table;
+    w.outer_shapes = p.shapes;
+  }
   for (int q = 0; q < w.pairs; ++q) {
     int lo = 1 << 30, hi = -(1 << 30);
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
@@ -112,15 +166,21 @@ bool group_face_pairs(FaceBasis& w, const FaceProblem& p) {
       lo = std::min(lo, s);
       hi = std::max(hi, s);
     }
+    if (lo < 0 || hi >= int(w.outer_done.size())) return false;  // not a slice of the shapes' face
     w.key[q][3] = lo;
     w.dim[q] = std::min(p.shapes, w.count[q]);
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
-      const double* shape = p.shape_table + std::size_t(p.slices[p.index[w.member[m]]].slice) * FaceBasis::kMaxShapes;
+      const int s = p.slices[p.index[w.member[m]]].slice;
+      w.slice_of[m] = s;
+      const double* shape = p.shape_table + std::size_t(s) * FaceBasis::kMaxShapes;
       std::copy(shape, shape + w.dim[q], &w.phi[std::size_t(m) * FaceBasis::kMaxShapes]);
-      // phi_k phi_l (l <= k) of the slice, in the Newton matrix's order
-      double* o = &w.outer[std::size_t(m) * FaceBasis::kOuter];
-      for (int k = 0; k < w.dim[q]; ++k)
+      if (w.outer_done[std::size_t(s)]) continue;
+      // phi_k phi_l (l <= k) of the slice, in the Newton matrix's order (a prefix of it for any
+      // shape count), once per slice and model
+      double* o = &w.outer[std::size_t(s) * FaceBasis::kOuter];
+      for (int k = 0; k < p.shapes; ++k)
         for (int l = 0; l <= k; ++l) *o++ = shape[k] * shape[l];
+      w.outer_done[std::size_t(s)] = 1;
     }
   }
   return true;
@@ -185,38 +245,48 @@ int build_projection(FaceBasis& w, const FaceProblem& p) {
 bool forces_of(FaceBasis& w, const FaceProblem& p, const Eigen::VectorXd& alpha, const Eigen::VectorXd* step,
                double s, Eigen::VectorXd& F) {
   for (int a = 0; a < p.n; ++a) F[a] = 0;
-  for (int q = 0; q < w.pairs; ++q) {
+  bool positive = true;
+  for (int q = 0; q < w.pairs && positive; ++q) {
     if (!w.active[q]) continue;
-    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
-      const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
-      double f = 0;
-      for (int k = 0; k < w.dim[q]; ++k) {
-        const int c = w.col[q] + k;
-        f += ph[k] * (step ? alpha[c] + s * (*step)[c] : alpha[c]);
-      }
-      if (!(f > 0)) return false;
-      F[w.member[m]] = f;
+    double coef[FaceBasis::kMaxShapes];
+    for (int k = 0; k < w.dim[q]; ++k) {
+      const int c = w.col[q] + k;
+      coef[k] = step ? alpha[c] + s * (*step)[c] : alpha[c];
     }
+    with_dim(w.dim[q], [&](auto D) {
+      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+        const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+        double f = 0;
+        for (int k = 0; k < D(); ++k) f += ph[k] * coef[k];
+        if (!(f > 0)) {
+          positive = false;
+          return;
+        }
+        F[w.member[m]] = f;
+      }
+    });
   }
-  return true;
+  return positive;
 }
 
 // The Newton matrix Phi^T (C + diag f') Phi at the jets in w.jet into w.A (factorized).
 bool newton_matrix(FaceBasis& w, int r) {
-  constexpr int K = FaceBasis::kMaxShapes;
   for (int c = 0; c < r; ++c)
     for (int e = c; e < r; ++e) w.A(e, c) = w.PCP(e, c);
   for (int q = 0; q < w.pairs; ++q) {
     if (!w.active[q]) continue;
-    const int c0 = w.col[q], dq = w.dim[q], nkl = dq * (dq + 1) / 2;
-    double acc[FaceBasis::kOuter] = {};
-    for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
-      const double* o = &w.outer[std::size_t(m) * FaceBasis::kOuter];
-      const double fp = w.jet[w.member[m]].slope;
-      for (int kl = 0; kl < nkl; ++kl) acc[kl] += fp * o[kl];
-    }
-    for (int k = 0, kl = 0; k < dq; ++k)
-      for (int l = 0; l <= k; ++l) w.A(c0 + k, c0 + l) += acc[kl++];
+    const int c0 = w.col[q];
+    with_dim(w.dim[q], [&](auto D) {
+      constexpr int nkl = D() * (D() + 1) / 2;
+      double acc[nkl] = {};
+      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+        const double* o = &w.outer[std::size_t(w.slice_of[m]) * FaceBasis::kOuter];
+        const double fp = w.jet[w.member[m]].slope;
+        for (int kl = 0; kl < nkl; ++kl) acc[kl] += fp * o[kl];
+      }
+      for (int k = 0, kl = 0; k < D(); ++k)
+        for (int l = 0; l <= k; ++l) w.A(c0 + k, c0 + l) += acc[kl++];
+    });
   }
   return cholesky(w.A, r);
 }
@@ -225,12 +295,15 @@ bool newton_matrix(FaceBasis& w, int r) {
 void project(const FaceBasis& w, const double* v, double* out) {
   for (int q = 0; q < w.pairs; ++q) {
     if (!w.active[q]) continue;
-    for (int k = 0; k < w.dim[q]; ++k) {
-      double s = 0;
-      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m)
-        s += w.phi[std::size_t(m) * FaceBasis::kMaxShapes + k] * v[w.member[m]];
-      out[w.col[q] + k] = s;
-    }
+    with_dim(w.dim[q], [&](auto D) {
+      double s[D()] = {};
+      for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
+        const double* ph = &w.phi[std::size_t(m) * FaceBasis::kMaxShapes];
+        const double x = v[w.member[m]];
+        for (int k = 0; k < D(); ++k) s[k] += ph[k] * x;
+      }
+      for (int k = 0; k < D(); ++k) out[w.col[q] + k] = s[k];
+    });
   }
 }
 
@@ -389,18 +462,23 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
         if (!w.active[q]) continue;
         for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
           const int a = w.member[m];
-          w.jet[a] = local_law_jet(w.kern[a], F[a]);
+          w.jet[a] = local_law_slope(w.kern[a], F[a]);
         }
       }
       // gaps of the active slices, g = C Phi alpha + f - Delta - lambda w, into trial
+      // (column by column over every solved slice: the same sums in the same order per slice)
+      for (int a = 0; a < n; ++a) w.trial[a] = 0;
       for (int q = 0; q < w.pairs; ++q) {
         if (!w.active[q]) continue;
         for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
           const int a = w.member[m];
-          double g = w.jet[a].approach - delta[a] - (p.quasi ? lambda * p.gain[a] : 0.0);
-          for (int c = 0; c < r; ++c) g += w.CP(a, c) * alpha[c];
-          w.trial[a] = g;
+          w.trial[a] = w.jet[a].approach - delta[a] - (p.quasi ? lambda * p.gain[a] : 0.0);
         }
+      }
+      for (int c = 0; c < r; ++c) {
+        const double* cp = &w.CP(0, c);
+        const double x = alpha[c];
+        for (int a = 0; a < n; ++a) w.trial[a] += cp[a] * x;
       }
       project(w, w.trial.data(), w.G.data());
       res = 0;
@@ -480,8 +558,10 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
     double energy = 0;
     for (int a = 0; a < n; ++a) {
       force[a] = F[a];
-      if (F[a] > 0)
-        energy += 0.5 * F[a] * (delta[a] + (p.quasi ? lambda * p.gain[a] : 0.0) + w.jet[a].approach) - w.jet[a].energy;
+      if (!(F[a] > 0)) continue;
+      // the sweeps' jets carry no energy at a tip corner (local_law_slope): its full jet here
+      const double P = w.kern[a].corner_stiffness > 0 ? local_law_jet(w.kern[a], F[a]).energy : w.jet[a].energy;
+      energy += 0.5 * F[a] * (delta[a] + (p.quasi ? lambda * p.gain[a] : 0.0) + w.jet[a].approach) - P;
     }
     if (p.tangent && stiffness) {
       if (!newton_matrix(w, r)) return out;

@@ -57,7 +57,13 @@ struct FaceBasis {
   std::vector<int> pair_of, member;  // per solved slice: its pair; the pairs' slices, grouped
   std::vector<double> phi;           // per grouped slice: kMaxShapes values
   static constexpr int kOuter = kMaxShapes * (kMaxShapes + 1) / 2;
-  std::vector<double> outer;         // per grouped slice: phi_k phi_l, l <= k (kOuter values)
+  std::vector<int> slice_of;         // per grouped slice: its slice across the face
+  // per slice across the face: phi_k phi_l, l <= k (kOuter values), made once per slice for the
+  // shapes outer_table, outer_shapes (outer_done)
+  std::vector<double> outer;
+  std::vector<char> outer_done;
+  const double* outer_table = nullptr;
+  int outer_shapes = 0;
   Eigen::MatrixXd CP, PCP, A;        // C Phi (n x r), Phi^T C Phi, the Newton matrix (r x r)
   Eigen::MatrixXd all_CP, all_PCP;   // FeAssembly::project's: every pair's columns
   Eigen::VectorXd alpha, step, G, x1, x2, F, trial;
