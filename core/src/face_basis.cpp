@@ -46,19 +46,14 @@ namespace {
 
 // Calls f(std::integral_constant<int, D>{}) with D = d (1 .. kMaxShapes): the per-pair loops
 // with the pair's shape count a constant, so that they unroll.
-template <class F>
+template <int D = 1, class F>
 void with_dim(int d, F&& f) {
-  switch (d) {
-    case 1: f(std::integral_constant<int, 1>{}); break;
-    case 2: f(std::integral_constant<int, 2>{}); break;
-    case 3: f(std::integral_constant<int, 3>{}); break;
-    case 4: f(std::integral_constant<int, 4>{}); break;
-    case 5: f(std::integral_constant<int, 5>{}); break;
-    case 6: f(std::integral_constant<int, 6>{}); break;
-    case 7: f(std::integral_constant<int, 7>{}); break;
-    default: f(std::integral_constant<int, FaceBasis::kMaxShapes>{}); break;
+  if constexpr (D == FaceBasis::kMaxShapes) {
+    f(std::integral_constant<int, D>{});
+  } else {
+    if (d == D) return f(std::integral_constant<int, D>{});
+    with_dim<D + 1>(d, f);
   }
-  static_assert(FaceBasis::kMaxShapes == 8, "with_dim covers 1 .. kMaxShapes");
 }
 
 // In-place Cholesky of the leading r x r block of A (lower triangle, leading dimension ld); false
@@ -101,17 +96,15 @@ void cholesky_solve_block(const double* L, int ld, int r, double* x) {
   }
 }
 
-// The orders up to 12 (two or three aligned spur pairs of up to four shapes) with r a constant,
-// larger ones with the general loops.
-template <class F>
+// f(std::integral_constant<int, R>{}) with R = r for the orders up to 12 (two or three aligned
+// spur pairs of up to four shapes), R = 0 (the general loops) beyond.
+template <int R = 1, class F>
 auto with_order(int r, F&& f) {
-  switch (r) {
-#define GM_FACE_ORDER(R) \
-  case R: return f(std::integral_constant<int, R>{});
-    GM_FACE_ORDER(1) GM_FACE_ORDER(2) GM_FACE_ORDER(3) GM_FACE_ORDER(4) GM_FACE_ORDER(5) GM_FACE_ORDER(6)
-    GM_FACE_ORDER(7) GM_FACE_ORDER(8) GM_FACE_ORDER(9) GM_FACE_ORDER(10) GM_FACE_ORDER(11) GM_FACE_ORDER(12)
-#undef GM_FACE_ORDER
-    default: return f(std::integral_constant<int, 0>{});
+  if constexpr (R > 12) {
+    return f(std::integral_constant<int, 0>{});
+  } else {
+    if (r == R) return f(std::integral_constant<int, R>{});
+    return with_order<R + 1>(r, f);
   }
 }
 
