@@ -1,6 +1,6 @@
 """`gearmesh-dev COMMAND`: the maintainer tools on a GearMesh checkout (docs/developer/README.md):
 the multi-platform FMU, the generated documentation (FMU page, docs/reference/, docs/img/), the
-accuracy ledgers and level 4's tooth-coupling fit."""
+accuracy ledgers, level 4's tooth-coupling fit and level 5's face-basis check."""
 from __future__ import annotations
 
 import argparse
@@ -11,7 +11,7 @@ import sys
 # subcommands that parse their own options (the rest of the command line): name -> the module
 # whose main(argv) does
 DELEGATED = {"platforms": "gearmesh_dev.platforms", "ledger": "gearmesh_dev.ledger",
-             "coupling-fit": "gearmesh_dev.coupling_fit"}
+             "coupling-fit": "gearmesh_dev.coupling_fit", "face-basis-check": "gearmesh_dev.face_basis_check"}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -48,6 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="recompute the accuracy ledgers (scenarios/reference/ledger_*.csv), or --check them")
     sub.add_parser("coupling-fit", add_help=False,
                    help="fit level 4's tooth-coupling table from coarse compliance databases")
+    sub.add_parser("face-basis-check", add_help=False,
+                   help="level 5's reduced face basis against the solve over every slice on the "
+                   "level-5 ledger's scenes")
     return parser
 
 
