@@ -114,8 +114,8 @@ TEST(FaceBasis, QuasiStaticSweepsAgreeWithTheFullSolve) {
   // one shape holds the zigzag of the face's load only near its line load (100 kN/m): at 50 N m
   // its slices' gaps are 1-3 % of the approach, beyond the acceptance (1 %), and the slices
   // answer; at 300 N m it holds 45 % of the poses (73 % when its samples at the path's ends left
-  // out the tip corners' near field); up to three shapes are the uniform approach's responses (face_shapes.cpp), a tilt takes
-  // a fourth; a tilt of 0.2 mrad opens a face end at 50 N m
+  // out the tip corners' near field); up to three shapes are the uniform approach's responses
+  // (face_shapes.cpp), a tilt takes a fourth; a tilt of 0.2 mrad opens a face end at 50 N m
   const Scene scenes[] = {
       {"spur, 1 shape", spur, 0, 1, {0, 0.4}, {0, 1}},
       {"spur, 2 shapes", spur, 0, 2, {0.95, 0.95}, {1, 1}},
