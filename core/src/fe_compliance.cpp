@@ -614,9 +614,9 @@ GM_FE_STAGE void FeAssembly::classify_groups(int ng) {
 namespace {
 
 // col[k] (= or +=) sum_t w[t] v[t][base + k], k < len, over NT terms (0: nt of them), the terms
-// summed in order. Two entries per pass in one two-lane vector (GCC's and Clang's vector
-// extension): each lane does one entry's operations in their order, so its bits are those of one
-// entry at a time.
+// summed in order. Eight, then two entries per pass in two-lane vectors (GCC's and Clang's vector
+// extension; each term's pointer and weight read once per pass): each lane does one entry's
+// operations in their order, so its bits are those of one entry at a time.
 template <int NT>
 inline void weighted_run(const double* w, const double* const* v, int base, int len, bool assign, double* col,
                          int nt = NT) {
@@ -624,6 +624,26 @@ inline void weighted_run(const double* w, const double* const* v, int base, int 
   int k = 0;
 #if defined(__GNUC__)
   typedef double Pair __attribute__((vector_size(16)));
+  for (; k + 7 < len; k += 8) {
+    Pair e[4] = {};
+    for (int t = 0; t < n; ++t) {
+      const double* x = v[t] + base + k;
+      const double wt = w[t];
+      for (int j = 0; j < 4; ++j) {
+        Pair xj;
+        std::memcpy(&xj, x + 2 * j, sizeof xj);
+        e[j] += wt * xj;
+      }
+    }
+    for (int j = 0; j < 4; ++j) {
+      if (!assign) {
+        Pair c;
+        std::memcpy(&c, col + k + 2 * j, sizeof c);
+        e[j] = c + e[j];
+      }
+      std::memcpy(col + k + 2 * j, &e[j], sizeof e[j]);
+    }
+  }
   for (; k + 1 < len; k += 2) {
     Pair e = {0, 0};
     for (int t = 0; t < n; ++t) {
