@@ -192,6 +192,7 @@ gm_status gm_model_create(const gm_model_params* p, gm_model** out, char* msg, s
     m->layout = gm::make_mesh_layout(*p, g, std::move(micro[0]), std::move(micro[1]));
     m->slice_capacity = gm::slice_capacity(m->layout);
     m->face_shapes = gm::reference_face_shapes(*m);
+    m->face_shape_products = gm::face_shape_products(m->face_shapes, m->params.solver_face_shapes);
     const std::string level_warning = m->warnings;
     m->warnings = design_warnings(g);
     if (!level_warning.empty()) m->warnings += (m->warnings.empty() ? "" : "; ") + level_warning;

@@ -291,6 +291,7 @@ bool dense_face_solve(const gm_model& m, gm_data& d, const ForceProblem& p, int 
   fp.laws = d.dense_laws.data();
   fp.shapes = m.params.solver_face_shapes;
   fp.shape_table = m.face_shapes.data();
+  fp.shape_products = m.face_shape_products.data();
   fp.tolerance = opt.tolerance + opt.relative_tolerance * all_max;
   fp.max_iterations = std::min(m.params.solver_max_iterations, kFaceIterations);
   fp.quasi = p.quasi;

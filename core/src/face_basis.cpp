@@ -17,10 +17,6 @@ void FaceBasis::reserve(int capacity) {
   member.assign(c, 0);
   phi.assign(std::size_t(c) * kMaxShapes, 0.0);
   slice_of.assign(c, 0);
-  outer.assign(std::size_t(c) * kOuter, 0.0);
-  outer_done.assign(c, 0);
-  outer_table = nullptr;
-  outer_shapes = 0;
   // r: the columns one call can have
   const int r = std::min(c, kMaxPairs * kMaxShapes);
   CP.resize(c, r);
@@ -147,11 +143,6 @@ bool group_face_pairs(FaceBasis& w, const FaceProblem& p) {
     const int q = w.pair_of[a];
     w.member[w.first[q] + w.count[q]++] = a;
   }
-  if (w.outer_table != p.shape_table || w.outer_shapes != p.shapes) {  // another model's shapes
-    std::fill(w.outer_done.begin(), w.outer_done.end(), char(0));
-    w.outer_table = p.shape_table;
-    w.outer_shapes = p.shapes;
-  }
   for (int q = 0; q < w.pairs; ++q) {
     int lo = 1 << 30, hi = -(1 << 30);
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
@@ -159,7 +150,6 @@ bool group_face_pairs(FaceBasis& w, const FaceProblem& p) {
       lo = std::min(lo, s);
       hi = std::max(hi, s);
     }
-    if (lo < 0 || hi >= int(w.outer_done.size())) return false;  // not a slice of the shapes' face
     w.key[q][3] = lo;
     w.dim[q] = std::min(p.shapes, w.count[q]);
     for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
@@ -167,13 +157,6 @@ bool group_face_pairs(FaceBasis& w, const FaceProblem& p) {
       w.slice_of[m] = s;
       const double* shape = p.shape_table + std::size_t(s) * FaceBasis::kMaxShapes;
       std::copy(shape, shape + w.dim[q], &w.phi[std::size_t(m) * FaceBasis::kMaxShapes]);
-      if (w.outer_done[std::size_t(s)]) continue;
-      // phi_k phi_l (l <= k) of the slice, in the Newton matrix's order (a prefix of it for any
-      // shape count), once per slice and model
-      double* o = &w.outer[std::size_t(s) * FaceBasis::kOuter];
-      for (int k = 0; k < p.shapes; ++k)
-        for (int l = 0; l <= k; ++l) *o++ = shape[k] * shape[l];
-      w.outer_done[std::size_t(s)] = 1;
     }
   }
   return true;
@@ -262,8 +245,9 @@ bool forces_of(FaceBasis& w, const FaceProblem& p, const Eigen::VectorXd& alpha,
   return positive;
 }
 
-// The Newton matrix Phi^T (C + diag f') Phi at the jets in w.jet into w.A (factorized).
-bool newton_matrix(FaceBasis& w, int r) {
+// The Newton matrix Phi^T (C + diag f') Phi at the jets in w.jet into w.A (factorized), the
+// diagonal part from the shapes' products per slice (p.shape_products).
+bool newton_matrix(FaceBasis& w, const FaceProblem& p, int r) {
   for (int c = 0; c < r; ++c)
     for (int e = c; e < r; ++e) w.A(e, c) = w.PCP(e, c);
   for (int q = 0; q < w.pairs; ++q) {
@@ -273,7 +257,7 @@ bool newton_matrix(FaceBasis& w, int r) {
       constexpr int nkl = D() * (D() + 1) / 2;
       double acc[nkl] = {};
       for (int m = w.first[q]; m < w.first[q] + w.count[q]; ++m) {
-        const double* o = &w.outer[std::size_t(w.slice_of[m]) * FaceBasis::kOuter];
+        const double* o = p.shape_products + std::size_t(w.slice_of[m]) * FaceBasis::kOuter;
         const double fp = w.jet[w.member[m]].slope;
         for (int kl = 0; kl < nkl; ++kl) acc[kl] += fp * o[kl];
       }
@@ -354,7 +338,7 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
   FaceAnswer out;
   w.used = false;
   const int n = p.n;
-  if (n == 0 || w.pairs == 0) return out;
+  if (n == 0 || w.pairs == 0 || !p.shape_products) return out;
   if (p.all_CP) {  // FeAssembly's pairs, each a whole face: the same pairs in the same order
     if (w.pairs != p.groups) return out;
     for (int q = 0; q < w.pairs; ++q)
@@ -491,7 +475,7 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
         break;
       }
       if (it >= p.max_iterations) break;
-      if (!newton_matrix(w, r)) return out;
+      if (!newton_matrix(w, p, r)) return out;
       for (int c = 0; c < r; ++c) w.step[c] = -w.G[c];
       cholesky_solve(w.A, r, w.step.data());
       double dlambda = 0;
@@ -557,7 +541,7 @@ FaceAnswer solve_face_basis(FaceBasis& w, const FaceProblem& p, double* force, d
       energy += 0.5 * F[a] * (delta[a] + (p.quasi ? lambda * p.gain[a] : 0.0) + w.jet[a].approach) - P;
     }
     if (p.tangent && stiffness) {
-      if (!newton_matrix(w, r)) return out;
+      if (!newton_matrix(w, p, r)) return out;
       for (int q = 0; q < w.pairs; ++q) {
         if (!w.active[q]) continue;
         for (int k = 0; k < w.dim[q]; ++k) {

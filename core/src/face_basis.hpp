@@ -58,12 +58,6 @@ struct FaceBasis {
   std::vector<double> phi;           // per grouped slice: kMaxShapes values
   static constexpr int kOuter = kMaxShapes * (kMaxShapes + 1) / 2;
   std::vector<int> slice_of;         // per grouped slice: its slice across the face
-  // per slice across the face: phi_k phi_l, l <= k (kOuter values), made once per slice for the
-  // shapes outer_table, outer_shapes (outer_done)
-  std::vector<double> outer;
-  std::vector<char> outer_done;
-  const double* outer_table = nullptr;
-  int outer_shapes = 0;
   Eigen::MatrixXd CP, PCP, A;        // C Phi (n x r), Phi^T C Phi, the Newton matrix (r x r)
   Eigen::MatrixXd all_CP, all_PCP;   // FeAssembly::project's: every pair's columns
   Eigen::VectorXd alpha, step, G, x1, x2, F, trial;
@@ -99,6 +93,7 @@ struct FaceProblem {
   const LocalLaw* laws = nullptr;
   int shapes = 0;                     // K
   const double* shape_table = nullptr;  // per slice across the face: kMaxShapes values (face_shapes.hpp)
+  const double* shape_products = nullptr;  // per slice: kOuter values (face_shape_products)
   double tolerance = 0;               // m, on the pairs' mean gaps (the NLCP's tol)
   // -, each loaded slice's own gap over the largest approach: two shapes on an aligned spur pair
   // leave below 0.3 % (the synthetic databases, 50-300 N m; TE within 0.001 % of the full

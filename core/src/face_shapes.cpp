@@ -132,4 +132,18 @@ std::vector<double> reference_face_shapes(const gm_model& m) {
   return phi;
 }
 
+std::vector<double> face_shape_products(const std::vector<double>& shapes, int K) {
+  constexpr std::size_t kMax = FaceBasis::kMaxShapes;
+  const std::size_t S = shapes.size() / kMax;
+  std::vector<double> out(S * FaceBasis::kOuter, 0.0);
+  K = std::min(K, FaceBasis::kMaxShapes);
+  for (std::size_t s = 0; s < S; ++s) {
+    const double* shape = &shapes[s * kMax];
+    double* o = &out[s * FaceBasis::kOuter];
+    for (int k = 0; k < K; ++k)
+      for (int l = 0; l <= k; ++l) *o++ = shape[k] * shape[l];
+  }
+  return out;
+}
+
 }  // namespace gm

@@ -22,4 +22,9 @@ namespace gm {
 // not positive definite).
 std::vector<double> reference_face_shapes(const gm_model& m);
 
+// Per slice of `shapes` (reference_face_shapes' table) the products phi_k phi_l, l <= k < K, in
+// the reduced Newton matrix's order (FaceBasis::kOuter values; the first d (d + 1)/2 those of
+// the first d shapes); empty where `shapes` is.
+std::vector<double> face_shape_products(const std::vector<double>& shapes, int K);
+
 }  // namespace gm

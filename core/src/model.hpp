@@ -57,6 +57,7 @@ struct gm_model {
   gm::ComplianceDb compliance[2];  // level 5: each gear's compliance database (checked to match)
   std::vector<double> face_shapes;  // level 5, solver.face_shapes > 0: the reduced basis's shapes
                                     // (face_shapes.hpp; empty: not attempted)
+  std::vector<double> face_shape_products;  // their products per slice (face_shape_products)
 };
 
 struct gm_data {
